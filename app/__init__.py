@@ -1,0 +1,1 @@
+"""app: the avhear application (configuration, sources, threads, Rerun logging, command line)."""
