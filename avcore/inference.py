@@ -1,0 +1,441 @@
+"""Multimodal inference: Motion-Guided (Algorithm 1) and Face-Guided (Algorithm 2) Robot Hearing.
+
+Both classes keep the paper's method selectable (``Params.paper()``) beside avhear's default, which adds what the
+paper's own evaluation showed missing (section 7.1 and the issue's analysis):
+
+* people who cross in ITD space form one 1-D cluster: a cluster whose back-projected 3D points are spread wider
+  than a person is split in 3D (``split_3d``);
+* projected 3D outliers form spurious 1-D clusters whose 3D points are spread over the field of view; besides
+  the paper's small-determinant test (eq. hat_svect, "covariance"), clusters too diffuse to be a person and
+  clusters with too few points are dropped (``max_spread_m``, ``min_points``);
+* tau_A = K / (N + 2) fires on reverberation outliers when nobody speaks: the speaking test also asks for more
+  ITDs than the outlier class would put under the cluster by chance (``outlier_aware_speaking``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from avcore._validate import as_points, as_samples
+from avcore.geometry import MicPair
+from avcore._packed_em import class_sums, log_likelihoods, run_em, run_fusion
+from avcore.mixture import (
+    US,
+    BinnedSamples,
+    EMSettings,
+    Mixture1D,
+    bic_score,
+    initial_models,
+    pack,
+    ridgeline_merge,
+    unpack,
+)
+from avcore.refine3d import compact_groups
+
+__all__ = [
+    "FaceGuidedHearing",
+    "FaceGuidedOutput",
+    "FaceGuidedParams",
+    "MotionGuidedHearing",
+    "MotionGuidedOutput",
+    "MotionGuidedParams",
+    "speaking_threshold",
+]
+
+
+def speaking_threshold(n_itds: int, n_objects: int) -> float:
+    """tau_A = K / (N + 2) (section 6, implementation details), the threshold of eq. (audio_act)."""
+    return n_itds / (n_objects + 2.0)
+
+
+def _chance_counts(model: Mixture1D, n_itds: int, width_sd: float = 2.0) -> np.ndarray:
+    """Expected number of outlier ITDs that fall within +-width_sd sigma of each component by chance.
+
+    The uniform class puts pi_{N+1} K ITDs over the support; a window of 2 width_sd sigma collects its share.
+    """
+    if model.n_components == 0:
+        return np.empty(0)
+    window = 2.0 * width_sd * np.sqrt(model.variances)
+    return model.weights[-1] * n_itds * np.minimum(window * model.outlier_density, 1.0)
+
+
+def _speaking(beta_counts: np.ndarray, n_itds: int, model: Mixture1D, outlier_aware: bool,
+              min_itds: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """Speaking states of eq. (audio_act) and a probability in [0, 1] with p > 0.5 exactly when speaking.
+
+    The paper's test is beta_bar_n > tau_A. The outlier-aware test raises the threshold to at least ``min_itds``
+    and to twice the outlier ITDs expected under the cluster by chance plus one.
+    Returns (speaking (N,), probability (N,), the plain tau_A).
+    """
+    n = beta_counts.size
+    tau = speaking_threshold(n_itds, n)
+    thresh = np.full(n, tau)
+    if outlier_aware and n:
+        thresh = np.maximum(thresh, np.maximum(min_itds, 2.0 * _chance_counts(model, n_itds) + 1.0))
+    speaking = beta_counts > thresh
+    with np.errstate(invalid="ignore", divide="ignore"):
+        prob = np.where(beta_counts + thresh > 0, beta_counts / (beta_counts + thresh), 0.0)
+    return speaking, prob, tau
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Motion-Guided Robot Hearing (Algorithm 1)
+
+
+@dataclass(frozen=True)
+class MotionGuidedParams:
+    """Parameters of :class:`MotionGuidedHearing`. Numbers the paper gives are its values.
+
+    n_max : N_max = 10 (section 4.4).
+    em : iterations, tolerance, variance floor and outlier floor of both EMs.
+    bin_width_s : width of the histogram bins of the projected points (1 us; sigmas are tens of us).
+    init_outlier_weight : outlier prior of a model seeded without a previous interval.
+    min_det_m6 : the paper's spurious-cluster test: drop clusters whose 3D covariance (eq. hat_svect) has a
+        determinant below this, m^6 (points on a thin sheet near a hyperboloid). A person-sized blob
+        (sd 0.1 x 0.2 x 0.05 m) has about 1e-6; 1e-9 only removes sheets.
+    merge_ridgeline : merge components that are unimodal along the ridgeline (section 4.4).
+    outlier_aware_speaking, min_itds : the speaking test (see module docstring); off in the paper's variant.
+    refine_3d : replace the alpha-weighted moments of eq. (hat_svect) by compact 3D groups inside each cluster
+        (:mod:`avcore.refine3d`): splits people who share a 1-D cluster, ignores 3D outliers on the cluster's
+        hyperboloid, and drops clusters with no compact group of at least ``min_points`` points.
+    kernel_sd_m : the person-sized kernel of the 3D refinement (x, y, z standard deviations, metres).
+    max_sd_m : a 3D group wider than this along any axis is not a person.
+    """
+
+    n_max: int = 10
+    em: EMSettings = field(default_factory=EMSettings)
+    bin_width_s: float = 1e-6
+    init_outlier_weight: float = 0.1
+    min_det_m6: float = 1e-9
+    merge_ridgeline: bool = True
+    outlier_aware_speaking: bool = True
+    min_itds: float = 3.0
+    refine_3d: bool = True
+    kernel_sd_m: tuple[float, float, float] = (0.15, 0.30, 0.15)
+    min_points: float = 60.0
+    max_sd_m: float = 0.6
+
+    def __post_init__(self) -> None:
+        if not 0 <= self.n_max <= 50:
+            raise ValueError(f"n_max must be in 0..50, got {self.n_max}")
+        if not self.bin_width_s > 0:
+            raise ValueError(f"bin_width_s must be > 0 seconds, got {self.bin_width_s}")
+
+    @classmethod
+    def paper(cls) -> MotionGuidedParams:
+        """The method as the paper describes it: moments of eq. (hat_svect), determinant test, tau_A = K/(N+2)."""
+        return cls(outlier_aware_speaking=False, refine_3d=False)
+
+
+@dataclass(frozen=True)
+class MotionGuidedOutput:
+    """Result of one interval of Algorithm 1.
+
+    positions : (N, 3) float, metres - eq. (hat_svect).
+    covariances : (N, 3, 3) float, m^2 - the back-projected covariances (second eq. hat_svect).
+    speaking : (N,) bool - eq. (audio_act).
+    probability : (N,) float in [0, 1], beta_bar / (beta_bar + threshold): above 0.5 exactly when speaking.
+    itd_means : (N,) float, seconds - each person's mean in ITD space.
+    itd_counts : (N,) float - beta_bar_n, the ITDs assigned to each person.
+    point_counts : (N,) float - alpha_bar_n, the projected points assigned to each person.
+    model : the selected 1-D model after post-processing (for display).
+    bic : (n_max + 1,) the BIC of every candidate N (eq. criteria); ``n_selected`` its argmax.
+    tau_a : the paper's threshold K / (N + 2) for this interval.
+    """
+
+    positions: np.ndarray
+    covariances: np.ndarray
+    speaking: np.ndarray
+    probability: np.ndarray
+    itd_means: np.ndarray
+    itd_counts: np.ndarray
+    point_counts: np.ndarray
+    model: Mixture1D
+    bic: np.ndarray
+    n_selected: int
+    tau_a: float
+
+    @property
+    def n(self) -> int:
+        return int(self.positions.shape[0])
+
+
+def _weighted_moments(points: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eq. (hat_svect): alpha-weighted means (N, 3) and covariances (N, 3, 3), and alpha_bar (N,)."""
+    abar = alpha.sum(axis=0)
+    safe = np.where(abar > 0, abar, 1.0)
+    means = (alpha.T @ points) / safe[:, None]
+    second = np.einsum("mn,mi,mj->nij", alpha, points, points, optimize=True) / safe[:, None, None]
+    cov = second - means[:, :, None] * means[:, None, :]
+    return means, cov, abar
+
+
+class MotionGuidedHearing:
+    """Motion-Guided Robot Hearing, the paper's Algorithm 1 (section 4.5).
+
+    ``step(points, itds)`` takes the HM3D points and the ITDs of one interval Delta t and returns the number of
+    AV objects, their 3D positions and covariances, and their speaking states. The model of the previous interval
+    initialises the next (section 4.4); ``reset()`` forgets it.
+    """
+
+    def __init__(self, mics: MicPair, params: MotionGuidedParams | None = None) -> None:
+        if not isinstance(mics, MicPair):
+            raise TypeError(f"mics must be a MicPair, got {type(mics).__name__}")
+        self.mics = mics
+        self.params = params if params is not None else MotionGuidedParams()
+        self.support = mics.itd_interval()
+        self.previous_: Mixture1D | None = None
+
+    def reset(self) -> None:
+        self.previous_ = None
+
+    def _empty_output(self, bic: np.ndarray, n_sel: int, tau: float) -> MotionGuidedOutput:
+        return MotionGuidedOutput(np.empty((0, 3)), np.empty((0, 3, 3)), np.empty(0, dtype=bool), np.empty(0),
+                                  np.empty(0), np.empty(0), np.empty(0), Mixture1D.outliers_only(self.support),
+                                  bic, n_sel, tau)
+
+    def fit_candidates(self, v_s: np.ndarray, a_s: np.ndarray) -> tuple[list[Mixture1D], list[Mixture1D], np.ndarray]:
+        """Steps (a)-(d) of Algorithm 1 for every N = 0..n_max at once.
+
+        Returns the visual EM models, the fused models and the BIC of each candidate (index = N).
+        """
+        p = self.params
+        em = p.em
+        data = BinnedSamples.from_samples(v_s, p.bin_width_s)
+        inits = initial_models(self.previous_, p.n_max, self.support, data, outlier_weight=p.init_outlier_weight)
+        n_obs = v_s.size + a_s.size
+        u = 1.0 / ((self.support[1] - self.support[0]) * US)
+        ll0 = n_obs * np.log(1.0 / (self.support[1] - self.support[0]))  # N = 0: all outliers
+        if p.n_max == 0:
+            return inits, inits, np.array([ll0])
+        kw = dict(tol=em.tol, var_floor=em.var_floor_s2 * US * US, min_wo=em.min_outlier_weight,
+                  max_iter=em.max_iter)
+        # (a) initial models, (b) standard EM on the projected visual data: all candidates in one batch
+        vis, _, _, _ = run_em(data.x_us, data.stats, pack(inits[1:]), u, **kw)
+        # alpha is fixed from here on; the fusion EM needs it only as per-class sums
+        vis_g, vis_o = class_sums(data.x_us, data.stats, vis, u)
+        # (c) vision-guided EM fusion on the ITDs
+        a_us = a_s * US
+        fused, _, _ = run_fusion(vis_g, vis_o, data.total, a_us, vis, u, **kw)
+        # (d) BIC (eq. criteria) from the log-likelihood of eq. (log-like) over both modalities, 1/s densities
+        ll = log_likelihoods(data.x_us, data.stats[:, 0], fused, u)
+        ll += log_likelihoods(a_us, np.ones(a_us.size), fused, u) + n_obs * np.log(US)
+        bic = np.array([bic_score(ll0, 0, n_obs)] + [bic_score(ll[c], c + 1, n_obs) for c in range(p.n_max)])
+        vis_models = [inits[0]] + [unpack(vis, c, self.support) for c in range(p.n_max)]
+        fused_models = [inits[0]] + [unpack(fused, c, self.support) for c in range(p.n_max)]
+        return vis_models, fused_models, bic
+
+    def step(self, points_xyz: object, itds_s: object) -> MotionGuidedOutput:
+        """One interval of Algorithm 1.
+
+        points_xyz : (M, 3) float, metres, HM3D points in the scene frame.
+        itds_s : (K,) float, seconds.
+        """
+        pts = as_points(points_xyz, "points_xyz")
+        a = as_samples(itds_s, "itds_s")
+        p = self.params
+        v = self.mics.itd(pts)
+        if pts.shape[0] == 0:
+            # Nothing to see: no AV object can be formed (the model is vision-guided).
+            self.previous_ = None
+            return self._empty_output(np.zeros(p.n_max + 1), 0, speaking_threshold(a.size, 0))
+        vis_models, fused, bic = self.fit_candidates(v, a)
+        n_sel = int(np.argmax(bic))
+        vis, model = vis_models[n_sel], fused[n_sel]
+        # Post-processing (section 4.4) on exact per-point posteriors of the selected model.
+        alpha = vis.responsibilities(v)[:, :-1]
+        beta = model.responsibilities(a)[:, :-1] if a.size else np.zeros((0, n_sel))
+        if p.merge_ridgeline and n_sel > 1:
+            model, groups = ridgeline_merge(model)
+            alpha = np.stack([alpha[:, g].sum(axis=1) for g in groups], axis=1)
+            beta = np.stack([beta[:, g].sum(axis=1) for g in groups], axis=1).reshape(a.size, len(groups))
+        if p.refine_3d:
+            positions, cov, abar, beta, model = self._refine(pts, v, a, alpha, beta, model)
+        else:
+            positions, cov, abar = _weighted_moments(pts, alpha)
+            keep = (abar > 1e-9) & (np.linalg.det(cov) >= p.min_det_m6) if model.n_components else abar > 0
+            model = self._keep(model, keep)
+            positions, cov, abar, beta = positions[keep], cov[keep], abar[keep], beta[:, keep]
+        self.previous_ = model
+        bbar = beta.sum(axis=0)
+        speaking, prob, tau = _speaking(bbar, a.size, model, p.outlier_aware_speaking, p.min_itds)
+        return MotionGuidedOutput(positions, cov, speaking, prob, model.means.copy(), bbar, abar, model, bic, n_sel,
+                                  tau)
+
+    def _keep(self, model: Mixture1D, keep: np.ndarray) -> Mixture1D:
+        """The model restricted to the kept components; the weight of dropped ones goes to the outlier class."""
+        g = model.weights[:-1][keep]
+        return Mixture1D(np.append(g, 1.0 - g.sum()), model.means[keep], model.variances[keep], self.support)
+
+    def _refine(self, pts: np.ndarray, v: np.ndarray, a: np.ndarray, alpha: np.ndarray, beta: np.ndarray,
+                model: Mixture1D) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Mixture1D]:
+        """Compact 3D groups of every 1-D cluster (:mod:`avcore.refine3d`) become the AV objects.
+
+        Each group gets its own 1-D component (the moments of its projected points, kept for the next interval);
+        the cluster's ITD posteriors are shared among its groups by their 1-D densities.
+        """
+        p = self.params
+        positions, covs, masses, betas, w, mu, var = [], [], [], [], [], [], []
+        for n in range(model.n_components):
+            groups = compact_groups(pts, alpha[:, n], kernel_sd_m=p.kernel_sd_m, min_mass=p.min_points,
+                                    max_sd_m=p.max_sd_m)
+            if not groups:
+                continue
+            stats = []
+            for g in groups:
+                m1 = (g.members @ v) / g.mass
+                s2 = max((g.members @ (v - m1) ** 2) / g.mass, p.em.var_floor_s2)
+                stats.append((g.mass, m1, s2))
+            if len(groups) == 1:
+                share = np.ones((a.size, 1))
+            else:
+                dens = np.stack([t / np.sqrt(s2) * np.exp(-0.5 * (a - m1) ** 2 / s2) for t, m1, s2 in stats], axis=1)
+                share = dens / np.maximum(dens.sum(axis=1, keepdims=True), 1e-300)
+            total = alpha[:, n].sum()
+            for j, (g, (mass, m1, s2)) in enumerate(zip(groups, stats)):
+                positions.append(g.mean)
+                covs.append(g.cov)
+                masses.append(mass)
+                betas.append(beta[:, n] * share[:, j])
+                w.append(model.weights[n] * mass / total)
+                mu.append(m1)
+                var.append(s2)
+        if not positions:
+            return (np.empty((0, 3)), np.empty((0, 3, 3)), np.empty(0), np.zeros((a.size, 0)),
+                    Mixture1D.outliers_only(self.support))
+        g = np.asarray(w)
+        new_model = Mixture1D(np.append(g, 1.0 - g.sum()), mu, var, self.support)
+        return (np.asarray(positions), np.asarray(covs), np.asarray(masses),
+                np.stack(betas, axis=1).reshape(a.size, len(w)), new_model)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Face-Guided Robot Hearing (Algorithm 2)
+
+
+@dataclass(frozen=True)
+class FaceGuidedParams:
+    """Parameters of :class:`FaceGuidedHearing`.
+
+    sigma2_init_s2 : 1e-9 s^2, the paper's initial variance (section 6, implementation details).
+    anchor_means : keep each mean at its mapped face (the paper initialises there and leaves open whether they
+        move). Anchored means cannot be pulled away by a talker the cameras do not see; free means follow the
+        ITDs (the paper's EM as written).
+    update_variances : let EM adapt each variance within ``[var_min_s2, var_max_s2]``.
+    init_outlier_weight : the outlier prior before EM.
+    em : iterations, tolerance.
+    outlier_aware_speaking, min_itds : the speaking test (see module docstring); off in the paper's variant.
+    """
+
+    sigma2_init_s2: float = 1e-9
+    anchor_means: bool = True
+    update_variances: bool = False
+    var_min_s2: float = 1e-10
+    var_max_s2: float = 4e-9
+    init_outlier_weight: float = 0.2
+    em: EMSettings = field(default_factory=lambda: EMSettings(max_iter=50, tol=1e-4))
+    outlier_aware_speaking: bool = True
+    min_itds: float = 2.0
+
+    def __post_init__(self) -> None:
+        if not self.sigma2_init_s2 > 0:
+            raise ValueError(f"sigma2_init_s2 must be > 0 s^2, got {self.sigma2_init_s2}")
+        if not 0 < self.var_min_s2 <= self.var_max_s2:
+            raise ValueError("need 0 < var_min_s2 <= var_max_s2")
+        if not 0 < self.init_outlier_weight < 1:
+            raise ValueError(f"init_outlier_weight must be in (0, 1), got {self.init_outlier_weight}")
+
+    @classmethod
+    def paper(cls) -> FaceGuidedParams:
+        """Algorithm 2 as written: means start at the faces and move with EM, variances adapt, tau_A = K/(N+2)."""
+        return cls(anchor_means=False, update_variances=True, var_min_s2=EMSettings().var_floor_s2,
+                   var_max_s2=1.0, outlier_aware_speaking=False)
+
+
+@dataclass(frozen=True)
+class FaceGuidedOutput:
+    """Result of one interval of Algorithm 2.
+
+    speaking : (N,) bool, eq. (audio_act). probability : (N,) in [0, 1], above 0.5 exactly when speaking.
+    itd_means : (N,) seconds. itd_counts : (N,) beta_bar_n. model : the fitted 1-D model (for display).
+    tau_a : K / (N + 2). n_iter : EM iterations run.
+    """
+
+    speaking: np.ndarray
+    probability: np.ndarray
+    itd_means: np.ndarray
+    itd_counts: np.ndarray
+    model: Mixture1D
+    tau_a: float
+    n_iter: int
+
+
+class FaceGuidedHearing:
+    """Face-Guided Robot Hearing, the paper's Algorithm 2 (section 5.1).
+
+    N is the number of faces; the means start at the mapped faces (eq. final_av_mapping) with sigma^2 = 1e-9 s^2;
+    EM runs on the ITDs only (eq. beta_kn and the M-step restricted to the auditory data); speaking states follow
+    eq. (audio_act). With no ITD nobody speaks (probability 0); with no face there is nothing to decide.
+    """
+
+    def __init__(self, mics: MicPair, params: FaceGuidedParams | None = None) -> None:
+        if not isinstance(mics, MicPair):
+            raise TypeError(f"mics must be a MicPair, got {type(mics).__name__}")
+        self.mics = mics
+        self.params = params if params is not None else FaceGuidedParams()
+        self.support = mics.itd_interval()
+        self._u = 1.0 / (self.support[1] - self.support[0])
+
+    def step(self, faces_xyz: object, itds_s: object) -> FaceGuidedOutput:
+        """faces_xyz : (N, 3) float, metres. itds_s : (K,) float, seconds."""
+        faces = as_points(faces_xyz, "faces_xyz")
+        a = as_samples(itds_s, "itds_s")
+        p = self.params
+        n, k = faces.shape[0], a.size
+        mu = self.mics.itd(faces)
+        var = np.full(n, p.sigma2_init_s2)
+        w = np.append(np.full(n, (1.0 - p.init_outlier_weight) / max(n, 1)), p.init_outlier_weight)
+        if n == 0:
+            w = np.ones(1)
+        n_iter = 0
+        beta = np.zeros((k, n + 1))
+        if k and n:
+            w, mu, var, beta, n_iter = self._em(a, w, mu, var)
+        model = Mixture1D(w, mu, var, self.support)
+        bbar = beta[:, :-1].sum(axis=0)
+        speaking, prob, tau = _speaking(bbar, k, model, p.outlier_aware_speaking, p.min_itds)
+        return FaceGuidedOutput(speaking, prob, mu.copy(), bbar, model, tau, n_iter)
+
+    def _em(self, a: np.ndarray, w: np.ndarray, mu: np.ndarray, var: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """A lean EM on K ITDs and N faces (small arrays: no batching, no logs beyond the likelihood)."""
+        p = self.params
+        k = a.size
+        prev = -np.inf
+        dens = np.empty((k, mu.size + 1))
+        it = 0
+        for it in range(1, p.em.max_iter + 1):
+            d = a[:, None] - mu[None, :]
+            dens[:, :-1] = np.exp(-0.5 * np.minimum(d * d / var, 1400.0)) * (w[:-1] / np.sqrt(2 * np.pi * var))
+            dens[:, -1] = w[-1] * self._u
+            tot = dens.sum(axis=1)
+            beta = dens / tot[:, None]
+            ll = float(np.log(tot).sum())
+            if abs(ll - prev) < p.em.tol * k:
+                break
+            prev = ll
+            gamma = beta.sum(axis=0)
+            w = np.maximum(gamma / k, 0.0)
+            if w[-1] < p.em.min_outlier_weight:
+                w[:-1] *= (1.0 - p.em.min_outlier_weight) / max(w[:-1].sum(), 1e-300)
+                w[-1] = p.em.min_outlier_weight
+            g = gamma[:-1]
+            alive = g > 1e-10
+            if not p.anchor_means:
+                mu = np.where(alive, (beta[:, :-1] * a[:, None]).sum(axis=0) / np.where(alive, g, 1.0), mu)
+            if p.update_variances:
+                d = a[:, None] - mu[None, :]
+                v_new = (beta[:, :-1] * d * d).sum(axis=0) / np.where(alive, g, 1.0)
+                var = np.where(alive, np.clip(v_new, p.var_min_s2, p.var_max_s2), var)
+        return w / w.sum(), mu, var, beta, it

@@ -1,0 +1,515 @@
+"""The 1-D probabilistic model of section 3.2 and the EM algorithms of section 4 (paper section "Multimodal Inference").
+
+The model (eq. prob_model) is a mixture of N Gaussians in ITD space plus a uniform outlier class on the ITD
+interval of the microphone pair:
+
+    p(x; Theta) = sum_n pi_n N(x; mu_n, sigma_n^2) + pi_{N+1} U(x; A)
+
+Two EM algorithms fit it:
+
+* :func:`fit_em` - the standard EM on (weighted) 1-D data: eq. (alpha_m) as E-step and its closed-form M-step.
+* :func:`fit_fusion_em` - the *vision-guided EM fusion*: the visual posteriors alpha stay fixed, the E-step updates
+  only the auditory posteriors beta (eq. beta_kn), the M-step combines both (eqs. update_mu, update_sigma and
+  pi_n = gamma_n / (M + K)).
+
+Speed. Algorithm 1 runs both EMs for every candidate N = 0..N_max on about 2,000 projected points per interval.
+The engine here (i) works on a fine histogram of the projected points that keeps the exact per-bin sufficient
+statistics (count, sum x, sum x^2), so that the M-step is exact given responsibilities that are constant inside a
+bin (1 us wide by default, against sigmas of tens of us); (ii) runs all candidate models at once as one batch of
+arrays ``(C, B, N_max + 1)``; (iii) drops each model from the batch as soon as it has converged; (iv) works
+internally in microseconds so that the moments are well scaled. During the fusion EM the visual statistics are
+fixed, so its cost is O(K N) per iteration whatever M is.
+
+Numerical safety: the outlier weight is kept above ``min_outlier_weight`` (a constrained M-step, which keeps EM
+monotone), so every observation has a strictly positive density and the probability-domain E-step cannot divide
+by zero; variances are floored; a component that receives no responsibility keeps its mean and variance and gets
+zero weight.
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from avcore._packed_em import Packed, run_em, run_fusion
+from avcore._validate import as_samples
+
+__all__ = [
+    "BinnedSamples",
+    "EMSettings",
+    "FitResult",
+    "FusionResult",
+    "Mixture1D",
+    "bic_score",
+    "davies_bouldin",
+    "fit_em",
+    "fit_fusion_em",
+    "initial_models",
+    "ridgeline_merge",
+    "split_at_mean",
+]
+
+US = 1e6  # internal unit: microseconds per second
+_Z2_CLIP = 1400.0  # exp(-700) ~ 1e-304: Gaussian kernels never underflow to exactly zero
+
+
+class ConvergenceWarning(UserWarning):
+    """EM stopped at ``max_iter`` before the change of the objective fell below ``tol``."""
+
+
+@dataclass(frozen=True)
+class EMSettings:
+    """Numerical settings of both EMs.
+
+    max_iter : int
+        Iterations at most per EM run.
+    tol : float
+        Convergence when the objective's change per observation falls below this (unit-free, like scikit-learn's
+        ``tol`` on the per-sample lower bound).
+    var_floor_s2 : float, s^2
+        Smallest variance of a Gaussian component ((5 us)^2 by default): keeps a component from collapsing onto a
+        few identical values.
+    min_outlier_weight : float
+        Lower bound of the outlier prior pi_{N+1}; keeps every density positive (see module docstring).
+    """
+
+    max_iter: int = 100
+    tol: float = 1e-5
+    var_floor_s2: float = 2.5e-11
+    min_outlier_weight: float = 1e-3
+
+    def __post_init__(self) -> None:
+        if self.max_iter < 1:
+            raise ValueError(f"max_iter must be >= 1, got {self.max_iter}")
+        if not self.tol > 0:
+            raise ValueError(f"tol must be > 0, got {self.tol}")
+        if not self.var_floor_s2 > 0:
+            raise ValueError(f"var_floor_s2 must be > 0 s^2, got {self.var_floor_s2}")
+        if not 0 < self.min_outlier_weight < 1:
+            raise ValueError(f"min_outlier_weight must be in (0, 1), got {self.min_outlier_weight}")
+
+
+def _check_support(support: tuple[float, float]) -> tuple[float, float]:
+    lo, hi = float(support[0]), float(support[1])
+    if not (np.isfinite(lo) and np.isfinite(hi) and hi > lo):
+        raise ValueError(f"support must be an interval (lo, hi) of seconds with lo < hi, got {support!r}")
+    return lo, hi
+
+
+@dataclass(frozen=True)
+class Mixture1D:
+    """A fitted or initial model of eq. (prob_model), in seconds.
+
+    weights : (N + 1,) float, the priors pi_1..pi_N and, last, the outlier prior pi_{N+1}; they sum to one.
+    means : (N,) float, seconds.
+    variances : (N,) float, s^2.
+    support : (lo, hi) seconds, the interval of ITD space the uniform outlier density covers.
+    """
+
+    weights: np.ndarray
+    means: np.ndarray
+    variances: np.ndarray
+    support: tuple[float, float]
+
+    def __post_init__(self) -> None:
+        w = np.asarray(self.weights, dtype=np.float64).reshape(-1)
+        mu = np.asarray(self.means, dtype=np.float64).reshape(-1)
+        var = np.asarray(self.variances, dtype=np.float64).reshape(-1)
+        if w.shape != (mu.size + 1,) or var.shape != mu.shape:
+            raise ValueError(
+                f"a mixture of N Gaussians needs N + 1 weights, N means and N variances; got {w.size}, {mu.size}, "
+                f"{var.size}"
+            )
+        if not (np.all(np.isfinite(w)) and np.all(np.isfinite(mu)) and np.all(np.isfinite(var))):
+            raise ValueError("mixture parameters must be finite")
+        if np.any(w < 0) or not np.isclose(w.sum(), 1.0, atol=1e-6):
+            raise ValueError(f"weights must be non-negative and sum to 1, got {w}")
+        if np.any(var <= 0):
+            raise ValueError(f"variances must be positive, got {var}")
+        object.__setattr__(self, "weights", w)
+        object.__setattr__(self, "means", mu)
+        object.__setattr__(self, "variances", var)
+        object.__setattr__(self, "support", _check_support(self.support))
+
+    @property
+    def n_components(self) -> int:
+        """N, the number of Gaussian components (the outlier class not counted)."""
+        return int(self.means.size)
+
+    @property
+    def outlier_density(self) -> float:
+        """U(x; A): one over the length of the support, 1/s."""
+        return 1.0 / (self.support[1] - self.support[0])
+
+    def component_densities(self, x: object) -> np.ndarray:
+        """pi_n P(x | n) for every component and the outlier class: ``(len(x), N + 1)``, 1/s.
+
+        The uniform class has the same density for every x: observations a little outside the support (an ITD
+        extractor searches lags wider than the free-field geometry) are treated as inside it.
+        """
+        xs = as_samples(x, "x")
+        z2 = (xs[:, None] - self.means[None, :]) ** 2 / self.variances[None, :]
+        gauss = np.exp(-0.5 * np.minimum(z2, _Z2_CLIP)) / np.sqrt(2.0 * np.pi * self.variances[None, :])
+        out = np.empty((xs.size, self.n_components + 1))
+        out[:, :-1] = self.weights[None, :-1] * gauss
+        out[:, -1] = self.weights[-1] * self.outlier_density
+        return out
+
+    def density(self, x: object) -> np.ndarray:
+        """p(x; Theta) of eq. (prob_model), 1/s."""
+        return self.component_densities(x).sum(axis=1)
+
+    def responsibilities(self, x: object) -> np.ndarray:
+        """Posterior of each class given each observation (eqs. alpha_m / beta_kn): ``(len(x), N + 1)``."""
+        dens = self.component_densities(x)
+        return dens / dens.sum(axis=1, keepdims=True)
+
+    def log_likelihood(self, x: object) -> float:
+        """Sum of log p(x; Theta) over the observations (one term of eq. log-like)."""
+        return float(np.sum(np.log(self.density(x))))
+
+    def ordered_by_weight(self) -> Mixture1D:
+        """The same model with its Gaussian components sorted by decreasing weight."""
+        order = np.argsort(-self.weights[:-1], kind="stable")
+        return Mixture1D(
+            np.append(self.weights[:-1][order], self.weights[-1]), self.means[order], self.variances[order],
+            self.support,
+        )
+
+    @classmethod
+    def outliers_only(cls, support: tuple[float, float]) -> Mixture1D:
+        """The N = 0 model: every observation is an outlier."""
+        return cls(np.ones(1), np.empty(0), np.empty(0), support)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Data: a fine histogram with exact sufficient statistics
+
+
+@dataclass(frozen=True)
+class BinnedSamples:
+    """1-D samples summarised by bins that keep their exact count, sum and sum of squares (microseconds).
+
+    x_us : (B,) the mean of the samples in each non-empty bin (where responsibilities are evaluated).
+    stats : (B, 3) count, sum x, sum x^2 of each bin (x in microseconds).
+    """
+
+    x_us: np.ndarray
+    stats: np.ndarray
+
+    @property
+    def total(self) -> float:
+        return float(self.stats[:, 0].sum())
+
+    @classmethod
+    def from_samples(cls, x_s: np.ndarray, bin_width_s: float | None = 1e-6) -> BinnedSamples:
+        """Bin seconds-valued samples; ``bin_width_s=None`` keeps one bin per sample (exact EM)."""
+        x = np.asarray(x_s, dtype=np.float64) * US
+        if x.size == 0:
+            return cls(np.empty(0), np.empty((0, 3)))
+        if bin_width_s is None:
+            return cls(x.copy(), np.stack([np.ones_like(x), x, x * x], axis=1))
+        width = bin_width_s * US
+        idx = np.floor((x - x.min()) / width).astype(np.int64)
+        n_bins = int(idx.max()) + 1
+        count = np.bincount(idx, minlength=n_bins)
+        keep = count > 0
+        s1 = np.bincount(idx, weights=x, minlength=n_bins)[keep]
+        s2 = np.bincount(idx, weights=x * x, minlength=n_bins)[keep]
+        c = count[keep].astype(np.float64)
+        return cls(s1 / c, np.stack([c, s1, s2], axis=1))
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Packing public models into the engine of avcore._packed_em (microseconds)
+
+
+def pack(models: list[Mixture1D]) -> Packed:
+    """Pack models with N >= 1 components each into one batch (microseconds)."""
+    if any(m.n_components == 0 for m in models):
+        raise ValueError("only models with at least one Gaussian component can be packed")
+    return Packed(
+        np.array([m.n_components for m in models], dtype=np.int64),
+        np.concatenate([m.weights[:-1] for m in models]),
+        np.concatenate([m.means for m in models]) * US,
+        np.concatenate([m.variances for m in models]) * US * US,
+        np.array([m.weights[-1] for m in models]),
+    )
+
+
+def unpack(p: Packed, c: int, support: tuple[float, float]) -> Mixture1D:
+    """Model ``c`` of a batch, back in seconds."""
+    wg, mu, var, wo = p.model(c)
+    weights = np.append(wg, wo)
+    return Mixture1D(weights / weights.sum(), mu / US, var / (US * US), support)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Public fitting functions
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Output of :func:`fit_em`.
+
+    model_ : the fitted mixture (seconds).
+    log_likelihood_ : eq. (log-like) restricted to the data, with densities in 1/s.
+    n_iter_, converged_ : iterations run and whether ``tol`` was reached.
+    lower_bounds_ : (n_iter_ + 1,) the log-likelihood before each M-step and after the last (EM never lowers it).
+    """
+
+    model_: Mixture1D
+    log_likelihood_: float
+    n_iter_: int
+    converged_: bool
+    lower_bounds_: np.ndarray
+
+
+def _warn_not_converged(what: str, settings: EMSettings) -> None:
+    warnings.warn(
+        f"{what} did not converge in {settings.max_iter} iterations; try a larger max_iter or a larger tol",
+        ConvergenceWarning,
+        stacklevel=3,
+    )
+
+
+def fit_em(
+    x_s: object,
+    init: Mixture1D,
+    *,
+    settings: EMSettings = EMSettings(),
+    bin_width_s: float | None = None,
+) -> FitResult:
+    """Fit eq. (prob_model) to 1-D observations with the standard EM (section 4.1, eq. alpha_m and its M-step).
+
+    x_s : (M,) float, seconds. init : the starting model (its support is kept). bin_width_s : None for the exact
+    per-observation EM, or a bin width for the histogram engine (see module docstring).
+    """
+    x = as_samples(x_s, "x_s")
+    offset = x.size * np.log(US)  # densities per second, as the paper writes them
+    if init.n_components == 0 or x.size == 0:
+        ll = init.log_likelihood(x)
+        return FitResult(init, ll, 0, True, np.array([ll]))
+    data = BinnedSamples.from_samples(x, bin_width_s)
+    hist: list[np.ndarray] = []
+    fitted, ll, n_iter, conv = run_em(
+        data.x_us, data.stats, pack([init]), init.outlier_density / US, max_iter=settings.max_iter,
+        tol=settings.tol, var_floor=settings.var_floor_s2 * US * US, min_wo=settings.min_outlier_weight, history=hist,
+    )
+    if not conv[0]:
+        _warn_not_converged("EM", settings)
+    bounds = np.array([h[0] for h in hist]) + offset
+    return FitResult(unpack(fitted, 0, init.support), float(ll[0] + offset), int(n_iter[0]), bool(conv[0]), bounds)
+
+
+@dataclass(frozen=True)
+class FusionResult:
+    """Output of :func:`fit_fusion_em`.
+
+    model_ : the fitted mixture (seconds).
+    beta_ : (K, N + 1) the auditory posteriors of eq. (beta_kn) (outlier last).
+    log_likelihood_ : eq. (log-like) over both modalities, 1/s densities.
+    objective_ : (n_iter_ + 1,) the constrained objective the fusion EM maximises (the expected complete-data
+        log-likelihood of the visual data under the fixed alpha plus the auditory log-likelihood); it never
+        decreases.
+    """
+
+    model_: Mixture1D
+    beta_: np.ndarray
+    log_likelihood_: float
+    n_iter_: int
+    converged_: bool
+    objective_: np.ndarray
+
+
+def fit_fusion_em(
+    visual_s: object,
+    alpha: object,
+    itds_s: object,
+    init: Mixture1D,
+    *,
+    settings: EMSettings = EMSettings(),
+) -> FusionResult:
+    """The vision-guided EM fusion of section 4.1 on projected visual features and ITDs.
+
+    visual_s : (M,) float, seconds, the projected visual features v~_m.
+    alpha : (M, N + 1) float, their posteriors from the visual EM (eq. alpha_m), held fixed.
+    itds_s : (K,) float, seconds, the auditory features a_k.
+    init : the starting model (typically the visual EM's result).
+    """
+    v = as_samples(visual_s, "visual_s")
+    a = as_samples(itds_s, "itds_s")
+    al = np.asarray(alpha, dtype=np.float64)
+    n = init.n_components
+    if al.shape != (v.size, n + 1):
+        raise ValueError(f"alpha must have shape (M, N + 1) = ({v.size}, {n + 1}), got {al.shape}")
+    if not np.all(np.isfinite(al)) or np.any(al < 0):
+        raise ValueError("alpha must hold finite non-negative posteriors")
+    if n == 0:
+        model = init
+        return FusionResult(model, np.ones((a.size, 1)), model.log_likelihood(v) + model.log_likelihood(a), 0, True,
+                            np.array([model.log_likelihood(v) + model.log_likelihood(a)]))
+    v_us = v * US
+    sums = al.T @ np.stack([np.ones_like(v_us), v_us, v_us * v_us], axis=1)
+    hist: list[np.ndarray] = []
+    fused, n_iter, conv = run_fusion(
+        sums[:-1], sums[-1:, 0], float(v.size), a * US, pack([init]), init.outlier_density / US,
+        max_iter=settings.max_iter, tol=settings.tol, var_floor=settings.var_floor_s2 * US * US,
+        min_wo=settings.min_outlier_weight, history=hist,
+    )
+    if not conv[0]:
+        _warn_not_converged("vision-guided EM fusion", settings)
+    model = unpack(fused, 0, init.support)
+    ll = model.log_likelihood(v) + model.log_likelihood(a)
+    objective = np.array([h[0] for h in hist]) + (v.size + a.size) * np.log(US)
+    return FusionResult(model, model.responsibilities(a), ll, int(n_iter[0]), bool(conv[0]), objective)
+
+
+def bic_score(log_likelihood: float, n_components: int, n_observations: int) -> float:
+    """BIC of eq. (criteria): L - D_N log(M + K) / 2 with D_N = 3 N free parameters."""
+    if n_observations <= 0:
+        return float(log_likelihood)
+    return float(log_likelihood) - 1.5 * n_components * np.log(n_observations)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Initialisation from the previous interval (section 4.4, "Practical concerns")
+
+
+def davies_bouldin(means: np.ndarray, stds: np.ndarray) -> np.ndarray:
+    """DW_i = max_{j != i} (sigma_i + sigma_j) / |mu_i - mu_j| (section 4.4). One component: +inf."""
+    mu = np.asarray(means, dtype=np.float64)
+    sd = np.asarray(stds, dtype=np.float64)
+    if mu.size < 2:
+        return np.full(mu.size, np.inf)
+    with np.errstate(divide="ignore"):
+        ratio = (sd[:, None] + sd[None, :]) / np.abs(mu[:, None] - mu[None, :])
+    np.fill_diagonal(ratio, -np.inf)
+    return ratio.max(axis=1)
+
+
+def split_at_mean(model: Mixture1D, index: int) -> Mixture1D:
+    """Split component ``index`` at its mean into its two halves (section 4.4).
+
+    Each half gets half the weight and the moments of a half-normal: mean mu +- sigma sqrt(2/pi), variance
+    sigma^2 (1 - 2/pi).
+    """
+    sd = np.sqrt(model.variances[index])
+    shift = sd * np.sqrt(2.0 / np.pi)
+    var = model.variances[index] * (1.0 - 2.0 / np.pi)
+    half = model.weights[index] / 2.0
+    means = np.concatenate([np.delete(model.means, index), [model.means[index] - shift, model.means[index] + shift]])
+    variances = np.concatenate([np.delete(model.variances, index), [var, var]])
+    g = np.concatenate([np.delete(model.weights[:-1], index), [half, half]])
+    return Mixture1D(np.append(g, model.weights[-1]), means, variances, model.support)
+
+
+def _seed_model(data: BinnedSamples, support: tuple[float, float], outlier_weight: float) -> Mixture1D:
+    """A single broad component on the data's moments (used when there is no previous model)."""
+    if data.total > 0:
+        mean = data.stats[:, 1].sum() / data.total
+        var = max(data.stats[:, 2].sum() / data.total - mean * mean, 1.0)
+        mean_s, var_s = mean / US, var / (US * US)
+    else:
+        mean_s, var_s = 0.5 * (support[0] + support[1]), ((support[1] - support[0]) / 4.0) ** 2
+    return Mixture1D(np.array([1.0 - outlier_weight, outlier_weight]), [mean_s], [var_s], support)
+
+
+def initial_models(
+    previous: Mixture1D | None,
+    n_max: int,
+    support: tuple[float, float],
+    data: BinnedSamples | None = None,
+    *,
+    outlier_weight: float = 0.1,
+) -> list[Mixture1D]:
+    """Initial models for N = 0..n_max from the previous interval's model (section 4.4).
+
+    For N <= N_prev: the N heaviest clusters of the previous model. For N > N_prev: split, one at a time, the
+    cluster with the highest Davies-Bouldin index at its mean. With no previous model (or N_prev = 0) the first
+    cluster is seeded on the moments of ``data``.
+    """
+    if n_max < 0:
+        raise ValueError(f"n_max must be >= 0, got {n_max}")
+    support = _check_support(support)
+    models = [Mixture1D.outliers_only(support)]
+    if previous is None or previous.n_components == 0:
+        base = _seed_model(data if data is not None else BinnedSamples.from_samples(np.empty(0)), support,
+                           outlier_weight)
+    else:
+        base = Mixture1D(previous.weights, previous.means, previous.variances, support).ordered_by_weight()
+        if base.weights[-1] < outlier_weight / 10:
+            g = base.weights[:-1] * (1.0 - outlier_weight / 10) / base.weights[:-1].sum()
+            base = Mixture1D(np.append(g, outlier_weight / 10), base.means, base.variances, support)
+    n_prev = base.n_components
+    for n in range(1, n_max + 1):
+        if n <= n_prev:
+            g = base.weights[:n]
+            g = g * (1.0 - base.weights[-1]) / g.sum() if g.sum() > 0 else np.full(n, (1.0 - base.weights[-1]) / n)
+            models.append(Mixture1D(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n], support))
+        else:
+            prev = models[-1]
+            db = davies_bouldin(prev.means, np.sqrt(prev.variances))
+            # ties (e.g. two components) go to the widest component
+            idx = int(np.lexsort((-prev.variances, -db))[0])
+            models.append(split_at_mean(prev, idx))
+    return models
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Ridgeline merging (Ray and Lindsay 2005), section 4.4
+
+
+def _is_unimodal_on_ridgeline(w1: float, m1: float, v1: float, w2: float, m2: float, v2: float,
+                              n_grid: int = 257) -> bool:
+    """Whether the two-component mixture has a single mode along its ridgeline.
+
+    In one dimension the ridgeline x*(a) = [(1-a)/v1 + a/v2]^-1 [(1-a) m1/v1 + a m2/v2], a in [0, 1], runs
+    monotonically from m1 to m2 and holds every critical point of the mixture (Ray and Lindsay 2005); the mixture
+    is unimodal iff the elevation profile along it has a single local maximum.
+    """
+    a = np.linspace(0.0, 1.0, n_grid)
+    prec = (1.0 - a) / v1 + a / v2
+    x = ((1.0 - a) * m1 / v1 + a * m2 / v2) / prec
+    h = w1 * np.exp(-0.5 * (x - m1) ** 2 / v1) / np.sqrt(v1) + w2 * np.exp(-0.5 * (x - m2) ** 2 / v2) / np.sqrt(v2)
+    d = np.diff(h)
+    d = d[np.abs(d) > 1e-12 * h.max()]
+    if d.size == 0:
+        return True
+    # local maxima of the elevation profile, the ends included
+    modes = np.count_nonzero((d[:-1] > 0) & (d[1:] < 0)) + int(d[0] < 0) + int(d[-1] > 0)
+    return modes <= 1
+
+
+def ridgeline_merge(model: Mixture1D) -> tuple[Mixture1D, list[list[int]]]:
+    """Merge components whose two-component mixture is unimodal along the ridgeline (section 4.4).
+
+    Components are visited in order of their means; neighbours are merged (by moment matching) while the pair is
+    unimodal. Returns the merged model and, for each of its components, the indices of the original components
+    it holds (so that the caller can add up their posteriors).
+    """
+    n = model.n_components
+    if n < 2:
+        return model, [[i] for i in range(n)]
+    order = np.argsort(model.means, kind="stable")
+    groups: list[list[int]] = [[int(order[0])]]
+    w = [model.weights[order[0]]]
+    mu = [model.means[order[0]]]
+    var = [model.variances[order[0]]]
+    for i in order[1:]:
+        wi, mi, vi = model.weights[i], model.means[i], model.variances[i]
+        if w[-1] > 0 and wi > 0 and _is_unimodal_on_ridgeline(w[-1], mu[-1] * US, var[-1] * US * US, wi, mi * US,
+                                                               vi * US * US):
+            tot = w[-1] + wi
+            m = (w[-1] * mu[-1] + wi * mi) / tot
+            second = (w[-1] * (var[-1] + mu[-1] ** 2) + wi * (vi + mi**2)) / tot
+            w[-1], mu[-1], var[-1] = tot, m, max(second - m * m, min(var[-1], vi))
+            groups[-1].append(int(i))
+        else:
+            groups.append([int(i)])
+            w.append(wi)
+            mu.append(mi)
+            var.append(vi)
+    merged = Mixture1D(np.append(w, model.weights[-1]), mu, var, model.support)
+    return merged, groups
