@@ -33,16 +33,11 @@ class Packed:
 
     @property
     def starts(self) -> np.ndarray:
-        return np.concatenate([[0], np.cumsum(self.sizes)[:-1]]).astype(np.int64)
+        return _starts(self.sizes)
 
     @property
     def owner(self) -> np.ndarray:
         return np.repeat(np.arange(self.sizes.size), self.sizes)
-
-    def slots(self, models: np.ndarray) -> np.ndarray:
-        """Slot indices of the given models, in order."""
-        starts = self.starts
-        return np.concatenate([np.arange(starts[c], starts[c] + self.sizes[c]) for c in models]).astype(np.int64)
 
     def model(self, c: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         s = self.starts[c]
@@ -53,22 +48,29 @@ class Packed:
         return Packed(self.sizes.copy(), self.wg.copy(), self.mu.copy(), self.var.copy(), self.wo.copy())
 
 
+def _starts(sizes: np.ndarray) -> np.ndarray:
+    out = np.zeros(sizes.size, dtype=np.int64)
+    np.cumsum(sizes[:-1], out=out[1:])
+    return out
+
+
 def e_step(x: np.ndarray, sizes: np.ndarray, wg: np.ndarray, mu: np.ndarray, var: np.ndarray, wo: np.ndarray,
-           u: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           u: float, starts: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Class densities pi_n P(x | n) of packed models.
 
     Returns ``dens_g`` (B, S), ``dens_o`` (C,) (the same for every x) and ``total`` (B, C) = p(x; Theta_c).
     """
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
     dens = x[:, None] - mu[None, :]
     dens *= dens
-    dens /= var
-    np.minimum(dens, _Z2_CLIP, out=dens)
-    dens *= -0.5
+    dens *= -0.5 / var
+    np.maximum(dens, -0.5 * _Z2_CLIP, out=dens)
     np.exp(dens, out=dens)
     dens *= wg / np.sqrt(2.0 * np.pi * var)
     dens_o = wo * u
-    total = np.add.reduceat(dens, starts, axis=1) if dens.shape[0] else np.zeros((0, sizes.size))
+    if dens.shape[0]:
+        total = np.add.reduceat(dens, _starts(sizes) if starts is None else starts, axis=1)
+    else:
+        total = np.zeros((0, sizes.size))
     total += dens_o
     return dens, dens_o, total
 
@@ -88,8 +90,7 @@ def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.n
     wo = o_counts / w_total
     low = wo < min_wo
     if np.any(low):
-        starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
-        rest = np.add.reduceat(wg, starts)
+        rest = np.add.reduceat(wg, _starts(sizes))
         scale = np.where(low, (1.0 - min_wo) / np.maximum(rest, 1e-300), 1.0)
         wg = wg * np.repeat(scale, sizes)
         wo = np.where(low, min_wo, wo)
@@ -101,9 +102,34 @@ def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.n
     return wg, mu, var, wo
 
 
-def _select(p: Packed, live: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    slots = p.slots(live)
-    return slots, p.sizes[live]
+class _Live:
+    """The models still iterating, as compact local arrays; converged ones are written back to ``p``."""
+
+    def __init__(self, p: Packed) -> None:
+        self.p = p
+        self.idx = np.arange(p.sizes.size)
+        self.slots = np.arange(p.mu.size)
+        self._load()
+
+    def _load(self) -> None:
+        p = self.p
+        self.sizes = p.sizes[self.idx]
+        self.starts = _starts(self.sizes)
+        self.owner = np.repeat(np.arange(self.sizes.size), self.sizes)
+        self.wg, self.mu, self.var, self.wo = p.wg[self.slots], p.mu[self.slots], p.var[self.slots], p.wo[self.idx]
+
+    def store(self) -> None:
+        p = self.p
+        p.wg[self.slots], p.mu[self.slots], p.var[self.slots], p.wo[self.idx] = self.wg, self.mu, self.var, self.wo
+
+    def drop(self, done: np.ndarray) -> np.ndarray:
+        """Remove the models flagged ``done`` (local order); returns the slot mask of those kept."""
+        self.store()
+        keep = ~done
+        slot_keep = np.repeat(keep, self.sizes)
+        self.idx, self.slots = self.idx[keep], self.slots[slot_keep]
+        self._load()
+        return slot_keep
 
 
 def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: int, tol: float, var_floor: float,
@@ -123,33 +149,28 @@ def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: i
     w_total = float(cnt.sum())
     if x.size == 0 or c == 0:
         return p, np.zeros(c), n_iter, np.ones(c, dtype=bool)
-    live = np.arange(c)
-    slots, sizes = _select(p, live)
+    lv = _Live(p)
     for it in range(max_iter + 1):
-        dens, dens_o, total = e_step(x, sizes, p.wg[slots], p.mu[slots], p.var[slots], p.wo[live], u)
+        dens, dens_o, total = e_step(x, lv.sizes, lv.wg, lv.mu, lv.var, lv.wo, u, lv.starts)
         ll = cnt @ np.log(total)
         if history is not None:
             full = np.full(c, np.nan)
-            full[live] = ll
+            full[lv.idx] = ll
             history.append(full)
-        done = np.abs(ll - loglik[live]) < tol * w_total
-        loglik[live] = ll
-        converged[live[done]] = True
+        done = np.abs(ll - loglik[lv.idx]) < tol * w_total
+        loglik[lv.idx] = ll
+        converged[lv.idx[done]] = True
         if it == max_iter or np.all(done):
             break
         if np.any(done):
-            keep = ~done
-            owner_keep = np.repeat(keep, sizes)
-            live, dens, dens_o, total = live[keep], dens[:, owner_keep], dens_o[keep], total[:, keep]
-            slots, sizes = slots[owner_keep], sizes[keep]
-        owner = np.repeat(np.arange(sizes.size), sizes)
-        dens /= total[:, owner]
+            slot_keep = lv.drop(done)
+            dens, dens_o, total = dens[:, slot_keep], dens_o[~done], total[:, ~done]
+        dens /= total[:, lv.owner]
         g_sums = dens.T @ stats
-        o_counts = (dens_o[None, :] / total).T @ cnt
-        p.wg[slots], p.mu[slots], p.var[slots], p.wo[live] = m_step(
-            g_sums, o_counts, w_total, sizes, p.mu[slots], p.var[slots], var_floor, min_wo
-        )
-        n_iter[live] += 1
+        o_counts = cnt @ (dens_o / total)
+        lv.wg, lv.mu, lv.var, lv.wo = m_step(g_sums, o_counts, w_total, lv.sizes, lv.mu, lv.var, var_floor, min_wo)
+        n_iter[lv.idx] += 1
+    lv.store()
     return p, loglik, n_iter, converged
 
 
@@ -162,22 +183,19 @@ def class_sums(x: np.ndarray, stats: np.ndarray, p: Packed, u: float) -> tuple[n
     return dens.T @ stats, (dens_o[None, :] / total).T @ stats[:, 0]
 
 
-def fixed_q(vis_g: np.ndarray, vis_o: np.ndarray, p: Packed, slots: np.ndarray, live: np.ndarray, u: float
-            ) -> np.ndarray:
-    """Expected complete-data log-likelihood of the visual data under their fixed posteriors, per model.
+def fixed_q(vis_g: np.ndarray, vis_o: np.ndarray, lv: _Live, u: float) -> np.ndarray:
+    """Expected complete-data log-likelihood of the visual data under their fixed posteriors, per live model.
 
     sum_m sum_n alpha_mn log(pi_n P(v_m | n)), from the per-class sums only (cost independent of M).
     """
-    wg, mu, var, wo = p.wg[slots], p.mu[slots], p.var[slots], p.wo[live]
-    cnt = vis_g[slots, 0]
-    sq = vis_g[slots, 2] - 2.0 * mu * vis_g[slots, 1] + mu * mu * cnt
-    log_wg = np.log(np.where(wg > 0, wg, 1.0))
-    per_slot = np.where(cnt > 0, cnt * (log_wg - 0.5 * (_LOG_2PI + np.log(var))) - 0.5 * sq / var, 0.0)
-    sizes = p.sizes[live]
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
-    log_wo = np.log(np.where(wo > 0, wo, 1.0))
-    outl = np.where(vis_o[live] > 0, vis_o[live] * (log_wo + np.log(u)), 0.0)
-    return np.add.reduceat(per_slot, starts) + outl
+    g = vis_g[lv.slots]
+    cnt = g[:, 0]
+    sq = g[:, 2] - 2.0 * lv.mu * g[:, 1] + lv.mu * lv.mu * cnt
+    log_wg = np.log(np.where(lv.wg > 0, lv.wg, 1.0))
+    per_slot = np.where(cnt > 0, cnt * (log_wg - 0.5 * (_LOG_2PI + np.log(lv.var))) - 0.5 * sq / lv.var, 0.0)
+    o = vis_o[lv.idx]
+    outl = np.where(o > 0, o * (np.log(np.where(lv.wo > 0, lv.wo, 1.0)) + np.log(u)), 0.0)
+    return np.add.reduceat(per_slot, lv.starts) + outl
 
 
 def run_fusion(vis_g: np.ndarray, vis_o: np.ndarray, m_total: float, a: np.ndarray, p: Packed, u: float, *,
@@ -200,33 +218,28 @@ def run_fusion(vis_g: np.ndarray, vis_o: np.ndarray, m_total: float, a: np.ndarr
     if w_total == 0 or c == 0:
         return p, n_iter, np.ones(c, dtype=bool)
     a_stats = np.stack([np.ones(k), a, a * a], axis=1)
-    live = np.arange(c)
-    slots, sizes = _select(p, live)
+    lv = _Live(p)
     for it in range(max_iter + 1):
-        dens, dens_o, total = e_step(a, sizes, p.wg[slots], p.mu[slots], p.var[slots], p.wo[live], u)
-        obj = fixed_q(vis_g, vis_o, p, slots, live, u) + np.log(total).sum(axis=0)
+        dens, dens_o, total = e_step(a, lv.sizes, lv.wg, lv.mu, lv.var, lv.wo, u, lv.starts)
+        obj = fixed_q(vis_g, vis_o, lv, u) + np.log(total).sum(axis=0)
         if history is not None:
             full = np.full(c, np.nan)
-            full[live] = obj
+            full[lv.idx] = obj
             history.append(full)
-        done = np.abs(obj - objective[live]) < tol * w_total
-        objective[live] = obj
-        converged[live[done]] = True
+        done = np.abs(obj - objective[lv.idx]) < tol * w_total
+        objective[lv.idx] = obj
+        converged[lv.idx[done]] = True
         if it == max_iter or np.all(done):
             break
         if np.any(done):
-            keep = ~done
-            owner_keep = np.repeat(keep, sizes)
-            live, dens, dens_o, total = live[keep], dens[:, owner_keep], dens_o[keep], total[:, keep]
-            slots, sizes = slots[owner_keep], sizes[keep]
-        owner = np.repeat(np.arange(sizes.size), sizes)
-        dens /= total[:, owner]
-        g_sums = vis_g[slots] + dens.T @ a_stats
-        o_counts = vis_o[live] + (dens_o[None, :] / total).sum(axis=0)
-        p.wg[slots], p.mu[slots], p.var[slots], p.wo[live] = m_step(
-            g_sums, o_counts, w_total, sizes, p.mu[slots], p.var[slots], var_floor, min_wo
-        )
-        n_iter[live] += 1
+            slot_keep = lv.drop(done)
+            dens, dens_o, total = dens[:, slot_keep], dens_o[~done], total[:, ~done]
+        dens /= total[:, lv.owner]
+        g_sums = vis_g[lv.slots] + dens.T @ a_stats
+        o_counts = vis_o[lv.idx] + (dens_o / total).sum(axis=0)
+        lv.wg, lv.mu, lv.var, lv.wo = m_step(g_sums, o_counts, w_total, lv.sizes, lv.mu, lv.var, var_floor, min_wo)
+        n_iter[lv.idx] += 1
+    lv.store()
     return p, n_iter, converged
 
 

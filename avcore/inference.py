@@ -9,13 +9,14 @@ paper's own evaluation showed missing (section 7.1 and the issue's analysis):
   the paper's small-determinant test (eq. hat_svect, "covariance"), clusters too diffuse to be a person and
   clusters with too few points are dropped (``max_spread_m``, ``min_points``);
 * tau_A = K / (N + 2) fires on reverberation outliers when nobody speaks: the speaking test also asks for more
-  ITDs than the outlier class would put under the cluster by chance (``outlier_aware_speaking``).
+  ITDs near the cluster than stray ITDs would put there by chance (:class:`SpeakingTest`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from scipy import stats
 
 from avcore._validate import as_points, as_samples
 from avcore.geometry import MicPair
@@ -40,6 +41,7 @@ __all__ = [
     "MotionGuidedHearing",
     "MotionGuidedOutput",
     "MotionGuidedParams",
+    "SpeakingTest",
     "speaking_threshold",
 ]
 
@@ -49,34 +51,41 @@ def speaking_threshold(n_itds: int, n_objects: int) -> float:
     return n_itds / (n_objects + 2.0)
 
 
-def _chance_counts(model: Mixture1D, n_itds: int, width_sd: float = 2.0) -> np.ndarray:
-    """Expected number of outlier ITDs that fall within +-width_sd sigma of each component by chance.
+@dataclass(frozen=True)
+class SpeakingTest:
+    """The speaking decision of eq. (audio_act) and avhear's outlier-aware refinement of it.
 
-    The uniform class puts pi_{N+1} K ITDs over the support; a window of 2 width_sd sigma collects its share.
+    The paper: speaking when beta_bar_n > tau_A = K / (N + 2). Reverberation and noise put ITDs everywhere, so
+    with few ITDs or nobody speaking, tau_A is small and a cluster fires on a couple of stray ITDs. The
+    outlier-aware test (``outlier_aware``) also asks that the ITDs within +-``window_sd`` sigma of the cluster
+    (sigma at least ``min_sd_s``) be more than chance allows: if a share ``outlier_share`` of the K ITDs were
+    spread uniformly over the ITD interval, the count in the window would be Poisson; the count must exceed its
+    ``quantile`` and be at least ``min_itds``.
     """
-    if model.n_components == 0:
-        return np.empty(0)
-    window = 2.0 * width_sd * np.sqrt(model.variances)
-    return model.weights[-1] * n_itds * np.minimum(window * model.outlier_density, 1.0)
 
+    outlier_aware: bool = True
+    window_sd: float = 2.0
+    min_sd_s: float = 20e-6
+    outlier_share: float = 0.5
+    quantile: float = 0.99
+    min_itds: int = 3
 
-def _speaking(beta_counts: np.ndarray, n_itds: int, model: Mixture1D, outlier_aware: bool,
-              min_itds: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """Speaking states of eq. (audio_act) and a probability in [0, 1] with p > 0.5 exactly when speaking.
-
-    The paper's test is beta_bar_n > tau_A. The outlier-aware test raises the threshold to at least ``min_itds``
-    and to twice the outlier ITDs expected under the cluster by chance plus one.
-    Returns (speaking (N,), probability (N,), the plain tau_A).
-    """
-    n = beta_counts.size
-    tau = speaking_threshold(n_itds, n)
-    thresh = np.full(n, tau)
-    if outlier_aware and n:
-        thresh = np.maximum(thresh, np.maximum(min_itds, 2.0 * _chance_counts(model, n_itds) + 1.0))
-    speaking = beta_counts > thresh
-    with np.errstate(invalid="ignore", divide="ignore"):
-        prob = np.where(beta_counts + thresh > 0, beta_counts / (beta_counts + thresh), 0.0)
-    return speaking, prob, tau
+    def decide(self, beta_counts: np.ndarray, itds: np.ndarray, model: Mixture1D
+               ) -> tuple[np.ndarray, np.ndarray, float]:
+        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A."""
+        n, k = beta_counts.size, itds.size
+        tau = speaking_threshold(k, n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            prob = np.where(beta_counts + tau > 0, beta_counts / (beta_counts + tau), 0.0)
+        speaking = beta_counts > tau
+        if self.outlier_aware and n:
+            half = self.window_sd * np.maximum(np.sqrt(model.variances), self.min_sd_s)
+            counts = (np.abs(itds[:, None] - model.means[None, :]) <= half[None, :]).sum(axis=0)
+            lam = self.outlier_share * k * np.minimum(2.0 * half * model.outlier_density, 1.0)
+            need = np.maximum(stats.poisson.ppf(self.quantile, lam) + 1.0, self.min_itds)
+            speaking &= counts >= need
+            prob = np.minimum(prob, counts / (counts + need - 0.5))
+        return speaking, prob, tau
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -95,7 +104,7 @@ class MotionGuidedParams:
         determinant below this, m^6 (points on a thin sheet near a hyperboloid). A person-sized blob
         (sd 0.1 x 0.2 x 0.05 m) has about 1e-6; 1e-9 only removes sheets.
     merge_ridgeline : merge components that are unimodal along the ridgeline (section 4.4).
-    outlier_aware_speaking, min_itds : the speaking test (see module docstring); off in the paper's variant.
+    speaking : the speaking test (:class:`SpeakingTest`); the paper's variant uses beta_bar > tau_A alone.
     refine_3d : replace the alpha-weighted moments of eq. (hat_svect) by compact 3D groups inside each cluster
         (:mod:`avcore.refine3d`): splits people who share a 1-D cluster, ignores 3D outliers on the cluster's
         hyperboloid, and drops clusters with no compact group of at least ``min_points`` points.
@@ -109,8 +118,7 @@ class MotionGuidedParams:
     init_outlier_weight: float = 0.1
     min_det_m6: float = 1e-9
     merge_ridgeline: bool = True
-    outlier_aware_speaking: bool = True
-    min_itds: float = 3.0
+    speaking: SpeakingTest = field(default_factory=SpeakingTest)
     refine_3d: bool = True
     kernel_sd_m: tuple[float, float, float] = (0.15, 0.30, 0.15)
     min_points: float = 60.0
@@ -125,7 +133,7 @@ class MotionGuidedParams:
     @classmethod
     def paper(cls) -> MotionGuidedParams:
         """The method as the paper describes it: moments of eq. (hat_svect), determinant test, tau_A = K/(N+2)."""
-        return cls(outlier_aware_speaking=False, refine_3d=False)
+        return cls(speaking=SpeakingTest(outlier_aware=False), refine_3d=False)
 
 
 @dataclass(frozen=True)
@@ -259,7 +267,7 @@ class MotionGuidedHearing:
             positions, cov, abar, beta = positions[keep], cov[keep], abar[keep], beta[:, keep]
         self.previous_ = model
         bbar = beta.sum(axis=0)
-        speaking, prob, tau = _speaking(bbar, a.size, model, p.outlier_aware_speaking, p.min_itds)
+        speaking, prob, tau = p.speaking.decide(bbar, a, model)
         return MotionGuidedOutput(positions, cov, speaking, prob, model.means.copy(), bbar, abar, model, bic, n_sel,
                                   tau)
 
@@ -325,7 +333,7 @@ class FaceGuidedParams:
     update_variances : let EM adapt each variance within ``[var_min_s2, var_max_s2]``.
     init_outlier_weight : the outlier prior before EM.
     em : iterations, tolerance.
-    outlier_aware_speaking, min_itds : the speaking test (see module docstring); off in the paper's variant.
+    speaking : the speaking test (:class:`SpeakingTest`); the paper's variant uses beta_bar > tau_A alone.
     """
 
     sigma2_init_s2: float = 1e-9
@@ -335,8 +343,7 @@ class FaceGuidedParams:
     var_max_s2: float = 4e-9
     init_outlier_weight: float = 0.2
     em: EMSettings = field(default_factory=lambda: EMSettings(max_iter=50, tol=1e-4))
-    outlier_aware_speaking: bool = True
-    min_itds: float = 2.0
+    speaking: SpeakingTest = field(default_factory=SpeakingTest)
 
     def __post_init__(self) -> None:
         if not self.sigma2_init_s2 > 0:
@@ -350,7 +357,7 @@ class FaceGuidedParams:
     def paper(cls) -> FaceGuidedParams:
         """Algorithm 2 as written: means start at the faces and move with EM, variances adapt, tau_A = K/(N+2)."""
         return cls(anchor_means=False, update_variances=True, var_min_s2=EMSettings().var_floor_s2,
-                   var_max_s2=1.0, outlier_aware_speaking=False)
+                   var_max_s2=1.0, speaking=SpeakingTest(outlier_aware=False))
 
 
 @dataclass(frozen=True)
@@ -404,7 +411,7 @@ class FaceGuidedHearing:
             w, mu, var, beta, n_iter = self._em(a, w, mu, var)
         model = Mixture1D(w, mu, var, self.support)
         bbar = beta[:, :-1].sum(axis=0)
-        speaking, prob, tau = _speaking(bbar, k, model, p.outlier_aware_speaking, p.min_itds)
+        speaking, prob, tau = p.speaking.decide(bbar, a, model)
         return FaceGuidedOutput(speaking, prob, mu.copy(), bbar, model, tau, n_iter)
 
     def _em(self, a: np.ndarray, w: np.ndarray, mu: np.ndarray, var: np.ndarray

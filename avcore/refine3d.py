@@ -10,7 +10,10 @@ hat_svect) and covariance. Here each cluster's alpha-weighted points are explain
 2. a Gaussian mean shift with a person-sized kernel climbs to the density mode;
 3. a robust Gaussian fit around the mode (points within a chi-square(3) cut-off, covariance corrected for the
    truncation) gives the person's position and covariance and its members;
-4. the members are removed and steps 1-3 repeat on the rest while enough mass is left.
+4. a group must look like a blob, not like a piece of a diffuse field: of its points within the cut-off, a
+   3-D Gaussian has 20.5 % within one Mahalanobis unit and a uniform ellipsoid 3.7 %; groups below
+   ``min_peakedness`` (12 % by default) are diffuse outliers;
+5. the members are removed and steps 1-4 repeat on the rest while enough mass is left.
 """
 from __future__ import annotations
 
@@ -24,6 +27,8 @@ __all__ = ["Group3D", "compact_groups"]
 _CUT2 = 9.0  # squared Mahalanobis cut-off (chi-square with 3 dof: 97.1 % of a Gaussian inside)
 # E[d^2 | d^2 < c] / 3 for a 3-D Gaussian: the factor by which the truncated covariance is too small.
 _TRUNC = float(stats.chi2.cdf(_CUT2, 5) / stats.chi2.cdf(_CUT2, 3))
+GAUSS_PEAKEDNESS = float(stats.chi2.cdf(1.0, 3) / stats.chi2.cdf(_CUT2, 3))  # 0.205
+UNIFORM_PEAKEDNESS = 1.0 / 27.0  # volume of the unit ellipsoid over that of radius 3
 
 
 @dataclass(frozen=True)
@@ -61,13 +66,15 @@ def compact_groups(
     min_mass: float = 60.0,
     max_groups: int = 3,
     max_sd_m: float = 0.6,
+    min_peakedness: float = 0.12,
     n_shift: int = 30,
     n_refit: int = 5,
 ) -> list[Group3D]:
     """Split weighted 3D points into compact person-sized groups (see module docstring).
 
     points : (M, 3) metres. weights : (M,) non-negative (a cluster's alpha). Groups carrying less than
-    ``min_mass`` weight, or wider than ``max_sd_m`` along any axis, are not returned (diffuse outliers).
+    ``min_mass`` weight, wider than ``max_sd_m`` along any axis, or less peaked than ``min_peakedness`` are not
+    returned (diffuse outliers).
     """
     residual = np.asarray(weights, dtype=np.float64).copy()
     ks = np.asarray(kernel_sd_m, dtype=np.float64)
@@ -90,6 +97,7 @@ def compact_groups(
             m = m_new
         cov = np.diag(ks**2)
         r = res
+        d2 = np.zeros(res.size)
         for _ in range(n_refit):
             d = pts - m
             d2 = np.einsum("mi,ij,mj->m", d, np.linalg.inv(cov), d)
@@ -107,7 +115,10 @@ def compact_groups(
         members[active] = r
         residual -= members
         sd = np.sqrt(np.linalg.eigvalsh(cov)[-1])
-        if sd > max_sd_m:
+        d = pts - m
+        d2 = np.einsum("mi,ij,mj->m", d, np.linalg.inv(cov), d)
+        peaked = (res @ (d2 < 1.0)) / max(res @ (d2 < _CUT2), 1e-300)
+        if sd > max_sd_m or peaked < min_peakedness:
             continue
         groups.append(Group3D(members, mass, m, cov))
     return groups

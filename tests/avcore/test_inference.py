@@ -1,0 +1,158 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avcore.geometry import MicPair
+from avcore.inference import (
+    FaceGuidedHearing,
+    FaceGuidedParams,
+    MotionGuidedHearing,
+    MotionGuidedParams,
+    speaking_threshold,
+)
+
+MICS = MicPair()
+PEOPLE = np.array([[-0.8, 0.0, 2.0], [0.0, 0.1, 2.5], [0.9, -0.1, 2.2]])
+
+
+def _interval(rng: np.random.Generator, people: np.ndarray = PEOPLE, speaker: int | None = 0, n_per: int = 550,
+              n_out: int = 250, n_itd: int = 16, n_itd_out: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    pts = [p + rng.normal(0, [0.12, 0.25, 0.07], (n_per, 3)) for p in people]
+    z = rng.uniform(0.8, 6, n_out)
+    x = rng.uniform(-1, 1, n_out) * z * np.tan(np.radians(30))
+    y = rng.uniform(-1, 1, n_out) * z * np.tan(np.radians(22))
+    pts.append(np.c_[x, y, z])
+    itds = [rng.uniform(-350e-6, 350e-6, n_itd_out)]
+    if speaker is not None:
+        itds.append(rng.normal(MICS.itd(people[speaker]), 25e-6, n_itd))
+    return np.concatenate(pts), np.concatenate(itds)
+
+
+def _nearest(found: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(found[:, None] - truth[None], axis=2).min(axis=0)
+
+
+@pytest.mark.parametrize("params", [MotionGuidedParams(), MotionGuidedParams.paper()], ids=["avhear", "paper"])
+def test_motion_guided_finds_three_people_and_the_speaker(params: MotionGuidedParams) -> None:
+    rng = np.random.default_rng(0)
+    mg = MotionGuidedHearing(MICS, params)
+    for _ in range(3):
+        out = mg.step(*_interval(rng))
+    assert out.n == 3
+    errors = _nearest(out.positions, PEOPLE)
+    assert np.all(errors < (0.05 if params.refine_3d else 0.35))  # paper: within tau_loc
+    order = np.argsort(out.positions[:, 0])
+    assert out.speaking[order].tolist() == [True, False, False]
+    assert out.probability[order][0] > 0.5 > out.probability[order][1]
+    assert out.covariances.shape == (3, 3, 3)
+    assert out.bic.shape == (params.n_max + 1,) and out.n_selected == int(np.argmax(out.bic))
+    assert mg.previous_ is not None and mg.previous_.n_components == 3
+
+
+def test_refinement_removes_outlier_bias_of_the_paper_estimate() -> None:
+    errs = {}
+    for name, params in [("avhear", MotionGuidedParams()), ("paper", MotionGuidedParams.paper())]:
+        rng = np.random.default_rng(1)
+        mg = MotionGuidedHearing(MICS, params)
+        e = []
+        for _ in range(4):
+            out = mg.step(*_interval(rng))
+            e.extend(_nearest(out.positions, PEOPLE))
+        errs[name] = np.mean(e)
+    assert errs["avhear"] < 0.03
+    assert errs["avhear"] < errs["paper"] / 2
+
+
+def test_people_crossing_in_itd_space_are_split_in_3d() -> None:
+    # two people on the same bearing, one behind the other: one cluster in ITD space
+    people = np.array([[0.3, 0.0, 1.5], [0.6, 0.0, 3.0]])
+    assert abs(MICS.itd(people[0]) - MICS.itd(people[1])) < 2e-6
+    rng = np.random.default_rng(2)
+    pts, itds = _interval(rng, people, speaker=None)
+    ours = MotionGuidedHearing(MICS).step(pts, itds)
+    assert ours.n == 2 and np.all(_nearest(ours.positions, people) < 0.05)
+    # the paper's moments (eq. hat_svect) average the two people into one position
+    paper = MotionGuidedHearing(MICS, MotionGuidedParams.paper()).step(pts, itds)
+    assert np.count_nonzero(_nearest(paper.positions, people) < 0.1) <= 1
+
+
+def test_nobody_speaking_with_outlier_itds() -> None:
+    rng = np.random.default_rng(3)
+    fires = {"avhear": 0, "paper": 0}
+    for name, params in [("avhear", MotionGuidedParams()), ("paper", MotionGuidedParams.paper())]:
+        mg = MotionGuidedHearing(MICS, params)
+        for _ in range(10):
+            out = mg.step(*_interval(rng, speaker=None, n_itd_out=5))
+            fires[name] += int(out.speaking.sum())
+    assert fires["avhear"] == 0
+    assert fires["avhear"] <= fires["paper"]
+
+
+def test_motion_guided_degenerate_inputs() -> None:
+    mg = MotionGuidedHearing(MICS)
+    out = mg.step(np.empty((0, 3)), np.array([1e-4, 2e-4]))
+    assert out.n == 0 and out.positions.shape == (0, 3) and out.covariances.shape == (0, 3, 3)
+    rng = np.random.default_rng(4)
+    pts, _ = _interval(rng)
+    out = mg.step(pts, np.empty(0))  # no ITDs: people found, nobody speaks
+    assert out.n == 3 and not out.speaking.any()
+    # only outliers (as many as a busy interval's outliers): no person
+    z = rng.uniform(0.8, 6, 500)
+    only_out = np.c_[rng.uniform(-1, 1, 500) * z * 0.577, rng.uniform(-1, 1, 500) * z * 0.4, z]
+    out = MotionGuidedHearing(MICS).step(only_out, np.empty(0))
+    assert out.n == 0
+    # duplicates: many identical points make one tight person, no NaN
+    dup = np.repeat([[0.2, 0.0, 2.0]], 300, axis=0)
+    out = MotionGuidedHearing(MICS).step(dup, np.empty(0))
+    assert out.n == 1 and np.allclose(out.positions[0], [0.2, 0.0, 2.0])
+
+
+def test_motion_guided_bad_inputs() -> None:
+    mg = MotionGuidedHearing(MICS)
+    with pytest.raises(ValueError, match=r"points_xyz must be an \(n, 3\) array"):
+        mg.step(np.zeros((5, 2)), np.zeros(2))
+    with pytest.raises(ValueError, match="NaN"):
+        mg.step(np.array([[0.0, 0.0, np.nan]]), np.zeros(2))
+    with pytest.raises(ValueError, match="itds_s must be a 1-D array"):
+        mg.step(np.zeros((5, 3)), np.zeros((3, 2)))
+    with pytest.raises(TypeError, match="MicPair"):
+        MotionGuidedHearing("mics")  # type: ignore[arg-type]
+
+
+def test_face_guided_speaker_and_threshold() -> None:
+    rng = np.random.default_rng(5)
+    fg = FaceGuidedHearing(MICS)
+    _, itds = _interval(rng, speaker=2)
+    out = fg.step(PEOPLE, itds)
+    assert out.speaking.tolist() == [False, False, True]
+    assert out.probability[2] > 0.5 and np.all(out.probability[:2] < 0.5)
+    assert np.all((out.probability >= 0) & (out.probability <= 1))
+    assert out.tau_a == pytest.approx(itds.size / 5)
+    assert speaking_threshold(20, 3) == pytest.approx(4.0)
+    # anchored means stay at the faces
+    np.testing.assert_allclose(out.itd_means, MICS.itd(PEOPLE))
+
+
+def test_face_guided_anchoring_resists_an_unseen_talker() -> None:
+    # the only talker is outside the field of view, 60 us to the right of the rightmost face
+    rng = np.random.default_rng(6)
+    faces = PEOPLE[:2]
+    itds = rng.normal(MICS.itd(faces[1]) + 70e-6, 10e-6, 18)
+    anchored = FaceGuidedHearing(MICS).step(faces, itds)
+    free = FaceGuidedHearing(MICS, FaceGuidedParams.paper()).step(faces, itds)
+    assert not anchored.speaking[1]
+    assert free.speaking[1]  # free means walk to the unseen talker
+    assert abs(free.itd_means[1] - MICS.itd(faces[1])) > 40e-6
+
+
+def test_face_guided_degenerate_and_bad_inputs() -> None:
+    fg = FaceGuidedHearing(MICS)
+    out = fg.step(PEOPLE, np.empty(0))
+    assert out.speaking.tolist() == [False] * 3 and np.all(out.probability == 0)
+    out = fg.step(np.empty((0, 3)), np.array([1e-4]))
+    assert out.speaking.shape == (0,) and out.probability.shape == (0,)
+    with pytest.raises(ValueError, match="faces_xyz"):
+        fg.step(np.zeros(3), np.zeros(1))
+    with pytest.raises(ValueError, match="NaN"):
+        fg.step(PEOPLE, np.array([np.nan]))

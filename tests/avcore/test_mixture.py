@@ -1,0 +1,209 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from avcore.mixture import (
+    BinnedSamples,
+    EMSettings,
+    Mixture1D,
+    bic_score,
+    davies_bouldin,
+    fit_em,
+    fit_fusion_em,
+    initial_models,
+    ridgeline_merge,
+    split_at_mean,
+)
+
+SUPPORT = (-350e-6, 350e-6)
+
+
+def _sample(rng: np.random.Generator, means_us, sds_us, counts, n_out: int) -> np.ndarray:
+    parts = [rng.normal(m * 1e-6, s * 1e-6, c) for m, s, c in zip(means_us, sds_us, counts)]
+    parts.append(rng.uniform(*SUPPORT, n_out))
+    return np.concatenate(parts)
+
+
+def _model(weights, means_us, sds_us) -> Mixture1D:
+    return Mixture1D(np.asarray(weights), np.asarray(means_us) * 1e-6, (np.asarray(sds_us) * 1e-6) ** 2, SUPPORT)
+
+
+def test_density_integrates_to_one_over_support() -> None:
+    m = _model([0.4, 0.3, 0.3], [-100, 80], [20, 15])
+    x = np.linspace(*SUPPORT, 20001)
+    assert np.trapezoid(m.density(x), x) == pytest.approx(1.0, abs=2e-3)
+    r = m.responsibilities(x)
+    np.testing.assert_allclose(r.sum(axis=1), 1.0)
+
+
+@pytest.mark.parametrize("bin_width_s", [None, 1e-6])
+def test_em_recovers_known_parameters(bin_width_s: float | None) -> None:
+    rng = np.random.default_rng(3)
+    x = _sample(rng, [-120, 60], [20, 12], [3000, 4000], 1000)
+    init = _model([0.45, 0.45, 0.1], [-60, 20], [60, 60])
+    fit = fit_em(x, init, bin_width_s=bin_width_s)
+    m = fit.model_.ordered_by_weight()
+    assert fit.converged_
+    np.testing.assert_allclose(m.means * 1e6, [60, -120], atol=2.0)
+    np.testing.assert_allclose(np.sqrt(m.variances) * 1e6, [12, 20], rtol=0.08)
+    np.testing.assert_allclose(m.weights, [0.5, 0.375, 0.125], atol=0.02)
+
+
+@pytest.mark.filterwarnings("ignore:EM did not converge")
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 4), binned=st.booleans())
+def test_em_never_lowers_the_likelihood(seed: int, n: int, binned: bool) -> None:
+    rng = np.random.default_rng(seed)
+    x = _sample(rng, rng.uniform(-250, 250, 3), rng.uniform(5, 40, 3), rng.integers(5, 200, 3), int(rng.integers(0, 50)))
+    init = initial_models(None, n, SUPPORT, BinnedSamples.from_samples(x))[n]
+    fit = fit_em(x, init, settings=EMSettings(max_iter=60, tol=1e-12), bin_width_s=1e-6 if binned else None)
+    steps = np.diff(fit.lower_bounds_)
+    assert np.all(steps >= -1e-7 * np.abs(fit.lower_bounds_[:-1]).max())
+
+
+def test_binned_engine_matches_exact_em() -> None:
+    rng = np.random.default_rng(5)
+    x = _sample(rng, [-150, 0, 140], [25, 18, 22], [600, 500, 700], 200)
+    init = initial_models(None, 3, SUPPORT, BinnedSamples.from_samples(x))[3]
+    exact = fit_em(x, init).model_.ordered_by_weight()
+    binned = fit_em(x, init, bin_width_s=1e-6).model_.ordered_by_weight()
+    np.testing.assert_allclose(binned.means, exact.means, atol=0.5e-6)
+    np.testing.assert_allclose(np.sqrt(binned.variances), np.sqrt(exact.variances), atol=0.5e-6)
+
+
+def test_fusion_keeps_alpha_and_never_lowers_its_objective() -> None:
+    rng = np.random.default_rng(7)
+    v = _sample(rng, [-100, 90], [20, 20], [800, 800], 150)
+    a = _sample(rng, [-95], [25], [15], 4)
+    vis = fit_em(v, initial_models(None, 2, SUPPORT, BinnedSamples.from_samples(v))[2]).model_
+    alpha = vis.responsibilities(v)
+    alpha_before = alpha.copy()
+    fused = fit_fusion_em(v, alpha, a, vis, settings=EMSettings(tol=1e-12, max_iter=50))
+    np.testing.assert_array_equal(alpha, alpha_before)  # vision-guided: alpha is an input, never updated
+    assert np.all(np.diff(fused.objective_) >= -1e-7 * np.abs(fused.objective_).max())
+    # the ITDs go to the left cluster, not the right one
+    left = int(np.argmin(fused.model_.means))
+    assert fused.beta_[:, left].sum() > 12
+    assert fused.beta_.shape == (a.size, 3)
+    np.testing.assert_allclose(fused.beta_.sum(axis=1), 1.0)
+    # pi = gamma / (M + K)
+    gamma = alpha.sum(axis=0) + fused.beta_.sum(axis=0)
+    assert fused.model_.weights == pytest.approx(gamma / (v.size + a.size), abs=0.01)
+
+
+def test_bic_picks_the_true_number_on_separated_mixtures() -> None:
+    rng = np.random.default_rng(11)
+    for true_n, means in [(1, [0]), (2, [-150, 100]), (3, [-200, -20, 180])]:
+        x = _sample(rng, means, [15] * true_n, [700] * true_n, 150)
+        inits = initial_models(None, 6, SUPPORT, BinnedSamples.from_samples(x))
+        scores = []
+        for n, init in enumerate(inits):
+            fit = fit_em(x, init, bin_width_s=1e-6)
+            scores.append(bic_score(fit.log_likelihood_, n, x.size))
+        assert int(np.argmax(scores)) == true_n
+
+
+def test_bic_formula() -> None:
+    assert bic_score(-100.0, 2, 1000) == pytest.approx(-100.0 - 6 * np.log(1000) / 2)
+    assert bic_score(-5.0, 0, 0) == -5.0
+
+
+@pytest.mark.filterwarnings("ignore:EM did not converge")
+def test_outliers_only_data_prefers_n0() -> None:
+    rng = np.random.default_rng(2)
+    x = rng.uniform(*SUPPORT, 400)
+    inits = initial_models(None, 3, SUPPORT, BinnedSamples.from_samples(x))
+    scores = [bic_score(fit_em(x, m).log_likelihood_, n, x.size) for n, m in enumerate(inits)]
+    assert int(np.argmax(scores)) == 0
+
+
+def test_initialisation_from_previous_interval() -> None:
+    prev = _model([0.1, 0.5, 0.3, 0.1], [-200, 0, 150], [20, 30, 10])
+    models = initial_models(prev, 5, SUPPORT)
+    assert [m.n_components for m in models] == [0, 1, 2, 3, 4, 5]
+    # N <= N_prev: the heaviest clusters
+    np.testing.assert_allclose(models[1].means, [0.0])
+    np.testing.assert_allclose(sorted(models[2].means * 1e6), [0, 150])
+    # N > N_prev: one more component each time, by a split at a mean
+    assert set(np.round(models[3].means * 1e6, 6)) <= set(np.round(models[4].means * 1e6, 6)) | {0.0, -200.0, 150.0}
+    for m in models:
+        assert m.weights.sum() == pytest.approx(1.0)
+
+
+def test_split_at_mean_preserves_moments() -> None:
+    m = _model([0.6, 0.4], [10], [30])
+    s = split_at_mean(m, 0)
+    w = s.weights[:-1]
+    mean = (w * s.means).sum() / w.sum()
+    second = (w * (s.variances + s.means**2)).sum() / w.sum()
+    assert mean == pytest.approx(10e-6)
+    assert second - mean**2 == pytest.approx((30e-6) ** 2, rel=1e-9)
+    assert w.sum() == pytest.approx(0.6)
+
+
+def test_davies_bouldin_index() -> None:
+    db = davies_bouldin(np.array([0.0, 10.0, 100.0]), np.array([2.0, 3.0, 5.0]))
+    np.testing.assert_allclose(db, [0.5, 0.5, 8 / 90])
+    assert np.isinf(davies_bouldin(np.array([1.0]), np.array([1.0]))[0])
+
+
+def test_ridgeline_merges_overlapping_and_keeps_separated() -> None:
+    close = _model([0.4, 0.4, 0.2], [0, 20], [20, 20])  # 1 sd apart: unimodal
+    merged, groups = ridgeline_merge(close)
+    assert merged.n_components == 1 and sorted(groups[0]) == [0, 1]
+    assert merged.means[0] == pytest.approx(10e-6)
+    far = _model([0.4, 0.4, 0.2], [-100, 100], [20, 20])
+    kept, groups = ridgeline_merge(far)
+    assert kept.n_components == 2 and groups == [[0], [1]]
+    # a heavy and a light component close by: unimodal although 2.2 sd apart
+    lopsided = _model([0.85, 0.05, 0.1], [0, 44], [20, 20])
+    assert ridgeline_merge(lopsided)[0].n_components == 1
+
+
+def test_degenerate_inputs() -> None:
+    init = _model([0.5, 0.5], [0], [30])
+    empty = fit_em(np.empty(0), init)
+    assert empty.model_ is init
+    dup = fit_em(np.full(50, 12e-6), init)  # all identical: variance floor, no NaN
+    assert np.all(np.isfinite(dup.model_.variances)) and dup.model_.variances[0] >= EMSettings().var_floor_s2
+    n0 = Mixture1D.outliers_only(SUPPORT)
+    assert fit_em(np.zeros(5), n0).log_likelihood_ == pytest.approx(5 * np.log(1 / 700e-6))
+    # an empty component keeps its place and gets no weight
+    far_init = _model([0.45, 0.45, 0.1], [-100, 340], [5, 5])
+    fit = fit_em(np.random.default_rng(0).normal(-100e-6, 5e-6, 300), far_init, settings=EMSettings(tol=1e-9))
+    assert np.all(np.isfinite(fit.model_.means)) and fit.model_.weights[1] < 1e-3
+    # fusion with no ITDs and with no visual data
+    v = np.random.default_rng(1).normal(0, 20e-6, 100)
+    res = fit_fusion_em(v, init.responsibilities(v), np.empty(0), init)
+    assert res.beta_.shape == (0, 2)
+    res = fit_fusion_em(np.empty(0), np.empty((0, 2)), np.array([1e-5, 2e-5]), init)
+    assert res.beta_.shape == (2, 2)
+
+
+def test_bad_inputs_raise_clear_errors() -> None:
+    init = _model([0.5, 0.5], [0], [30])
+    with pytest.raises(ValueError, match="NaN"):
+        fit_em(np.array([0.0, np.nan]), init)
+    with pytest.raises(ValueError, match="1-D"):
+        fit_em(np.zeros((3, 2)), init)
+    with pytest.raises(ValueError, match="alpha must have shape"):
+        fit_fusion_em(np.zeros(4), np.zeros((3, 2)), np.zeros(2), init)
+    with pytest.raises(ValueError, match="sum to 1"):
+        Mixture1D(np.array([0.5, 0.6]), [0.0], [1e-9], SUPPORT)
+    with pytest.raises(ValueError, match="N \\+ 1 weights"):
+        Mixture1D(np.array([1.0]), [0.0], [1e-9], SUPPORT)
+    with pytest.raises(ValueError, match="support"):
+        Mixture1D(np.array([0.5, 0.5]), [0.0], [1e-9], (1.0, 0.0))
+    with pytest.raises(ValueError, match="max_iter"):
+        EMSettings(max_iter=0)
+
+
+def test_non_convergence_is_a_warning() -> None:
+    rng = np.random.default_rng(4)
+    x = _sample(rng, [-100, 100], [20, 20], [300, 300], 50)
+    init = initial_models(None, 4, SUPPORT, BinnedSamples.from_samples(x))[4]
+    with pytest.warns(UserWarning, match="did not converge"):
+        fit_em(x, init, settings=EMSettings(max_iter=1, tol=1e-12))
