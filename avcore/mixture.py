@@ -45,6 +45,7 @@ __all__ = [
     "davies_bouldin",
     "fit_em",
     "fit_fusion_em",
+    "add_at_residual_peak",
     "initial_models",
     "ridgeline_merge",
     "split_at_mean",
@@ -416,6 +417,31 @@ def _seed_model(data: BinnedSamples, support: tuple[float, float], outlier_weigh
     return Mixture1D(np.array([1.0 - outlier_weight, outlier_weight]), [mean_s], [var_s], support)
 
 
+def add_at_residual_peak(model: Mixture1D, data: BinnedSamples, sd_s: float = 15e-6) -> Mixture1D | None:
+    """A model with one more component, placed where the data most exceed what ``model`` explains.
+
+    The data histogram (smoothed with a Gaussian of ``sd_s``) minus the model's expected counts, on a 1 us grid;
+    the new component sits at the largest excess with variance ``sd_s^2`` and the excess's share of the data as
+    weight (taken from the other classes in proportion). None when the data hold no excess.
+    """
+    if data.total <= 0:
+        return None
+    lo, hi = model.support
+    grid = np.arange(lo, hi, 1e-6)
+    sd = sd_s * US
+    x_us = grid * US
+    smooth = np.exp(-0.5 * ((x_us[:, None] - data.x_us[None, :]) / sd) ** 2) @ data.stats[:, 0]
+    smooth /= sd * np.sqrt(2.0 * np.pi)  # data density, counts per us
+    expected = model.density(grid) / US * data.total
+    excess = smooth - expected
+    i = int(np.argmax(excess))
+    if excess[i] <= 0:
+        return None
+    weight = float(np.clip(excess[i] * sd * np.sqrt(2.0 * np.pi) / data.total, 0.02, 0.5))
+    weights = np.concatenate([model.weights[:-1] * (1.0 - weight), [weight], [model.weights[-1] * (1.0 - weight)]])
+    return Mixture1D(weights, np.append(model.means, grid[i]), np.append(model.variances, sd_s**2), model.support)
+
+
 def initial_models(
     previous: Mixture1D | None,
     n_max: int,
@@ -423,37 +449,51 @@ def initial_models(
     data: BinnedSamples | None = None,
     *,
     outlier_weight: float = 0.1,
+    grow_at_residual: bool = True,
 ) -> list[Mixture1D]:
     """Initial models for N = 0..n_max from the previous interval's model (section 4.4).
 
     For N <= N_prev: the N heaviest clusters of the previous model. For N > N_prev: split, one at a time, the
     cluster with the highest Davies-Bouldin index at its mean. With no previous model (or N_prev = 0) the first
     cluster is seeded on the moments of ``data``.
+
+    ``grow_at_residual`` (avhear, beyond the paper): splitting only finds a newcomer next to a known cluster;
+    someone who enters far from everybody else is never found, and the model stays stuck at N_prev. So each
+    added component is either the split or a new component at the largest unexplained excess of the data
+    (:func:`add_at_residual_peak`), whichever explains ``data`` better.
     """
     if n_max < 0:
         raise ValueError(f"n_max must be >= 0, got {n_max}")
     support = _check_support(support)
+    if data is None:
+        data = BinnedSamples.from_samples(np.empty(0))
     models = [Mixture1D.outliers_only(support)]
     if previous is None or previous.n_components == 0:
-        base = _seed_model(data if data is not None else BinnedSamples.from_samples(np.empty(0)), support,
-                           outlier_weight)
+        base = _seed_model(data, support, outlier_weight)
     else:
         base = Mixture1D(previous.weights, previous.means, previous.variances, support).ordered_by_weight()
         if base.weights[-1] < outlier_weight / 10:
             g = base.weights[:-1] * (1.0 - outlier_weight / 10) / base.weights[:-1].sum()
             base = Mixture1D(np.append(g, outlier_weight / 10), base.means, base.variances, support)
     n_prev = base.n_components
+    x = data.x_us / US
     for n in range(1, n_max + 1):
         if n <= n_prev:
             g = base.weights[:n]
             g = g * (1.0 - base.weights[-1]) / g.sum() if g.sum() > 0 else np.full(n, (1.0 - base.weights[-1]) / n)
             models.append(Mixture1D(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n], support))
-        else:
-            prev = models[-1]
-            db = davies_bouldin(prev.means, np.sqrt(prev.variances))
-            # ties (e.g. two components) go to the widest component
-            idx = int(np.lexsort((-prev.variances, -db))[0])
-            models.append(split_at_mean(prev, idx))
+            continue
+        prev = models[-1]
+        db = davies_bouldin(prev.means, np.sqrt(prev.variances))
+        # ties (e.g. two components) go to the widest component
+        idx = int(np.lexsort((-prev.variances, -db))[0])
+        split = split_at_mean(prev, idx)
+        added = add_at_residual_peak(prev, data) if grow_at_residual else None
+        if added is not None and data.total > 0:
+            cnt = data.stats[:, 0]
+            if cnt @ np.log(added.density(x)) > cnt @ np.log(split.density(x)):
+                split = added
+        models.append(split)
     return models
 
 

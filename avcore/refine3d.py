@@ -122,3 +122,38 @@ def compact_groups(
             continue
         groups.append(Group3D(members, mass, m, cov))
     return groups
+
+
+def group_from_members(points: np.ndarray, members: np.ndarray) -> Group3D:
+    """The group of the given membership weights (already cut at the chi-square bound): mean and covariance."""
+    mass = float(members.sum())
+    mean = (members @ points) / mass
+    d = points - mean
+    cov = (members[:, None] * d).T @ d / mass / _TRUNC + np.eye(3) * 1e-6
+    return Group3D(members, mass, mean, cov)
+
+
+def merge_close(groups: list[Group3D], points: np.ndarray, distance_m: float) -> list[list[int]]:
+    """Indices of groups to merge: groups whose means are closer than ``distance_m`` are one person.
+
+    A person's blob is sometimes cut into two 1-D clusters (its projection is not Gaussian), each giving a
+    group; two real people are never closer than a head's width. Greedy: the closest pair first.
+    """
+    clusters = [[i] for i in range(len(groups))]
+    means = [g.mean for g in groups]
+    masses = [g.mass for g in groups]
+    while len(clusters) > 1:
+        m = np.asarray(means)
+        d = np.linalg.norm(m[:, None] - m[None, :], axis=2)
+        np.fill_diagonal(d, np.inf)
+        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        if d[i, j] >= distance_m:
+            break
+        i, j = min(i, j), max(i, j)
+        tot = masses[i] + masses[j]
+        means[i] = (masses[i] * means[i] + masses[j] * means[j]) / tot
+        masses[i] = tot
+        clusters[i] += clusters.pop(j)
+        means.pop(j)
+        masses.pop(j)
+    return clusters
