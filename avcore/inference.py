@@ -125,7 +125,7 @@ class MotionGuidedParams:
     merge_ridgeline: bool = True
     speaking: SpeakingTest = field(default_factory=SpeakingTest)
     refine_3d: bool = True
-    kernel_sd_m: tuple[float, float, float] = (0.15, 0.30, 0.15)
+    kernel_sd_m: tuple[float, float, float] = (0.10, 0.20, 0.10)
     min_points: float = 60.0
     max_sd_m: float = 0.6
     merge_distance_m: float = 0.3

@@ -6,10 +6,11 @@ who cross in ITD space share one cluster, and 3D outliers on the cluster's hyper
 hat_svect) and covariance. Here each cluster's alpha-weighted points are explained as a few compact 3D Gaussians
 (one per person) plus diffuse leftovers:
 
-1. start at the densest cell of an alpha-weighted x-z histogram (10 cm cells);
-2. a Gaussian mean shift with a person-sized kernel climbs to the density mode;
-3. a robust Gaussian fit around the mode (points within a chi-square(3) cut-off, covariance corrected for the
-   truncation) gives the person's position and covariance and its members;
+1. start at the densest cell of an alpha-weighted x-z histogram (5 cm cells, 15 cm smoothing);
+2. a Gaussian mean shift with a kernel a little smaller than a person climbs to the density mode;
+3. a robust Gaussian fit around the mode (a Gaussian-weighted mean; the covariance of the points within a
+   chi-square(3) cut-off, corrected for the truncation and capped at twice the kernel, so that it cannot grow over a neighbour) gives the person's
+   position and covariance and its members;
 4. a group must look like a blob, not like a piece of a diffuse field: of its points within the cut-off, a
    3-D Gaussian has 20.5 % within one Mahalanobis unit and a uniform ellipsoid 3.7 %; groups below
    ``min_peakedness`` (12 % by default) are diffuse outliers;
@@ -42,6 +43,14 @@ class Group3D:
     cov: np.ndarray
 
 
+def _cap(ks: np.ndarray, cov: np.ndarray, max_kernels: float) -> np.ndarray:
+    """Clip a covariance to at most ``max_kernels`` kernel widths along every direction (kernel-whitened)."""
+    white = cov / np.outer(ks, ks)
+    evals, evecs = np.linalg.eigh(white)
+    evals = np.minimum(evals, max_kernels**2)
+    return (evecs * evals) @ evecs.T * np.outer(ks, ks)
+
+
 def _densest_cell(points: np.ndarray, w: np.ndarray, cell_m: float) -> np.ndarray:
     xz = points[:, [0, 2]]
     lo = xz.min(axis=0)
@@ -62,17 +71,20 @@ def compact_groups(
     points: np.ndarray,
     weights: np.ndarray,
     *,
-    kernel_sd_m: tuple[float, float, float] = (0.15, 0.30, 0.15),
+    kernel_sd_m: tuple[float, float, float] = (0.10, 0.20, 0.10),
+    max_kernels: float = 2.0,
     min_mass: float = 60.0,
     max_groups: int = 3,
     max_sd_m: float = 0.6,
     min_peakedness: float = 0.12,
-    n_shift: int = 30,
+    n_shift: int = 50,
     n_refit: int = 5,
 ) -> list[Group3D]:
     """Split weighted 3D points into compact person-sized groups (see module docstring).
 
     points : (M, 3) metres. weights : (M,) non-negative (a cluster's alpha). Groups carrying less than
+    ``max_kernels`` caps the fitted standard deviations at that many kernel widths along every direction (in the
+    kernel's units), so that a fit cannot grow over a neighbour. Groups carrying less than
     ``min_mass`` weight, wider than ``max_sd_m`` along any axis, or less peaked than ``min_peakedness`` are not
     returned (diffuse outliers).
     """
@@ -84,14 +96,14 @@ def compact_groups(
         if residual[active].sum() < min_mass:
             break
         pts, res = points[active], residual[active]
-        m = _densest_cell(pts, res, 0.10)
+        m = _densest_cell(pts, res, 0.05)
         for _ in range(n_shift):
             k = res * np.exp(-0.5 * (((pts - m) / ks) ** 2).sum(axis=1))
             ksum = k.sum()
             if ksum <= 0:
                 break
             m_new = (k @ pts) / ksum
-            if np.max(np.abs(m_new - m)) < 1e-3:
+            if np.max(np.abs(m_new - m)) < 1e-4:
                 m = m_new
                 break
             m = m_new
@@ -105,9 +117,11 @@ def compact_groups(
             mass = r.sum()
             if mass < min_mass:
                 break
-            m = (r @ pts) / mass
+            # a Gaussian-weighted mean: a neighbour 3 sd away weighs 1 %, so the fit stays on its person
+            soft = res * np.exp(-0.5 * np.minimum(d2, 50.0))
+            m = (soft @ pts) / soft.sum()
             d = pts - m
-            cov = (r[:, None] * d).T @ d / mass / _TRUNC + np.eye(3) * 1e-6
+            cov = _cap(ks, (r[:, None] * d).T @ d / mass / _TRUNC + np.eye(3) * 1e-6, max_kernels)
         mass = float(r.sum())
         if mass < min_mass:
             break
