@@ -102,7 +102,7 @@ class MotionGuidedParams:
 
     n_max : N_max = 10 (section 4.4).
     em : iterations, tolerance, variance floor and outlier floor of both EMs.
-    bin_width_s : width of the histogram bins of the projected points (1 us; sigmas are tens of us).
+    bin_width_s : width of the histogram bins of the projected points (2 us; sigmas are tens of us).
     init_outlier_weight : outlier prior of a model seeded without a previous interval.
     min_det_m6 : the paper's spurious-cluster test: drop clusters whose 3D covariance (eq. hat_svect) has a
         determinant below this, m^6 (points on a thin sheet near a hyperboloid). A person-sized blob
@@ -119,7 +119,7 @@ class MotionGuidedParams:
 
     n_max: int = 10
     em: EMSettings = field(default_factory=EMSettings)
-    bin_width_s: float = 1e-6
+    bin_width_s: float = 2e-6
     init_outlier_weight: float = 0.1
     min_det_m6: float = 1e-9
     merge_ridgeline: bool = True

@@ -51,7 +51,12 @@ def _cap(ks: np.ndarray, cov: np.ndarray, max_kernels: float) -> np.ndarray:
     return (evecs * evals) @ evecs.T * np.outer(ks, ks)
 
 
-def _densest_cell(points: np.ndarray, w: np.ndarray, cell_m: float) -> np.ndarray:
+def _mahalanobis2(d: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    return ((d @ np.linalg.inv(cov)) * d).sum(axis=1)
+
+
+def _densest_cell(points: np.ndarray, w: np.ndarray, cell_m: float) -> tuple[np.ndarray, float]:
+    """Centre and weight of the densest 3x3-cell window of an x-z histogram of the weighted points."""
     xz = points[:, [0, 2]]
     lo = xz.min(axis=0)
     idx = np.floor((xz - lo) / cell_m).astype(np.int64)
@@ -64,7 +69,8 @@ def _densest_cell(points: np.ndarray, w: np.ndarray, cell_m: float) -> np.ndarra
     best = np.unravel_index(int(np.argmax(smooth)), smooth.shape)
     in_cell = (np.abs(idx[:, 0] - best[0]) <= 1) & (np.abs(idx[:, 1] - best[1]) <= 1)
     ww = w * in_cell
-    return (ww @ points) / max(ww.sum(), 1e-300)
+    mass = float(ww.sum())
+    return (ww @ points) / max(mass, 1e-300), mass
 
 
 def compact_groups(
@@ -77,7 +83,7 @@ def compact_groups(
     max_groups: int = 3,
     max_sd_m: float = 0.6,
     min_peakedness: float = 0.12,
-    n_shift: int = 50,
+    n_shift: int = 30,
     n_refit: int = 5,
 ) -> list[Group3D]:
     """Split weighted 3D points into compact person-sized groups (see module docstring).
@@ -88,22 +94,40 @@ def compact_groups(
     ``min_mass`` weight, wider than ``max_sd_m`` along any axis, or less peaked than ``min_peakedness`` are not
     returned (diffuse outliers).
     """
-    residual = np.asarray(weights, dtype=np.float64).copy()
-    ks = np.asarray(kernel_sd_m, dtype=np.float64)
+    weights = np.asarray(weights, dtype=np.float64)
+    # most points of the interval have ~0 posterior for this cluster: work on the others only
+    support = np.flatnonzero(weights > 1e-3)
+    sub = _groups(points[support], weights[support], np.asarray(kernel_sd_m, dtype=np.float64), min_mass,
+                  max_groups, max_sd_m, min_peakedness, max_kernels, n_shift, n_refit)
+    out = []
+    for g in sub:
+        members = np.zeros_like(weights)
+        members[support] = g.members
+        out.append(Group3D(members, g.mass, g.mean, g.cov))
+    return out
+
+
+def _groups(points: np.ndarray, weights: np.ndarray, ks: np.ndarray, min_mass: float, max_groups: int,
+            max_sd_m: float, min_peakedness: float, max_kernels: float, n_shift: int, n_refit: int) -> list[Group3D]:
+    residual = weights.copy()
     groups: list[Group3D] = []
     for _ in range(max_groups):
         active = residual > 1e-6
         if residual[active].sum() < min_mass:
             break
         pts, res = points[active], residual[active]
-        m = _densest_cell(pts, res, 0.05)
+        m, window_mass = _densest_cell(pts, res, 0.05)
+        if window_mass < 0.2 * min_mass:
+            # no 15 x 15 cm window holds a fifth of a minimal person (about 30 % of a person falls in one):
+            # the rest is diffuse
+            break
         for _ in range(n_shift):
             k = res * np.exp(-0.5 * (((pts - m) / ks) ** 2).sum(axis=1))
             ksum = k.sum()
             if ksum <= 0:
                 break
             m_new = (k @ pts) / ksum
-            if np.max(np.abs(m_new - m)) < 1e-4:
+            if np.max(np.abs(m_new - m)) < 5e-4:
                 m = m_new
                 break
             m = m_new
@@ -112,7 +136,7 @@ def compact_groups(
         d2 = np.zeros(res.size)
         for _ in range(n_refit):
             d = pts - m
-            d2 = np.einsum("mi,ij,mj->m", d, np.linalg.inv(cov), d)
+            d2 = _mahalanobis2(d, cov)
             r = res * (d2 < _CUT2)
             mass = r.sum()
             if mass < min_mass:
@@ -129,8 +153,7 @@ def compact_groups(
         members[active] = r
         residual -= members
         sd = np.sqrt(np.linalg.eigvalsh(cov)[-1])
-        d = pts - m
-        d2 = np.einsum("mi,ij,mj->m", d, np.linalg.inv(cov), d)
+        d2 = _mahalanobis2(pts - m, cov)
         peaked = (res @ (d2 < 1.0)) / max(res @ (d2 < _CUT2), 1e-300)
         if sd > max_sd_m or peaked < min_peakedness:
             continue
