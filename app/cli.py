@@ -15,6 +15,7 @@ from app.errors import UserError
 
 COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.eval",
+    "app.commands.calibrate",
 )
 
 

@@ -1,0 +1,202 @@
+"""`avhear calibrate`: calibration of the sensors (paper section 5.3).
+
+``avhear calibrate stereo`` calibrates the stereo rig from chessboard picture pairs and writes the rig YAML. The
+audio-visual calibration (c1, c0) is to be added beside it as ``avhear calibrate av``: each kind is one
+sub-command with its own ``add_*_parser`` below.
+"""
+from __future__ import annotations
+
+import argparse
+import glob
+import logging
+import re
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from app.config import RigConfig, load_rig, save_rig
+from app.errors import UserError
+from avcore.stereo import calibrate_stereo, find_chessboard
+
+log = logging.getLogger(__name__)
+
+MIN_VIEWS = 3
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "calibrate", help="calibrate the sensors (stereo cameras; later audio-visual)",
+        description="Calibrate the sensors of the rig and write the rig YAML file.",
+    )
+    kinds = parser.add_subparsers(dest="kind", metavar="KIND")
+    kinds.required = True
+    add_stereo_parser(kinds)
+
+
+def add_stereo_parser(kinds: argparse._SubParsersAction) -> None:
+    p = kinds.add_parser(
+        "stereo", help="stereo rig from chessboard picture pairs",
+        description=(
+            "Calibrate the two cameras and their relative pose from pictures of a chessboard taken by both cameras "
+            "at the same time (pairs matched by sorted file name). Prints the reprojection error of every view, "
+            "flags the bad ones, writes the rig YAML and a picture of the detected corners to check by eye."
+        ),
+    )
+    p.add_argument("--left", required=True, help="glob of the left pictures, quoted: 'dir/left*.jpg'")
+    p.add_argument("--right", required=True, help="glob of the right pictures, quoted: 'dir/right*.jpg'")
+    p.add_argument("--pattern", required=True, type=_pattern_arg,
+                   help="inner corners COLSxROWS, e.g. 9x6 for a board of 10x7 squares")
+    p.add_argument("--square", required=True, type=_positive_float, help="side of one square, metres (e.g. 0.025)")
+    p.add_argument("-o", "--output", required=True, type=Path,
+                   help="rig YAML to write; its 'microphones' section, if any, is kept")
+    p.add_argument("--corners-image", type=Path, default=None,
+                   help="picture of the detected corners (default: next to the output, *_corners.png)")
+    p.add_argument("--max-view-error", type=_positive_float, default=1.0,
+                   help="flag views whose reprojection RMS exceeds this many pixels (default 1.0) "
+                        "or three times the median")
+    p.set_defaults(func=run_stereo)
+
+
+def _pattern_arg(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
+    if not m or int(m.group(1)) < 2 or int(m.group(2)) < 2:
+        raise argparse.ArgumentTypeError(f"expected inner corners as COLSxROWS like 9x6, got {text!r}")
+    return (int(m.group(1)), int(m.group(2)))
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def _expand(pattern: str, option: str) -> list[Path]:
+    files = sorted(Path(f) for f in glob.glob(pattern))
+    if not files:
+        raise UserError(f"{option} {pattern!r} matches no file; quote the glob and check the folder")
+    return files
+
+
+def _read(path: Path) -> np.ndarray:
+    img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if img is None:
+        raise UserError(f"{path}: cannot read this picture (missing, corrupt or not an image); "
+                        "remove it or replace it")
+    return img
+
+
+def _corners_mosaic(images: list[np.ndarray], corners: list[np.ndarray | None], pattern: tuple[int, int],
+                    names: list[str]) -> np.ndarray:
+    """All left pictures with their detected corners drawn, tiled four per row at half size."""
+    tiles = []
+    for img, c, name in zip(images, corners, names):
+        colour = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
+        if c is not None:
+            cv2.drawChessboardCorners(colour, pattern, c.reshape(-1, 1, 2), True)
+        tile = cv2.resize(colour, (colour.shape[1] // 2, colour.shape[0] // 2), interpolation=cv2.INTER_AREA)
+        if c is None:
+            cv2.putText(tile, "NOT FOUND", (10, 40), cv2.FONT_HERSHEY_SIMPLEX, 1.0, (0, 0, 255), 2)
+        cv2.putText(tile, name, (6, tile.shape[0] - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (0, 255, 255), 2)
+        tiles.append(tile)
+    per_row = 4
+    blank = np.zeros_like(tiles[0])
+    while len(tiles) % per_row:
+        tiles.append(blank)
+    rows = [np.hstack(tiles[i:i + per_row]) for i in range(0, len(tiles), per_row)]
+    return np.vstack(rows)
+
+
+def run_stereo(args: argparse.Namespace) -> int:
+    lefts = _expand(args.left, "--left")
+    rights = _expand(args.right, "--right")
+    if len(lefts) != len(rights):
+        raise UserError(f"--left matches {len(lefts)} pictures but --right matches {len(rights)}; the pictures go "
+                        "in pairs (matched by sorted name): remove the unpaired ones")
+    images_l = [_read(p) for p in lefts]
+    images_r = [_read(p) for p in rights]
+    size = images_l[0].shape[::-1]
+    for p, img in zip(lefts + rights, images_l + images_r):
+        if img.shape[::-1] != size:
+            raise UserError(f"{p}: size {img.shape[1]}x{img.shape[0]} differs from {lefts[0]} "
+                            f"({size[0]}x{size[1]}); all pictures must come from the same two cameras")
+
+    print(f"detecting {args.pattern[0]}x{args.pattern[1]} inner corners in {len(lefts)} pairs ...")
+    found_l, found_r, used = [], [], []
+    all_l: list[np.ndarray | None] = []
+    for i, (pl, pr, il, ir) in enumerate(zip(lefts, rights, images_l, images_r)):
+        cl, cr = find_chessboard(il, args.pattern), find_chessboard(ir, args.pattern)
+        all_l.append(cl)
+        if cl is None or cr is None:
+            missing = " and ".join(p.name for p, c in ((pl, cl), (pr, cr)) if c is None)
+            print(f"  skipped pair {pl.name} / {pr.name}: chessboard not found in {missing}")
+            continue
+        found_l.append(cl)
+        found_r.append(cr)
+        used.append(i)
+    if not used:
+        raise UserError(
+            f"no chessboard with {args.pattern[0]}x{args.pattern[1]} inner corners found in any of the "
+            f"{len(lefts)} pairs; check --pattern (count the INNER corners, columns x rows: a board of 10x7 squares "
+            "is 9x6) and that the whole board is visible in both pictures")
+    if len(used) < MIN_VIEWS:
+        raise UserError(f"the chessboard was found in only {len(used)} pair(s); calibration needs at least "
+                        f"{MIN_VIEWS} (10-20 is better): take more pairs with the board at different angles")
+
+    cal = calibrate_stereo(found_l, found_r, args.pattern, args.square, size, min_views=MIN_VIEWS)
+    per_view = cal.per_view_rms_px
+    worst = per_view.max(axis=1)
+    limit = max(args.max_view_error, 3.0 * float(np.nanmedian(worst)))
+    print(f"\n{'pair':<28} {'left px':>8} {'right px':>9} {'pose deg':>9} {'pose T':>7}")
+    n_bad = 0
+    for k, i in enumerate(used):
+        flag = ""
+        if not cal.used[k]:
+            flag = "  <-- bad view, left out: its two pictures disagree with the others (not taken together?)"
+            n_bad += 1
+        elif worst[k] > limit:
+            flag = "  <-- bad view: remove this pair and calibrate again"
+            n_bad += 1
+        rms_l = f"{per_view[k, 0]:8.3f}" if cal.used[k] else f"{'-':>8}"
+        rms_r = f"{per_view[k, 1]:9.3f}" if cal.used[k] else f"{'-':>9}"
+        dev_r, dev_t = cal.pose_deviation[k]
+        print(f"{lefts[i].name + ' / ' + rights[i].name:<28} {rms_l} {rms_r} {dev_r:9.2f} {100 * dev_t:6.1f}%"
+              f"{flag}")
+    rig = cal.rig
+    angle_deg = float(np.degrees(np.linalg.norm(cv2.Rodrigues(rig.rotation)[0])))
+    print(f"\nleft camera   rms {cal.left.rms_px:.3f} px   fx {rig.camera_matrix_left[0, 0]:.1f}  "
+          f"fy {rig.camera_matrix_left[1, 1]:.1f}  cx {rig.camera_matrix_left[0, 2]:.1f}  "
+          f"cy {rig.camera_matrix_left[1, 2]:.1f}")
+    print(f"right camera  rms {cal.right.rms_px:.3f} px   fx {rig.camera_matrix_right[0, 0]:.1f}  "
+          f"fy {rig.camera_matrix_right[1, 1]:.1f}  cx {rig.camera_matrix_right[0, 2]:.1f}  "
+          f"cy {rig.camera_matrix_right[1, 2]:.1f}")
+    print(f"stereo        rms {cal.rms_px:.3f} px over {int(cal.used.sum())} pairs   baseline {rig.baseline_m:.4f} m   "
+          f"rotation {angle_deg:.2f} deg   rectified focal {rig.focal_px:.1f} px")
+    if n_bad:
+        print(f"{n_bad} view(s) flagged (left out of the stereo step, or reprojection RMS > {limit:.2f} px)")
+    if cal.rms_px > 1.0:
+        print("warning: stereo RMS above 1 px; check the flagged views, the --square value and that both "
+              "pictures of each pair were taken at the same moment")
+
+    microphones = None
+    if args.output.exists():
+        try:
+            microphones = load_rig(args.output).microphones
+        except UserError as exc:
+            raise UserError(f"{exc}\n(the output file exists but is not a valid rig file; move it away or "
+                            "choose another -o)") from None
+    header = (f"avhear rig calibration: stereo from {int(cal.used.sum())} chessboard pairs ({args.left}, {args.right}), "
+              f"pattern {args.pattern[0]}x{args.pattern[1]}, square {args.square} m, stereo RMS {cal.rms_px:.3f} px")
+    save_rig(args.output, RigConfig(stereo=rig, microphones=microphones), header=header)
+    print(f"\nwrote {args.output}")
+
+    corners_path = args.corners_image or args.output.with_name(args.output.stem + "_corners.png")
+    mosaic = _corners_mosaic(images_l, all_l, args.pattern, [p.name for p in lefts])
+    if not cv2.imwrite(str(corners_path), mosaic):
+        raise UserError(f"{corners_path}: cannot write the corners picture; choose another --corners-image")
+    print(f"wrote {corners_path} (detected corners in the left pictures: check them by eye)")
+    return 0

@@ -1,0 +1,427 @@
+"""A stereo scene renderer: a textured room and people carrying real face crops, seen by a rectified rig.
+
+It produces the visual input of the paper's pipeline (section 5.2: F3D faces, HM3D moving points) with ground truth:
+the 3D centre of every face at every instant, and the surfaces of the people, so that F3D and HM3D can be scored.
+
+Everything is a textured planar quad (walls, floor, bodies, heads) drawn by a homography per camera, far to near
+(painter's algorithm), with sensor noise. Faces are crops of real photographs cut around the hand-labelled boxes of
+``../shared/data/faces`` (:func:`load_face_textures`) or, on a clean machine, a drawn face that OpenCV's frontal
+Haar cascade finds (:func:`drawn_face_texture`).
+
+Scene frame (DESIGN.md): the cyclopean frame of the rig, metres, x right, y down, z forward. The cameras are at
+y = 0; the floor is ``Room.floor_y`` below them.
+"""
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from avcore.faces import HaarFaceDetector
+from avcore.stereo import StereoRig
+
+__all__ = [
+    "FaceTexture",
+    "Person",
+    "Room",
+    "RenderedFrame",
+    "StereoSceneRenderer",
+    "load_face_textures",
+    "drawn_face_texture",
+    "default_scene",
+]
+
+FACE_MARGIN = 1.6  # head texture side / labelled face box side: hair, ears and a little background
+
+
+@dataclass(frozen=True, eq=False)
+class FaceTexture:
+    """A head texture and where the face is in it.
+
+    image : (h, w, 3) uint8 BGR; face_box : (x, y, w, h) pixels in ``image``, the labelled face.
+    source : where it came from (file name and box index, or "drawn").
+    """
+
+    image: np.ndarray
+    face_box: tuple[float, float, float, float]
+    source: str = ""
+
+
+def _read_boxes(xml_path: Path) -> list[tuple[str, tuple[int, int, int, int]]]:
+    root = ET.parse(xml_path).getroot()
+    out = []
+    for image in root.iter("image"):
+        for box in image.iter("box"):
+            xywh = tuple(int(box.get(k)) for k in ("left", "top", "width", "height"))
+            out.append((image.get("file"), xywh))
+    return out
+
+
+def _iou(a: Sequence[float], b: Sequence[float]) -> float:
+    ix = max(0.0, min(a[0] + a[2], b[0] + b[2]) - max(a[0], b[0]))
+    iy = max(0.0, min(a[1] + a[3], b[1] + b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    return inter / (a[2] * a[3] + b[2] * b[3] - inter)
+
+
+def load_face_textures(faces_dir: str | Path, *, files: Sequence[str] = ("training.xml", "testing.xml"),
+                       min_face_px: int = 60, size_px: int = 96,
+                       detector: object | None = None) -> list[FaceTexture]:
+    """Head textures cut from the labelled photographs of ``../shared/data/faces`` (dlib's examples).
+
+    Each labelled box at least ``min_face_px`` wide (small faces are too blurred once enlarged) is cut with a
+    margin of :data:`FACE_MARGIN` and resized so that the face box is ``size_px`` wide. With a ``detector``
+    (anything with ``detect(image) -> (n, 4)`` boxes, see :mod:`avcore.faces`), only faces that it finds in
+    their own photograph (IoU >= 0.5 with the label) are kept: a rendering cannot be fairer to a detector than
+    the photograph was. Raises ``FileNotFoundError`` when the folder or its XML files are absent (callers fall
+    back to :func:`drawn_face_texture`).
+    """
+    root = Path(faces_dir)
+    textures = []
+    for xml_name in files:
+        xml_path = root / xml_name
+        if not xml_path.is_file():
+            raise FileNotFoundError(f"{xml_path} not found; the face crops need ../shared/data/faces")
+        for k, (file, (x, y, w, h)) in enumerate(_read_boxes(xml_path)):
+            if w < min_face_px:
+                continue
+            img = cv2.imread(str(root / file), cv2.IMREAD_COLOR)
+            if img is None:
+                raise FileNotFoundError(f"{root / file} cannot be read")
+            if detector is not None:
+                found = detector.detect(img)  # type: ignore[attr-defined]
+                if not any(_iou((x, y, w, h), b) >= 0.5 for b in found):
+                    continue
+            side = FACE_MARGIN * max(w, h)
+            cx, cy = x + w / 2.0, y + h / 2.0
+            x0, y0 = int(max(0, round(cx - side / 2))), int(max(0, round(cy - side / 2)))
+            x1, y1 = int(min(img.shape[1], round(cx + side / 2))), int(min(img.shape[0], round(cy + side / 2)))
+            crop = img[y0:y1, x0:x1]
+            s = size_px / w
+            crop = cv2.resize(crop, (round(crop.shape[1] * s), round(crop.shape[0] * s)),
+                              interpolation=cv2.INTER_CUBIC)
+            box = ((x - x0) * s, (y - y0) * s, w * s, h * s)
+            textures.append(FaceTexture(crop, box, f"{file}#{k}"))
+    return textures
+
+
+def drawn_face_texture(size_px: int = 96, skin_bgr: tuple[int, int, int] = (150, 180, 220),
+                       hair_bgr: tuple[int, int, int] = (30, 35, 45)) -> FaceTexture:
+    """A drawn face (hair, eyes, brows, nose, mouth) that OpenCV's frontal Haar cascade detects.
+
+    For machines without ``../shared/data``. The face box is the skin oval's width, centred on the eyes-mouth area.
+    """
+    s = size_px
+    w, h = round(FACE_MARGIN * s), round(FACE_MARGIN * s * 1.15)
+    img = np.full((h, w, 3), 190, np.uint8)
+    cx, cy = w // 2, round(h * 0.55)
+    cv2.ellipse(img, (cx, round(cy - 0.1 * s)), (round(0.5 * s), round(0.58 * s)), 0, 0, 360, hair_bgr, -1)
+    cv2.ellipse(img, (cx, cy), (round(0.42 * s), round(0.53 * s)), 0, 0, 360, skin_bgr, -1)
+    ey, ex = round(cy - 0.09 * s), round(0.18 * s)
+    for sx in (-1, 1):
+        cv2.ellipse(img, (cx + sx * ex, ey - round(0.1 * s)), (round(0.11 * s), round(0.028 * s)), 0, 0, 360,
+                    (40, 40, 50), -1)
+        cv2.ellipse(img, (cx + sx * ex, ey), (round(0.09 * s), round(0.045 * s)), 0, 0, 360, (235, 235, 235), -1)
+        cv2.circle(img, (cx + sx * ex, ey), round(0.04 * s), (40, 30, 20), -1)
+    nose = tuple(int(c * 0.75) for c in skin_bgr)
+    cv2.ellipse(img, (cx, round(cy + 0.13 * s)), (round(0.07 * s), round(0.035 * s)), 0, 0, 360, nose, -1)
+    cv2.ellipse(img, (cx, round(cy + 0.29 * s)), (round(0.14 * s), round(0.04 * s)), 0, 0, 360, (60, 60, 150), -1)
+    img = cv2.GaussianBlur(img, (0, 0), s / 90)
+    box = (cx - 0.42 * s, cy - 0.45 * s, 0.84 * s, 0.84 * s)
+    return FaceTexture(img, box, "drawn")
+
+
+@dataclass(frozen=True, eq=False)
+class Person:
+    """A person: a head plane carrying a face texture above a body plane, optionally swaying and nodding.
+
+    position : (3,) float, metres: the face centre at rest, scene frame.
+    face_width_m : physical width of the labelled face box (an adult face is about 0.15-0.17 m).
+    sway_m, sway_hz : amplitude (metres) and frequency of a side-to-side sway of the whole person along x.
+    nod_rad, nod_hz : amplitude (radians) and frequency of a head nod about the horizontal axis of the face centre.
+    phase : radians, added to both oscillations. shirt_bgr : colour of the body.
+    """
+
+    face: FaceTexture
+    position: tuple[float, float, float]
+    face_width_m: float = 0.16
+    sway_m: float = 0.0
+    sway_hz: float = 0.4
+    nod_rad: float = 0.0
+    nod_hz: float = 1.1
+    phase: float = 0.0
+    shirt_bgr: tuple[int, int, int] = (140, 70, 40)
+
+    def __post_init__(self) -> None:
+        pos = np.asarray(self.position, dtype=np.float64)
+        if pos.shape != (3,) or not np.all(np.isfinite(pos)) or pos[2] <= 0.3:
+            raise ValueError(f"position must be three finite metres with z > 0.3 (in front of the rig), "
+                             f"got {self.position!r}")
+        object.__setattr__(self, "position", tuple(float(v) for v in pos))
+        if not self.face_width_m > 0:
+            raise ValueError(f"face_width_m must be positive metres, got {self.face_width_m!r}")
+
+    def face_centre(self, t: float) -> np.ndarray:
+        """(3,) metres: the centre of the labelled face box at time ``t`` seconds."""
+        dx = self.sway_m * np.sin(2 * np.pi * self.sway_hz * t + self.phase)
+        return np.asarray(self.position) + np.array([dx, 0.0, 0.0])
+
+    def quads(self, t: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The person's planes at time ``t``: [(corners (4, 3) metres TL, TR, BR, BL, texture), ...], body first."""
+        tex = self.face.image
+        bx, by, bw, bh = self.face.face_box
+        m_per_px = self.face_width_m / bw
+        centre = self.face_centre(t)
+        angle = self.nod_rad * np.sin(2 * np.pi * self.nod_hz * t + self.phase)
+        right = np.array([1.0, 0.0, 0.0])
+        down = np.array([0.0, np.cos(angle), np.sin(angle)])
+        # texture pixel (px, py) sits at centre + right * (px - fx) * m + down * (py - fy) * m
+        fx, fy = bx + bw / 2.0, by + bh / 2.0
+        h, w = tex.shape[:2]
+        tex_corners = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
+        head = centre + np.outer((tex_corners[:, 0] - fx) * m_per_px, right) \
+            + np.outer((tex_corners[:, 1] - fy) * m_per_px, down)
+        # the body hangs from the chin, a little behind the face (shoulders are behind the face)
+        top = centre[1] + (h - 0.5 - fy) * m_per_px * 0.9
+        z = centre[2] + 0.06
+        half = 0.23
+        body = np.array([[centre[0] - half, top, z], [centre[0] + half, top, z],
+                         [centre[0] + half, top + 0.7, z], [centre[0] - half, top + 0.7, z]])
+        return [(body, self._shirt()), (head, tex)]
+
+    def _shirt(self) -> np.ndarray:
+        cached = self.__dict__.get("_shirt_texture")
+        if cached is None:
+            rng = np.random.default_rng(abs(hash(self.shirt_bgr)) % (2**32))
+            img = np.empty((140, 92, 3), np.uint8)
+            img[:] = self.shirt_bgr
+            # stripes and folds: texture for the stereo matcher and for Harris corners
+            for y in range(0, 140, 14):
+                img[y:y + 5] = np.clip(np.array(self.shirt_bgr) * 0.6, 0, 255).astype(np.uint8)
+            noise = rng.normal(0, 12, img.shape[:2])[..., None]
+            img = np.clip(img + noise, 0, 255).astype(np.uint8)
+            cv2.rectangle(img, (30, 20), (60, 50), (230, 230, 230), -1)  # a badge
+            object.__setattr__(self, "_shirt_texture", img)
+            cached = img
+        return cached
+
+
+@dataclass(frozen=True)
+class Room:
+    """A box room, scene frame, metres: walls at x = +-half_width and z = depth, floor at y = floor_y, ceiling at
+    y = ceiling_y (negative: above the cameras)."""
+
+    half_width: float = 3.0
+    depth: float = 6.0
+    floor_y: float = 1.2
+    ceiling_y: float = -1.5
+    near_z: float = 0.4
+
+
+def _texture(kind: str, rng: np.random.Generator, size: tuple[int, int]) -> np.ndarray:
+    h, w = size
+    if kind == "floor":
+        yy, xx = np.mgrid[0:h, 0:w]
+        checker = ((yy // 64 + xx // 64) % 2).astype(np.float64)
+        base = 90 + 60 * checker
+        col = np.stack([base * 0.8, base * 0.9, base], axis=-1)
+    else:
+        tone = {"back": (170, 180, 190), "side": (150, 170, 160), "ceiling": (210, 210, 210)}[kind]
+        col = np.empty((h, w, 3))
+        col[:] = tone
+        for _ in range(14 if kind != "ceiling" else 3):  # posters, shelves, frames: static corners
+            x0, y0 = rng.integers(0, w - 60), rng.integers(0, h - 60)
+            x1, y1 = x0 + rng.integers(30, 160), y0 + rng.integers(30, 160)
+            cv2.rectangle(col, (int(x0), int(y0)), (int(x1), int(y1)), rng.integers(20, 240, 3).tolist(), -1)
+    smooth = cv2.GaussianBlur(rng.normal(0, 18, (h, w)), (0, 0), 3)[..., None]
+    return np.clip(col + smooth, 0, 255).astype(np.uint8)
+
+
+@dataclass(frozen=True, eq=False)
+class RenderedFrame:
+    """One rendered stereo frame and its ground truth.
+
+    left, right : (h, w, 3) uint8 BGR rectified images; time_s : seconds;
+    faces : (n, 3) float, metres: the face centres in the scene frame;
+    face_boxes_left : (n, 4) float, pixels: each labelled face box projected into the left image (x, y, w, h).
+    """
+
+    left: np.ndarray
+    right: np.ndarray
+    time_s: float
+    faces: np.ndarray
+    face_boxes_left: np.ndarray
+
+
+@dataclass(eq=False)
+class StereoSceneRenderer:
+    """Renders a room with people into both rectified cameras of ``rig`` (its rectified geometry is used).
+
+    noise_std : grey levels of Gaussian sensor noise added to every pixel of every frame (seeded by ``seed`` and
+    the frame time, so a frame is reproducible).
+    """
+
+    rig: StereoRig
+    people: list[Person]
+    room: Room = field(default_factory=Room)
+    noise_std: float = 1.5
+    seed: int = 0
+    _background: dict[str, np.ndarray] = field(init=False, default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.rig, StereoRig):
+            raise TypeError(f"rig must be a StereoRig, got {type(self.rig).__name__}")
+        if self.noise_std < 0:
+            raise ValueError(f"noise_std must be >= 0 grey levels, got {self.noise_std!r}")
+
+    # ------------------------------------------------------------------ drawing
+    def _project(self, corners: np.ndarray, side: str) -> np.ndarray:
+        ul, ur = self.rig.project(corners)
+        return ul if side == "left" else ur
+
+    def _draw(self, canvas: np.ndarray, corners: np.ndarray, texture: np.ndarray, side: str) -> None:
+        h, w = texture.shape[:2]
+        src = np.float32([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
+        dst = self._project(corners, side).astype(np.float32)
+        homography = cv2.getPerspectiveTransform(src, dst)
+        cv2.warpPerspective(texture, homography, (canvas.shape[1], canvas.shape[0]), dst=canvas,
+                            flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_TRANSPARENT)
+
+    def _room_quads(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        r = self.room
+        rng = np.random.default_rng(self.seed)
+        xw, zn, zf, yf, yc = r.half_width, r.near_z, r.depth, r.floor_y, r.ceiling_y
+        return [
+            (np.array([[-xw, yc, zf], [xw, yc, zf], [xw, yf, zf], [-xw, yf, zf]]), _texture("back", rng, (512, 1024))),
+            (np.array([[-xw, yf, zf], [xw, yf, zf], [xw, yf, zn], [-xw, yf, zn]]), _texture("floor", rng, (512, 512))),
+            (np.array([[-xw, yc, zn], [xw, yc, zn], [xw, yc, zf], [-xw, yc, zf]]),
+             _texture("ceiling", rng, (512, 512))),
+            (np.array([[-xw, yc, zn], [-xw, yc, zf], [-xw, yf, zf], [-xw, yf, zn]]),
+             _texture("side", rng, (512, 1024))),
+            (np.array([[xw, yc, zf], [xw, yc, zn], [xw, yf, zn], [xw, yf, zf]]), _texture("side", rng, (512, 1024))),
+        ]
+
+    def _room(self, side: str) -> np.ndarray:
+        if side not in self._background:
+            w, h = self.rig.image_size
+            canvas = np.zeros((h, w, 3), np.uint8)
+            for corners, tex in self._room_quads():
+                self._draw(canvas, corners, tex, side)
+            self._background[side] = canvas
+        return self._background[side]
+
+    def render(self, t: float = 0.0) -> RenderedFrame:
+        """The two rectified images at time ``t`` seconds, with the ground truth of that instant."""
+        quads = [(q, tex) for p in self.people for q, tex in p.quads(t)]
+        quads.sort(key=lambda qt: -float(qt[0][:, 2].mean()))  # far to near
+        images = []
+        rng = np.random.default_rng([self.seed, int(round(t * 1e6)) % (2**32)])
+        for side in ("left", "right"):
+            canvas = self._room(side).copy()
+            for corners, tex in quads:
+                self._draw(canvas, corners, tex, side)
+            if self.noise_std > 0:
+                noisy = canvas.astype(np.float32) + rng.normal(0, self.noise_std, canvas.shape).astype(np.float32)
+                canvas = np.clip(np.rint(noisy), 0, 255).astype(np.uint8)
+            images.append(canvas)
+        faces = np.array([p.face_centre(t) for p in self.people]).reshape(-1, 3)
+        return RenderedFrame(images[0], images[1], float(t), faces, self._face_boxes(t))
+
+    def _face_boxes(self, t: float) -> np.ndarray:
+        boxes = []
+        for p in self.people:
+            bx, by, bw, bh = p.face.face_box
+            m = p.face_width_m / bw
+            c = p.face_centre(t)
+            corners = c + np.array([[-bw / 2, -bh / 2, 0], [bw / 2, -bh / 2, 0], [bw / 2, bh / 2, 0],
+                                    [-bw / 2, bh / 2, 0]]) * m
+            uv = self._project(corners, "left")
+            lo, hi = uv.min(axis=0), uv.max(axis=0)
+            boxes.append([lo[0] + 0.5, lo[1] + 0.5, hi[0] - lo[0], hi[1] - lo[1]])  # OpenCV Rect convention
+        return np.array(boxes, dtype=np.float64).reshape(-1, 4)
+
+    def to_raw(self, frame: RenderedFrame) -> tuple[np.ndarray, np.ndarray]:
+        """The frame as the rig's real (distorted, unrectified) cameras would see it.
+
+        Rendering happens in the rectified cameras; each raw pixel is looked up at its rectified position
+        (:meth:`StereoRig.rectify_points`). Raw pixels that fall outside the rectified view are black. For an
+        ideal rig the images come back unchanged. Returns (left, right) (h, w, 3) uint8.
+        """
+        if self.rig.is_rectified:
+            return frame.left, frame.right
+        out = []
+        for side, img in (("left", frame.left), ("right", frame.right)):
+            key = f"raw_map_{side}"
+            if key not in self._background:
+                w, h = self.rig.image_size
+                grid = np.stack(np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h, dtype=np.float64)),
+                                axis=-1).reshape(-1, 2)
+                rect = self.rig.rectify_points(grid, side).reshape(h, w, 2).astype(np.float32)
+                self._background[key] = rect
+            rect = self._background[key]
+            out.append(cv2.remap(img, rect[..., 0], rect[..., 1], cv2.INTER_LINEAR,
+                                 borderMode=cv2.BORDER_CONSTANT, borderValue=0))
+        return out[0], out[1]
+
+    # ------------------------------------------------------------------ ground truth for HM3D
+    def distance_to_people(self, points: np.ndarray, t: float) -> np.ndarray:
+        """Distance of each point to the nearest person surface (head or body plane) at time ``t``.
+
+        points : (m, 3) float, metres  ->  (m,) float, metres (inf when there is nobody).
+        """
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        best = np.full(pts.shape[0], np.inf)
+        for p in self.people:
+            for corners, _ in p.quads(t):
+                best = np.minimum(best, _distance_to_quad(pts, corners))
+        return best
+
+
+def _distance_to_quad(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
+    """Distance from points (m, 3) to a planar parallelogram given by its corners TL, TR, BR, BL (4, 3)."""
+    origin = corners[0]
+    a, b = corners[1] - origin, corners[3] - origin
+    rel = points - origin
+    s = np.clip(rel @ a / (a @ a), 0.0, 1.0)
+    r = np.clip(rel @ b / (b @ b), 0.0, 1.0)
+    nearest = origin + s[:, None] * a + r[:, None] * b
+    return np.linalg.norm(points - nearest, axis=1)
+
+
+def default_scene(faces_dir: str | Path | None = None, *, moving: bool = False, seed: int = 0,
+                  rig: StereoRig | None = None, n_people: int = 3) -> StereoSceneRenderer:
+    """People in a 6 m room, seen by a 640x480 rig (focal 554 px, i.e. a 60 degree horizontal field of view,
+    baseline 0.12 m). The first three stand at 1.3, 2.1 and 2.9 m; up to two more (``n_people`` <= 5) at 2.6 and
+    1.8 m make a busier scene.
+
+    faces_dir : ``../shared/data/faces`` for real face crops; None (or absent) for drawn faces.
+    moving : people sway (5-8 cm) and nod (about 10 degrees), so that HM3D finds motion.
+    """
+    if not 0 <= n_people <= 5:
+        raise ValueError(f"n_people must be between 0 and 5, got {n_people!r}")
+    rig = rig or StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12)
+    textures: list[FaceTexture] = []
+    if faces_dir is not None:
+        try:
+            textures = load_face_textures(faces_dir, detector=HaarFaceDetector())
+        except FileNotFoundError:
+            textures = []
+    if textures:
+        rng = np.random.default_rng(seed)
+        chosen = [textures[i] for i in rng.choice(len(textures), size=n_people, replace=len(textures) < n_people)]
+    else:
+        skins = ((150, 180, 220), (110, 140, 190), (90, 120, 160), (130, 160, 205), (70, 95, 130))
+        chosen = [drawn_face_texture(skin_bgr=s) for s in skins[:n_people]]
+    positions = [(-0.55, -0.05, 1.3), (0.1, 0.05, 2.1), (0.75, -0.1, 2.9), (-0.3, 0.0, 2.6), (0.95, 0.05, 1.8)]
+    shirts = [(140, 70, 40), (40, 120, 160), (60, 60, 170), (60, 140, 60), (120, 120, 120)]
+    people = [
+        Person(face=tex, position=pos, shirt_bgr=shirt,
+               sway_m=(0.05 + 0.015 * i) if moving else 0.0, nod_rad=0.17 if moving else 0.0,
+               phase=1.3 * i)
+        for i, (tex, pos, shirt) in enumerate(zip(chosen, positions, shirts))
+    ]
+    return StereoSceneRenderer(rig, people, seed=seed)

@@ -1,0 +1,149 @@
+"""Speed and accuracy of the visual front-end on rendered 640x480 stereo scenes (issue 4, paper section 5.2).
+
+Scenes: avcore.render.default_scene (three people at 1.3, 2.1 and 2.9 m, rig of focal 554 px and baseline 0.12 m),
+with real face crops from ../shared/data/faces when present, drawn faces otherwise. Timings are per stereo pair,
+on one core by default (cv2.setNumThreads(1)), median over the frames.
+
+    python benchmarks/vision_speed.py                 # 4 scenes: F3D stills and videos, HM3D intervals
+    python benchmarks/vision_speed.py --scenes 2      # quicker
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from avcore.faces import HaarFaceDetector, TrackingFaceDetector, detect_faces, locate_faces
+from avcore.motion import harris_motion_points
+from avcore.render import default_scene
+
+DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
+
+
+def f3d_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
+    configs = [(s, sf) for s in args.scales for sf in (1.2, 1.1)]
+    frames = []
+    for seed in range(args.scenes):
+        scene = default_scene(faces_dir, moving=True, seed=seed)
+        for t in (0.0, 0.37):
+            frames.append((scene.rig, scene.render(t)))
+    print(f"\nF3D: {len(frames)} stereo pairs, {3 * len(frames)} faces at 1.3-2.9 m "
+          f"({'real crops' if faces_dir else 'drawn faces'})")
+    print(f"{'detector':<16} {'found':>7} {'false':>5} {'median cm':>9} {'p90 cm':>7} {'detect ms':>9} {'F3D ms':>7}")
+    for k, (scale, sf) in enumerate(configs, 1):
+        print(f"  [{k}/{len(configs)}] haar x{scale:g} sf {sf:g} ...", file=sys.stderr, flush=True)
+        det = HaarFaceDetector(scale=scale, scale_factor=sf)
+        found = total = false = 0
+        errors, t_det, t_f3d = [], [], []
+        for rig, frame in frames:
+            grey = cv2.cvtColor(frame.left, cv2.COLOR_BGR2GRAY)
+            t0 = time.perf_counter()
+            detect_faces(grey, det)
+            t_det.append(time.perf_counter() - t0)
+            t0 = time.perf_counter()
+            loc = locate_faces(frame.left, frame.right, rig, detector=det)
+            t_f3d.append(time.perf_counter() - t0)
+            for g in frame.faces:
+                d = np.linalg.norm(loc.points - g, axis=1).min() if len(loc) else np.inf
+                total += 1
+                if d < 0.1:
+                    found += 1
+                    errors.append(d)
+            false += sum(np.linalg.norm(frame.faces - p, axis=1).min() >= 0.1 for p in loc.points)
+        err = np.array(errors) * 100
+        med = f"{np.median(err):9.2f}" if err.size else f"{'-':>9}"
+        p90 = f"{np.percentile(err, 90):7.2f}" if err.size else f"{'-':>7}"
+        print(f"{'haar x%g sf %g' % (scale, sf):<16} {found:3d}/{total:<3d} {false:5d} {med} {p90} "
+              f"{1000 * np.median(t_det):9.1f} {1000 * np.median(t_f3d):7.1f}", flush=True)
+    print(f"\nF3D on video: {args.scenes} sequences of {args.track_frames} frames at {args.fps:g} fps, "
+          "TrackingFaceDetector (full scan every 10 frames, else around the previous faces)")
+    print(f"{'detector':<16} {'found':>7} {'false':>5} {'median cm':>9} {'p90 cm':>7} {'mean ms':>9} {'max ms':>7}")
+    for scale in args.scales:
+        found = total = false = 0
+        errors, t_f3d = [], []
+        for seed in range(args.scenes):
+            scene = default_scene(faces_dir, moving=True, seed=seed)
+            tracker = TrackingFaceDetector(HaarFaceDetector(scale=scale))
+            for i in range(args.track_frames):
+                frame = scene.render(i / args.fps)
+                t0 = time.perf_counter()
+                loc = locate_faces(frame.left, frame.right, scene.rig, detector=tracker)
+                t_f3d.append(time.perf_counter() - t0)
+                for g in frame.faces:
+                    d = np.linalg.norm(loc.points - g, axis=1).min() if len(loc) else np.inf
+                    total += 1
+                    if d < 0.1:
+                        found += 1
+                        errors.append(d)
+                false += sum(np.linalg.norm(frame.faces - p, axis=1).min() >= 0.1 for p in loc.points)
+        err = np.array(errors) * 100
+        med = f"{np.median(err):9.2f}" if err.size else f"{'-':>9}"
+        p90 = f"{np.percentile(err, 90):7.2f}" if err.size else f"{'-':>7}"
+        print(f"{'track x%g' % scale:<16} {found:3d}/{total:<3d} {false:5d} {med} {p90} "
+              f"{1000 * np.mean(t_f3d):9.1f} {1000 * np.max(t_f3d):7.1f}", flush=True)
+    print("targets: every face found, median error <= 2 cm, detection + F3D <= 15 ms per pair")
+
+
+def hm3d_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
+    times = [0.2 + i / args.fps for i in range(args.frames)]
+    print(f"\nHM3D: intervals of {args.frames} frames at {args.fps:g} fps ({args.frames / args.fps:.2f} s), "
+          "people swaying and nodding")
+    print(f"{'people':>6} {'scene':>5} {'points':>6} {'within 10 cm':>12} {'median cm':>9} {'ms/pair':>8}")
+    shares, per_pair, counts = [], [], []
+    runs_total = len(args.people) * args.scenes
+    for n_people in args.people:
+        for seed in range(args.scenes):
+            print(f"  [{len(shares) + 1}/{runs_total}] rendering ...", file=sys.stderr, flush=True)
+            scene = default_scene(faces_dir, moving=True, seed=seed, n_people=n_people)
+            frames = [scene.render(t) for t in times]
+            left = np.stack([cv2.cvtColor(f.left, cv2.COLOR_BGR2GRAY) for f in frames])
+            right = np.stack([cv2.cvtColor(f.right, cv2.COLOR_BGR2GRAY) for f in frames])
+            runs = []
+            for _ in range(args.repeat):
+                t0 = time.perf_counter()
+                result = harris_motion_points(left, right, scene.rig)
+                runs.append((time.perf_counter() - t0) / len(times))
+            d = np.concatenate([scene.distance_to_people(result.points[result.frame_index == k], t)
+                                for k, t in enumerate(times)])
+            share = float(np.mean(d < 0.1)) if d.size else float("nan")
+            shares.append(share)
+            per_pair.append(min(runs))
+            counts.append(len(result))
+            print(f"{n_people:6d} {seed:5d} {len(result):6d} {100 * share:11.1f}% {100 * np.median(d):9.2f} "
+                  f"{1000 * min(runs):8.1f}", flush=True)
+    print(f"{'all':>6} {'':>5} {np.mean(counts):6.0f} {100 * np.mean(shares):11.1f}% {'':>9} "
+          f"{1000 * np.median(per_pair):8.1f}")
+    print("targets: >= 90 % of points within 10 cm of a person, <= 25 ms per pair; paper: about 2,000 points per "
+          "interval of 6 frames (0.4 s)")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--faces", type=Path, default=DEFAULT_FACES, help="labelled faces folder (drawn if absent)")
+    parser.add_argument("--drawn", action="store_true", help="use drawn faces even if real crops are there")
+    parser.add_argument("--scenes", type=int, default=4, help="scenes (random seeds) per table")
+    parser.add_argument("--scales", type=float, nargs="+", default=[1.0, 0.8, 0.6])
+    parser.add_argument("--frames", type=int, default=6, help="frames per HM3D interval (paper: 6)")
+    parser.add_argument("--people", type=int, nargs="+", default=[3, 5], help="people per HM3D scene")
+    parser.add_argument("--fps", type=float, default=15.0)
+    parser.add_argument("--track-frames", type=int, default=20, help="frames per F3D video sequence")
+    parser.add_argument("--repeat", type=int, default=2, help="HM3D timing repeats (best kept)")
+    parser.add_argument("--threads", type=int, default=1, help="OpenCV threads (default 1: one core)")
+    parser.add_argument("--skip", choices=("f3d", "hm3d"), action="append", default=[])
+    args = parser.parse_args()
+    cv2.setNumThreads(args.threads)
+    faces_dir = None if args.drawn or not args.faces.is_dir() else args.faces
+    print(f"visual front-end on rendered 640x480 pairs, OpenCV {cv2.__version__}, {args.threads} thread(s)")
+    if "f3d" not in args.skip:
+        f3d_table(args, faces_dir)
+    if "hm3d" not in args.skip:
+        hm3d_table(args, faces_dir)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

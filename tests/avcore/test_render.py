@@ -1,0 +1,77 @@
+"""Tests of avcore.render: the stereo scene renderer and its ground truth."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avcore.render import Person, StereoSceneRenderer, default_scene, drawn_face_texture, load_face_textures
+from avcore.stereo import StereoRig
+
+
+def test_frames_have_the_rig_size_and_are_reproducible():
+    scene = default_scene(None, moving=True, seed=4)
+    a, b = scene.render(0.25), scene.render(0.25)
+    assert a.left.shape == (480, 640, 3) and a.right.shape == (480, 640, 3) and a.left.dtype == np.uint8
+    np.testing.assert_array_equal(a.left, b.left)
+    assert not np.array_equal(a.left, a.right)  # parallax
+    assert a.faces.shape == (3, 3) and a.face_boxes_left.shape == (3, 4)
+
+
+def test_ground_truth_boxes_are_where_the_faces_are_drawn():
+    """A face alone on a black background: the drawn pixels lie inside its ground-truth box."""
+    rig = StereoRig.ideal(554.0, (640, 480), 0.12)
+    face = drawn_face_texture()
+    scene = StereoSceneRenderer(rig, [Person(face, (0.2, 0.1, 1.5))], noise_std=0.0)
+    scene._background["left"] = np.zeros((480, 640, 3), np.uint8)  # no room: only the person is drawn
+    scene._background["right"] = np.zeros((480, 640, 3), np.uint8)
+    frame = scene.render(0.0)
+    x, y, w, h = frame.face_boxes_left[0]
+    # the face box is 0.16 m wide at 1.5 m
+    assert w == pytest.approx(554.0 * 0.16 / 1.5, rel=1e-6)
+    # the box centre triangulates back to the ground-truth face centre through the rig
+    centre_l = np.array([[x + w / 2 - 0.5, y + h / 2 - 0.5]])
+    disparity = 554.0 * 0.12 / 1.5
+    np.testing.assert_allclose(rig.triangulate(centre_l, centre_l - [disparity, 0.0]), frame.faces, atol=1e-9)
+    # the skin colour is inside the box
+    skin = np.all(np.abs(frame.left.astype(int) - (150, 180, 220)) < 12, axis=2)
+    ys, xs = np.nonzero(skin)
+    assert xs.min() >= x - 1 and xs.max() <= x + w + 1 and ys.min() >= y - 0.25 * h
+
+
+def test_moving_people_move_and_still_people_do_not():
+    still = default_scene(None, moving=False, seed=1)
+    moving = default_scene(None, moving=True, seed=1)
+    np.testing.assert_allclose(still.render(0.0).faces, still.render(0.5).faces)
+    assert np.abs(moving.render(0.0).faces - moving.render(0.5).faces).max() > 0.01
+
+
+def test_distance_to_people():
+    rig = StereoRig.ideal(554.0, (640, 480), 0.12)
+    scene = StereoSceneRenderer(rig, [Person(drawn_face_texture(), (0.0, 0.0, 2.0))])
+    d = scene.distance_to_people(np.array([[0.0, 0.0, 2.0], [0.0, 0.5, 2.3], [3.0, 0.0, 2.0]]), 0.0)
+    assert d[0] == pytest.approx(0.0, abs=1e-12)
+    # at chest height, 0.24 m behind the body plane (which is 0.06 m behind the face)
+    assert d[1] == pytest.approx(0.24, abs=1e-9)
+    assert d[2] > 2.5
+
+
+@pytest.mark.shared_data
+def test_real_face_crops(shared_data):
+    textures = load_face_textures(shared_data / "faces")
+    assert len(textures) >= 8
+    for t in textures:
+        x, y, w, h = t.face_box
+        assert w == pytest.approx(96.0)
+        assert 0 <= x and x + w <= t.image.shape[1] + 1e-9 and y + h <= t.image.shape[0] + 1e-9
+
+
+def test_missing_face_folder_falls_back_to_drawn_faces(tmp_path):
+    with pytest.raises(FileNotFoundError):
+        load_face_textures(tmp_path)
+    scene = default_scene(tmp_path)
+    assert all(p.face.source == "drawn" for p in scene.people)
+
+
+def test_person_validation():
+    with pytest.raises(ValueError, match="position"):
+        Person(drawn_face_texture(), (0.0, 0.0, -1.0))
