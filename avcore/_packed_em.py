@@ -14,7 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-_LOG_2PI = float(np.log(2.0 * np.pi))
+_TWO_PI = 2.0 * np.pi
+_LOG_2PI = float(np.log(_TWO_PI))
 _Z2_CLIP = 1400.0  # exp(-700) ~ 1e-304: a Gaussian kernel never underflows to exactly zero
 
 
@@ -65,7 +66,7 @@ def e_step(x: np.ndarray, sizes: np.ndarray, wg: np.ndarray, mu: np.ndarray, var
     dens *= -0.5 / var
     np.maximum(dens, -0.5 * _Z2_CLIP, out=dens)
     np.exp(dens, out=dens)
-    dens *= wg / np.sqrt(2.0 * np.pi * var)
+    dens *= wg / np.sqrt(_TWO_PI * var)
     dens_o = wo * u
     if dens.shape[0]:
         total = np.add.reduceat(dens, _starts(sizes) if starts is None else starts, axis=1)
@@ -88,16 +89,20 @@ def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.n
     gamma = g_sums[:, 0]
     wg = gamma / w_total
     wo = o_counts / w_total
-    low = wo < min_wo
-    if np.any(low):
+    if wo.min() < min_wo:
+        low = wo < min_wo
         rest = np.add.reduceat(wg, _starts(sizes))
         scale = np.where(low, (1.0 - min_wo) / np.maximum(rest, 1e-300), 1.0)
         wg = wg * np.repeat(scale, sizes)
         wo = np.where(low, min_wo, wo)
-    alive = gamma > 1e-10
-    safe = np.where(alive, gamma, 1.0)
-    mu = np.where(alive, g_sums[:, 1] / safe, mu_old)
-    var = np.where(alive, g_sums[:, 2] / safe - mu * mu, var_old)
+    if gamma.min() > 1e-10:  # the common case: every component holds some data
+        mu = g_sums[:, 1] / gamma
+        var = g_sums[:, 2] / gamma - mu * mu
+    else:  # an empty component keeps its mean and variance
+        alive = gamma > 1e-10
+        safe = np.where(alive, gamma, 1.0)
+        mu = np.where(alive, g_sums[:, 1] / safe, mu_old)
+        var = np.where(alive, g_sums[:, 2] / safe - mu * mu, var_old)
     np.maximum(var, var_floor, out=var)
     return wg, mu, var, wo
 

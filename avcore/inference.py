@@ -19,7 +19,7 @@ import numpy as np
 
 from avcore._validate import as_points, as_samples
 from avcore.geometry import MicPair
-from avcore._packed_em import class_sums, log_likelihoods, run_em, run_fusion
+from avcore._packed_em import Packed, class_sums, log_likelihoods, run_em, run_fusion
 from avcore.mixture import (
     US,
     BinnedSamples,
@@ -224,8 +224,17 @@ class MotionGuidedHearing:
     def fit_candidates(self, v_s: np.ndarray, a_s: np.ndarray) -> tuple[list[Mixture1D], list[Mixture1D], np.ndarray]:
         """Steps (a)-(d) of Algorithm 1 for every N = 0..n_max at once.
 
-        Returns the visual EM models, the fused models and the BIC of each candidate (index = N).
+        v_s : (M,) projected visual features, seconds; a_s : (K,) ITDs, seconds. Returns the visual EM models,
+        the fused models and the BIC of each candidate (index = N).
         """
+        inits, vis, fused, bic = self._fit(v_s, a_s)
+        n = len(inits)
+        return ([inits[0]] + [unpack(vis, c, self.support) for c in range(n - 1)],
+                [inits[0]] + [unpack(fused, c, self.support) for c in range(n - 1)], bic)
+
+    def _fit(self, v_s: np.ndarray, a_s: np.ndarray) -> tuple[list[Mixture1D], Packed | None, Packed | None,
+                                                                np.ndarray]:
+        """The batched work of :meth:`fit_candidates`; the models stay packed (only the chosen one is unpacked)."""
         p = self.params
         em = p.em
         data = BinnedSamples.from_samples(v_s, p.bin_width_s)
@@ -234,7 +243,7 @@ class MotionGuidedHearing:
         u = 1.0 / ((self.support[1] - self.support[0]) * US)
         ll0 = n_obs * np.log(1.0 / (self.support[1] - self.support[0]))  # N = 0: all outliers
         if p.n_max == 0:
-            return inits, inits, np.array([ll0])
+            return inits, None, None, np.array([ll0])
         kw = dict(tol=em.tol, var_floor=em.var_floor_s2 * US * US, min_wo=em.min_outlier_weight,
                   max_iter=em.max_iter)
         # (a) initial models, (b) standard EM on the projected visual data: all candidates in one batch
@@ -248,9 +257,7 @@ class MotionGuidedHearing:
         ll = log_likelihoods(data.x_us, data.stats[:, 0], fused, u)
         ll += log_likelihoods(a_us, np.ones(a_us.size), fused, u) + n_obs * np.log(US)
         bic = np.array([bic_score(ll0, 0, n_obs)] + [bic_score(ll[c], c + 1, n_obs) for c in range(p.n_max)])
-        vis_models = [inits[0]] + [unpack(vis, c, self.support) for c in range(p.n_max)]
-        fused_models = [inits[0]] + [unpack(fused, c, self.support) for c in range(p.n_max)]
-        return vis_models, fused_models, bic
+        return inits, vis, fused, bic
 
     def step(self, points_xyz: object, itds_s: object) -> MotionGuidedOutput:
         """One interval of Algorithm 1.
@@ -266,9 +273,12 @@ class MotionGuidedHearing:
             # Nothing to see: no AV object can be formed (the model is vision-guided).
             self.previous_ = None
             return self._empty_output(np.zeros(p.n_max + 1), 0, speaking_threshold(a.size, 0))
-        vis_models, fused, bic = self.fit_candidates(v, a)
+        inits, vis_batch, fused_batch, bic = self._fit(v, a)
         n_sel = int(np.argmax(bic))
-        vis, model = vis_models[n_sel], fused[n_sel]
+        if n_sel == 0:
+            vis = model = inits[0]
+        else:
+            vis, model = unpack(vis_batch, n_sel - 1, self.support), unpack(fused_batch, n_sel - 1, self.support)
         # Post-processing (section 4.4) on exact per-point posteriors of the selected model.
         alpha = vis.responsibilities(v)[:, :-1]
         beta = model.responsibilities(a)[:, :-1] if a.size else np.zeros((0, n_sel))

@@ -133,6 +133,17 @@ class Mixture1D:
         object.__setattr__(self, "variances", var)
         object.__setattr__(self, "support", _check_support(self.support))
 
+    @classmethod
+    def _trusted(cls, weights: np.ndarray, means: np.ndarray, variances: np.ndarray,
+                 support: tuple[float, float]) -> Mixture1D:
+        """Build without validation: for arrays the fitting code itself made (a hot path)."""
+        obj = object.__new__(cls)
+        object.__setattr__(obj, "weights", weights)
+        object.__setattr__(obj, "means", means)
+        object.__setattr__(obj, "variances", variances)
+        object.__setattr__(obj, "support", support)
+        return obj
+
     @property
     def n_components(self) -> int:
         """N, the number of Gaussian components (the outlier class not counted)."""
@@ -243,7 +254,7 @@ def unpack(p: Packed, c: int, support: tuple[float, float]) -> Mixture1D:
     """Model ``c`` of a batch, back in seconds."""
     wg, mu, var, wo = p.model(c)
     weights = np.append(wg, wo)
-    return Mixture1D(weights / weights.sum(), mu / US, var / (US * US), support)
+    return Mixture1D._trusted(weights / weights.sum(), mu / US, var / (US * US), support)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -403,7 +414,7 @@ def split_at_mean(model: Mixture1D, index: int) -> Mixture1D:
     means = np.concatenate([np.delete(model.means, index), [model.means[index] - shift, model.means[index] + shift]])
     variances = np.concatenate([np.delete(model.variances, index), [var, var]])
     g = np.concatenate([np.delete(model.weights[:-1], index), [half, half]])
-    return Mixture1D(np.append(g, model.weights[-1]), means, variances, model.support)
+    return Mixture1D._trusted(np.append(g, model.weights[-1]), means, variances, model.support)
 
 
 def _seed_model(data: BinnedSamples, support: tuple[float, float], outlier_weight: float) -> Mixture1D:
@@ -441,7 +452,7 @@ class _ResidualGrid:
         width = self.sd_s / 1e-6 * np.sqrt(2.0 * np.pi)  # bins under a Gaussian of unit peak
         weight = float(np.clip(excess[i] * width / self.total, 0.02, 0.5))
         weights = np.concatenate([model.weights[:-1] * (1.0 - weight), [weight], [model.weights[-1] * (1.0 - weight)]])
-        return Mixture1D(weights, np.append(model.means, self.grid[i]), np.append(model.variances, self.sd_s**2),
+        return Mixture1D._trusted(weights, np.append(model.means, self.grid[i]), np.append(model.variances, self.sd_s**2),
                          model.support)
 
 
@@ -495,7 +506,8 @@ def initial_models(
         if n <= n_prev:
             g = base.weights[:n]
             g = g * (1.0 - base.weights[-1]) / g.sum() if g.sum() > 0 else np.full(n, (1.0 - base.weights[-1]) / n)
-            models.append(Mixture1D(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n], support))
+            models.append(Mixture1D._trusted(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n],
+                                             support))
             continue
         prev = models[-1]
         db = davies_bouldin(prev.means, np.sqrt(prev.variances))

@@ -84,7 +84,7 @@ def compact_groups(
     max_sd_m: float = 0.6,
     min_peakedness: float = 0.12,
     n_shift: int = 30,
-    n_refit: int = 5,
+    n_refit: int = 3,
 ) -> list[Group3D]:
     """Split weighted 3D points into compact person-sized groups (see module docstring).
 
@@ -121,8 +121,10 @@ def _groups(points: np.ndarray, weights: np.ndarray, ks: np.ndarray, min_mass: f
             # no 15 x 15 cm window holds a fifth of a minimal person (about 30 % of a person falls in one):
             # the rest is diffuse
             break
+        inv_ks2 = -0.5 / ks**2
         for _ in range(n_shift):
-            k = res * np.exp(-0.5 * (((pts - m) / ks) ** 2).sum(axis=1))
+            d = pts - m
+            k = res * np.exp((d * d) @ inv_ks2)
             ksum = k.sum()
             if ksum <= 0:
                 break

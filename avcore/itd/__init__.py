@@ -1,0 +1,28 @@
+"""Interaural time differences (paper section 5.1): ``extract_itds`` (batch) and ``ItdStream`` (streaming).
+
+Methods, one module each, registered by name in ``METHODS``:
+
+- ``"correlogram"``: summary cross-correlogram over a gammatone filterbank (Christensen et al., 2007), the paper's.
+- ``"gcc-phat"``: generalised cross-correlation with the phase transform.
+- ``"correlogram-robust"``, ``"gcc-phat-robust"``: the same two, computed over short frames weighted by
+  signal-to-noise ratio, onsets (precedence), coherence and coherent-to-diffuse ratio; stateful (a noise floor),
+  so they run frame by frame (``avcore.itd.robust``). Much better in reverberant, noisy rooms: see
+  ``benchmarks/itd_accuracy.py``.
+
+Sign (DESIGN.md): ITD = t_left - t_right, positive for a source on the right, as ``MicPair.itd``.
+"""
+from __future__ import annotations
+
+from ._base import ItdMethod
+from ._extract import METHODS, ItdStream, ItdTrack, extract_itds, make_method, register
+from .correlogram import Correlogram
+from .gcc_phat import GccPhat
+from .robust import RobustCorrelogram, RobustGccPhat
+
+register(Correlogram)
+register(GccPhat)
+register(RobustCorrelogram)
+register(RobustGccPhat)
+
+__all__ = ["METHODS", "ItdMethod", "ItdStream", "ItdTrack", "extract_itds", "make_method", "Correlogram",
+           "GccPhat", "RobustCorrelogram", "RobustGccPhat"]

@@ -1,0 +1,295 @@
+"""Windowing, the energy gate, the batch form ``extract_itds`` and the streaming form ``ItdStream``."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..ringbuffer import RingBuffer
+from ._base import ItdMethod
+from .robust import FrameState
+
+__all__ = ["ItdTrack", "ItdStream", "extract_itds", "METHODS", "make_method"]
+
+METHODS: dict[str, type[ItdMethod]] = {}
+
+_CHUNK_WINDOWS = 64  # windows processed together: vectorised FFTs with bounded memory
+
+
+def register(cls: type[ItdMethod]) -> type[ItdMethod]:
+    METHODS[cls.name] = cls
+    return cls
+
+
+@dataclass(frozen=True)
+class ItdTrack:
+    """ITDs of the windows that passed the energy gate.
+
+    times_s : (K,) float, seconds -- window centres, from the first sample of the signal (or stream).
+    itds_s : (K,) float, seconds -- t_left - t_right (positive: source on the right), DESIGN.md.
+    confidence : (K,) float in [-1, 1] -- the method's normalised peak height.
+    energy : (K,) float -- the window's mean power, ``mean((left^2 + right^2) / 2)`` (full scale 1).
+    """
+
+    times_s: np.ndarray
+    itds_s: np.ndarray
+    confidence: np.ndarray
+    energy: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.itds_s.shape[0])
+
+    @staticmethod
+    def empty() -> ItdTrack:
+        z = np.zeros(0)
+        return ItdTrack(z, z.copy(), z.copy(), z.copy())
+
+    @staticmethod
+    def concatenate(tracks: list[ItdTrack]) -> ItdTrack:
+        if not tracks:
+            return ItdTrack.empty()
+        return ItdTrack(*(np.concatenate([getattr(t, f) for t in tracks])
+                          for f in ("times_s", "itds_s", "confidence", "energy")))
+
+
+@dataclass(frozen=True)
+class _Framing:
+    samplerate_hz: float
+    window_len: int
+    hop_len: int
+    energy_threshold: float
+    min_confidence: float
+
+
+def _positive(value: Any, name: str, unit: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a number of {unit}, got {type(value).__name__}")
+    if not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive number of {unit}, got {value!r}")
+    return float(value)
+
+
+def make_method(samplerate: float, method: str = "correlogram", window_s: float = 0.15, hop_s: float = 0.02,
+                energy_threshold: float = 1e-3, max_itd_s: float = 1e-3, min_confidence: float = -1.0,
+                **options: Any) -> tuple[ItdMethod, _Framing]:
+    """Validate the parameters shared by the batch and streaming forms and build the method."""
+    fs = _positive(samplerate, "samplerate", "hertz")
+    window_s = _positive(window_s, "window_s", "seconds")
+    hop_s = _positive(hop_s, "hop_s", "seconds")
+    max_itd_s = _positive(max_itd_s, "max_itd_s", "seconds")
+    if isinstance(energy_threshold, bool) or not np.isfinite(energy_threshold) or energy_threshold < 0:
+        raise ValueError(f"energy_threshold must be a non-negative mean power, got {energy_threshold!r}")
+    if not (-1.0 <= min_confidence <= 1.0):
+        raise ValueError(f"min_confidence must lie in [-1, 1], got {min_confidence!r}")
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}")
+    window_len = int(round(window_s * fs))
+    hop_len = int(round(hop_s * fs))
+    if window_len < 16:
+        raise ValueError(f"window_s={window_s} s is only {window_len} samples at {fs} Hz; use a longer window")
+    if hop_len < 1:
+        raise ValueError(f"hop_s={hop_s} s is shorter than one sample at {fs} Hz")
+    max_lag = int(np.ceil(max_itd_s * fs))
+    if 2 * max_lag >= window_len:
+        raise ValueError(f"max_itd_s={max_itd_s} s ({max_lag} samples) needs a window longer than "
+                         f"{2 * max_lag} samples, got window_s={window_s} s ({window_len} samples)")
+    if METHODS[method].frame_based:
+        # frames on a grid that every window starts on: half the hop when it is even
+        options = {**options, "frame_hop_len": hop_len // 2 if hop_len % 2 == 0 else hop_len}
+    try:
+        impl = METHODS[method](fs, window_len, max_itd_s, **options)
+    except TypeError as exc:
+        raise TypeError(f"method {method!r} does not take these options: {sorted(options)} ({exc})") from None
+    return impl, _Framing(fs, window_len, hop_len, float(energy_threshold), float(min_confidence))
+
+
+def _signal(values: Any, name: str) -> np.ndarray:
+    arr = np.asarray(values)
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be a 1-D array of samples, got shape {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
+        raise TypeError(f"{name} must hold real samples, got dtype {arr.dtype}")
+    arr = arr.astype(np.float64, copy=False)
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.count_nonzero(~np.isfinite(arr)))
+        raise ValueError(f"{name} holds {bad} NaN or infinite sample(s); clean the audio before extracting ITDs")
+    return arr
+
+
+def _process_windows(impl: ItdMethod, framing: _Framing, frames_l: np.ndarray, frames_r: np.ndarray,
+                     starts: np.ndarray) -> ItdTrack:
+    """Energy gate, then the method, on ``(n, window_len)`` frames whose first samples are at ``starts``."""
+    energy = 0.5 * (np.mean(frames_l**2, axis=1) + np.mean(frames_r**2, axis=1))
+    keep = energy >= framing.energy_threshold
+    if framing.energy_threshold == 0:
+        keep &= energy > 0
+    if not np.any(keep):
+        return ItdTrack.empty()
+    itds, conf = impl.estimate(frames_l[keep], frames_r[keep])
+    times = (starts[keep] + 0.5 * framing.window_len) / framing.samplerate_hz
+    ok = np.isfinite(itds) & (conf >= framing.min_confidence)
+    return ItdTrack(times[ok], itds[ok], conf[ok], energy[keep][ok])
+
+
+def extract_itds(left: Any, right: Any, samplerate: float, method: str = "correlogram", window_s: float = 0.15,
+                 hop_s: float = 0.02, energy_threshold: float = 1e-3, max_itd_s: float = 1e-3,
+                 min_confidence: float = -1.0, **options: Any) -> ItdTrack:
+    """ITDs of a two-channel signal, one per window of ``window_s`` every ``hop_s`` that passes the energy gate.
+
+    Parameters
+    ----------
+    left, right : (n,) float, full scale 1
+        The left and right microphone signals.
+    samplerate : float, hertz
+    method : str
+        A key of ``METHODS``: ``"correlogram"`` (the paper's, Christensen et al. 2007), ``"gcc-phat"``, or their
+        reverberation- and noise-robust forms ``"correlogram-robust"`` and ``"gcc-phat-robust"``
+        (``avcore.itd.robust``).
+    window_s, hop_s : float, seconds
+        Integration window W and frame shift f (paper, "Implementation Details": 150 ms and 20 ms).
+    energy_threshold : float
+        The activity threshold E_A of the paper (0.001): a window whose mean power
+        ``mean((left^2 + right^2) / 2)`` is below it yields no ITD.
+    max_itd_s : float, seconds
+        Lags searched within ``+-max_itd_s`` (use the microphone distance over the speed of sound plus a margin).
+    min_confidence : float in [-1, 1]
+        Windows whose confidence is below this yield no ITD (-1, the default, keeps all).
+    **options
+        Passed to the method (for example ``n_channels``, ``low_hz``, ``high_hz`` for the correlogram).
+
+    Returns
+    -------
+    ItdTrack
+        ``times_s`` are window centres, seconds from the first sample; ``itds_s`` are ``t_left - t_right``.
+    """
+    impl, framing = make_method(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s,
+                                min_confidence, **options)
+    left_arr = _signal(left, "left")
+    right_arr = _signal(right, "right")
+    if left_arr.shape != right_arr.shape:
+        raise ValueError(f"left and right must have the same length, got {left_arr.shape[0]} and "
+                         f"{right_arr.shape[0]} samples")
+    n = left_arr.shape[0]
+    if n < framing.window_len:
+        raise ValueError(f"the signal ({n} samples) is shorter than one window ({framing.window_len} samples, "
+                         f"window_s={window_s} s); give more audio or a shorter window")
+    if impl.frame_based:
+        # Stateful methods (noise floor): one pass through the streaming form, which bounds memory too.
+        stream = ItdStream(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s, min_confidence,
+                           **options)
+        return stream.push(left_arr, right_arr)
+    n_windows = 1 + (n - framing.window_len) // framing.hop_len
+    view_l = np.lib.stride_tricks.sliding_window_view(left_arr, framing.window_len)[::framing.hop_len]
+    view_r = np.lib.stride_tricks.sliding_window_view(right_arr, framing.window_len)[::framing.hop_len]
+    starts = np.arange(n_windows) * framing.hop_len
+    tracks = [
+        _process_windows(impl, framing, view_l[i:i + _CHUNK_WINDOWS], view_r[i:i + _CHUNK_WINDOWS],
+                         starts[i:i + _CHUNK_WINDOWS])
+        for i in range(0, n_windows, _CHUNK_WINDOWS)
+    ]
+    return ItdTrack.concatenate(tracks)
+
+
+class ItdStream:
+    """Streaming form of :func:`extract_itds` for the ITD worker: feed blocks of any size, get ITDs as windows
+    complete.
+
+    The parameters are those of :func:`extract_itds`. Windows start at sample ``k * hop`` of the stream, as in the
+    batch form, and each window is processed on its own (the filterbank acts on the window's spectrum), so no
+    filter state crosses windows and the numbers equal the batch form's on the same signal.
+
+    ``times_s`` are seconds from the stream's first sample; add the stream's start time for the shared clock.
+    """
+
+    def __init__(self, samplerate: float, method: str = "correlogram", window_s: float = 0.15, hop_s: float = 0.02,
+                 energy_threshold: float = 1e-3, max_itd_s: float = 1e-3, min_confidence: float = -1.0,
+                 **options: Any) -> None:
+        self._impl, self._framing = make_method(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s,
+                                                min_confidence, **options)
+        self._piece = max(self._framing.hop_len, 4096)
+        self._buffer = RingBuffer(2, self._framing.window_len + self._piece)
+        self._next_start = 0
+        # frame methods: state carried from frame to frame, and the weighted terms of the frames still needed
+        self._state = FrameState()
+        self._next_frame = 0
+        self._first_kept = 0  # index of the first frame whose terms are kept
+        self._terms: dict[str, list[np.ndarray]] = {}
+
+    @property
+    def samples_seen(self) -> int:
+        return self._buffer.total_written
+
+    def push(self, left: Any, right: Any) -> ItdTrack:
+        """Append one block of left and right samples ``(n,)``; return the ITDs of the windows it completed."""
+        left_arr = _signal(left, "left")
+        right_arr = _signal(right, "right")
+        if left_arr.shape != right_arr.shape:
+            raise ValueError(f"left and right blocks must have the same length, got {left_arr.shape[0]} and "
+                             f"{right_arr.shape[0]} samples")
+        tracks = []
+        # Pieces no longer than the spare capacity: no window is overwritten before it is read.
+        for i in range(0, left_arr.shape[0], self._piece):
+            self._buffer.append(np.stack([left_arr[i:i + self._piece], right_arr[i:i + self._piece]], axis=1))
+            tracks.append(self._drain())
+        return ItdTrack.concatenate(tracks)
+
+    def push_stereo(self, block: Any) -> ItdTrack:
+        """Append an ``(n, 2)`` block of (left, right) frames."""
+        arr = np.asarray(block)
+        if arr.ndim != 2 or arr.shape[1] != 2:
+            raise ValueError(f"block must have shape (n, 2) (left, right), got shape {arr.shape}")
+        return self.push(arr[:, 0], arr[:, 1])
+
+    def _drain(self) -> ItdTrack:
+        if self._impl.frame_based:
+            return self._drain_frames()
+        w, hop = self._framing.window_len, self._framing.hop_len
+        available = self._buffer.total_written
+        if self._next_start + w > available:
+            return ItdTrack.empty()
+        starts = np.arange(self._next_start, available - w + 1, hop)
+        frames = np.stack([self._buffer.read_ending_at(int(s) + w, w) for s in starts])  # (n, w, 2)
+        self._next_start = int(starts[-1]) + hop
+        return _process_windows(self._impl, self._framing, frames[:, :, 0], frames[:, :, 1], starts)
+
+    def _drain_frames(self) -> ItdTrack:
+        """Frame methods: analyse every new frame (updating the method's state), then finish complete windows."""
+        impl = self._impl
+        fl, fh = impl.frame_len, impl.frame_hop
+        available = self._buffer.total_written
+        last = (available - fl) // fh  # index of the last complete frame
+        if last >= self._next_frame:
+            idx = np.arange(self._next_frame, last + 1)
+            frames = np.stack([self._buffer.read_ending_at(int(j) * fh + fl, fl) for j in idx])  # (m, fl, 2)
+            terms = impl.frame_terms(frames[:, :, 0], frames[:, :, 1], self._state)
+            for key, value in terms.items():
+                self._terms.setdefault(key, []).extend(value)
+            self._next_frame = int(last) + 1
+        w, hop = self._framing.window_len, self._framing.hop_len
+        if self._next_start + w > available:
+            return ItdTrack.empty()
+        starts = np.arange(self._next_start, available - w + 1, hop)
+        windows = np.stack([self._buffer.read_ending_at(int(s) + w, w) for s in starts])
+        energy = 0.5 * (np.mean(windows[:, :, 0] ** 2, axis=1) + np.mean(windows[:, :, 1] ** 2, axis=1))
+        keep = energy >= self._framing.energy_threshold
+        if self._framing.energy_threshold == 0:
+            keep &= energy > 0
+        npw = impl.frames_per_window
+        sums: dict[str, list[np.ndarray]] = {key: [] for key in self._terms}
+        for s in starts[keep]:
+            j0 = int(s) // fh - self._first_kept
+            for key, values in self._terms.items():
+                sums[key].append(np.sum(values[j0:j0 + npw], axis=0))
+        self._next_start = int(starts[-1]) + hop
+        stored = len(next(iter(self._terms.values()), []))
+        drop = min(max(self._next_start // fh - self._first_kept, 0), stored)  # frames no later window uses
+        for values in self._terms.values():
+            del values[:drop]
+        self._first_kept += drop
+        if not np.any(keep):
+            return ItdTrack.empty()
+        itds, conf = impl.estimate_windows({key: np.stack(v) for key, v in sums.items()})
+        times = (starts[keep] + 0.5 * w) / self._framing.samplerate_hz
+        ok = np.isfinite(itds) & (conf >= self._framing.min_confidence)
+        return ItdTrack(times[ok], itds[ok], conf[ok], energy[keep][ok])

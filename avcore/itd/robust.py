@@ -1,0 +1,254 @@
+"""Reverberation- and noise-robust variants of the two methods: time-frequency weighting of short frames.
+
+In a room the microphones hear the direct sound, which carries the ITD of eq. (itd), its reflections, which pull
+the correlation peak towards zero lag (a diffuse field is coherent at low frequencies for a 12 cm pair) or towards
+strong reflections, background noise and the robot's own fan, which is a few centimetres from the microphones and
+so perfectly coherent. The plain methods give every frequency of the window a vote (the phase transform, or the
+per-channel normalisation of the correlogram), including bands where there is no speech at all. Here the window is
+cut into short Hann-windowed frames (32 ms, on a grid of ``hop / 2``) and each frame and frequency bin is weighted by
+
+- **signal-to-noise**: ``clip(1 - over_subtraction * N(f) / P(t, f), 0, 1)`` with ``N(f)`` a running noise floor
+  (minimum tracking of the smoothed power, rising at most ``noise_rise_db_per_s``; Doblinger 1995, Martin 2001).
+  Bins that hold only the fan or the background noise no longer vote;
+- **precedence (onsets)**: the share of the frame's power that is new, ``clip(1 - P(t-1, f) / P(t, f), 0, 1)``,
+  with a floor: at a rise of energy the direct sound arrives before its reflections (Wilson and Darrell, 2006,
+  "Learning a precedence effect-like weighting function for the generalized cross-correlation framework");
+- **coherence**: the magnitude-squared coherence of recursively averaged spectra (30 ms) raised to
+  ``coherence_power / 2``, a direct-path-dominance test (Nadiri and Rafaely, 2014): diffuse noise and late
+  reverberation are incoherent above a few hundred hertz for a 12 cm pair.
+
+The band stops at 4 kHz by default (5 kHz for the plain methods): speech carries little energy above it, and in the
+benchmark rooms the bins above it were mostly fan and noise. Defaults were chosen on the simulated rooms
+(``benchmarks/itd_accuracy.py``); see that benchmark for what each cue contributes.
+
+The weighted frame cross-spectra of a window are summed, then the window is finished as in the plain method: phase
+transform per bin (``gcc-phat-robust``) or per-channel normalised gammatone cross-correlation summed over channels
+(``correlogram-robust``; the channel energies use the same weights, so each channel stays a normalised correlation).
+
+The noise floor and the previous frame are state carried from frame to frame: these methods run in streaming form
+(``ItdStream``), and ``extract_itds`` feeds the whole signal through a stream, so both forms agree by construction.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import scipy.fft
+
+from ..gammatone import erb_space_hz, gammatone_power_response
+from ._base import ItdMethod
+
+__all__ = ["FrameMethod", "FrameState", "RobustGccPhat", "RobustCorrelogram"]
+
+
+@dataclass
+class FrameState:
+    """What a frame method carries between frames: smoothed power, noise floor, previous power, coherence sums."""
+
+    smoothed: np.ndarray | None = None
+    noise: np.ndarray | None = None
+    previous: np.ndarray | None = None
+    cross_avg: np.ndarray | None = None
+    left_avg: np.ndarray | None = None
+    right_avg: np.ndarray | None = None
+
+
+class FrameMethod(ItdMethod):
+    """Base of the frame-based methods: per-frame weighted terms, summed per window, then a window weighting.
+
+    Parameters (all keyword)
+    ----------
+    frame_s : float, seconds
+        Frame length (32 ms).
+    frame_hop_len : int
+        Samples between frames; must divide the window hop (the stream sets it to ``hop / 2``).
+    onset_floor : float in [0, 1]
+        Weight of a frame with no new energy (0.2; 1 disables the precedence weighting).
+    snr_weighting : bool
+        Weight by the estimated signal-to-noise ratio of each bin.
+    over_subtraction : float
+        Factor on the noise floor (4; minimum tracking underestimates the mean noise power; 0 disables).
+    noise_rise_db_per_s : float
+        How fast the noise floor may rise, dB per second.
+    smoothing_s : float, seconds
+        Time constant of the power smoothing before minimum tracking.
+    coherence_power : float
+        Exponent on the coherence magnitude (4; 0 disables the coherence weighting).
+    coherence_s : float, seconds
+        Time constant of the recursive averages behind the coherence (30 ms).
+    low_hz, high_hz : float, hertz
+        Band used (80 Hz to 4 kHz).
+    """
+
+    frame_based: ClassVar[bool] = True
+
+    def __init__(self, samplerate_hz: float, window_len: int, max_itd_s: float, *, frame_hop_len: int,
+                 frame_s: float = 0.032, onset_floor: float = 0.2, snr_weighting: bool = True,
+                 over_subtraction: float = 4.0, noise_rise_db_per_s: float = 3.0, smoothing_s: float = 0.03,
+                 coherence_power: float = 4.0, coherence_s: float = 0.03, diffuse_power: float = 1.0,
+                 diffuse_subtract: bool = True, mic_distance_m: float = 0.12, speed_of_sound: float = 343.0,
+                 low_hz: float = 80.0, high_hz: float = 4000.0) -> None:
+        frame_len = int(round(frame_s * samplerate_hz))
+        if not (16 <= frame_len <= window_len // 2):
+            raise ValueError(f"frame_s={frame_s} s must give between 16 samples and half the window "
+                             f"({window_len // 2} samples), got {frame_len}")
+        self.frame_len = frame_len
+        super().__init__(samplerate_hz, window_len, max_itd_s)
+        if not isinstance(frame_hop_len, (int, np.integer)) or frame_hop_len < 1:
+            raise ValueError(f"frame_hop_len must be a positive number of samples, got {frame_hop_len!r}")
+        if not (0 <= onset_floor <= 1):
+            raise ValueError(f"onset_floor must lie in [0, 1], got {onset_floor!r}")
+        if coherence_power < 0:
+            raise ValueError(f"coherence_power must be >= 0, got {coherence_power!r}")
+        if not (0 <= low_hz < high_hz):
+            raise ValueError(f"need 0 <= low_hz < high_hz, got low_hz={low_hz!r}, high_hz={high_hz!r}")
+        if over_subtraction < 0 or noise_rise_db_per_s <= 0 or smoothing_s <= 0 or coherence_s <= 0:
+            raise ValueError("over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s > 0; "
+                             f"got {over_subtraction!r}, {noise_rise_db_per_s!r}, {smoothing_s!r}, {coherence_s!r}")
+        self.frame_hop = int(frame_hop_len)
+        self.frames_per_window = (window_len - frame_len) // self.frame_hop + 1
+        self.onset_floor = float(onset_floor)
+        self.snr_weighting = bool(snr_weighting)
+        self.over_subtraction = float(over_subtraction)
+        frame_dt = self.frame_hop / self.samplerate_hz
+        self._rise = 10 ** (noise_rise_db_per_s * frame_dt / 10)
+        self._alpha = np.exp(-frame_dt / smoothing_s)
+        self._beta = np.exp(-frame_dt / coherence_s)
+        self.coherence_power = float(coherence_power)
+        self.diffuse_power = float(diffuse_power)
+        self.diffuse_subtract = bool(diffuse_subtract)
+        # coherence of a diffuse field between two omnidirectional microphones: sinc(2 f d / c)
+        self.diffuse_coherence = np.sinc(2 * self.freqs_hz * mic_distance_m / speed_of_sound)
+        self.low_hz, self.high_hz = float(low_hz), float(high_hz)
+        self.taper = np.hanning(self.frame_len + 2)[1:-1]
+        self.band = ((self.freqs_hz >= low_hz) & (self.freqs_hz <= high_hz)).astype(np.float64)
+
+    def _min_nfft(self) -> int:
+        return 2 * self.frame_len
+
+    def weighted_cross_spectrum(self, spec_left, spec_right):
+        raise NotImplementedError("frame methods run through ItdStream; use frame_terms and finish_window")
+
+    def estimate(self, left, right):
+        raise NotImplementedError("frame methods run through ItdStream (extract_itds does that for you)")
+
+    # -- per frame ---------------------------------------------------------------------------------------------
+    def frame_terms(self, frames_left: np.ndarray, frames_right: np.ndarray, state: FrameState
+                    ) -> dict[str, np.ndarray]:
+        """Weighted terms of ``(m, frame_len)`` consecutive frames, updating ``state`` frame by frame.
+
+        Returns a dict of ``(m, K)`` arrays, summed over the frames of a window by :meth:`finish_window`.
+        """
+        spec_l = scipy.fft.rfft(frames_left * self.taper, n=self.nfft, axis=-1)
+        spec_r = scipy.fft.rfft(frames_right * self.taper, n=self.nfft, axis=-1)
+        pow_l = np.abs(spec_l) ** 2
+        pow_r = np.abs(spec_r) ** 2
+        power = 0.5 * (pow_l + pow_r)
+        cross = spec_l * np.conj(spec_r)
+        weights = np.empty_like(power)
+        tiny = np.finfo(np.float64).tiny
+        for j in range(power.shape[0]):  # the recursions: cheap (K-vectors), sequential by nature
+            p = power[j]
+            if state.smoothed is None:
+                state.smoothed = p.copy()
+                state.noise = p.copy()
+                state.previous = p.copy()
+                state.cross_avg = cross[j].copy()
+                state.left_avg = pow_l[j].copy()
+                state.right_avg = pow_r[j].copy()
+            state.smoothed = self._alpha * state.smoothed + (1 - self._alpha) * p
+            state.noise = np.minimum(state.smoothed, state.noise * self._rise)
+            w = np.ones_like(p)
+            if self.snr_weighting:
+                w *= np.clip(1.0 - self.over_subtraction * state.noise / np.maximum(p, tiny), 0.0, 1.0)
+            if self.onset_floor < 1:
+                new = np.clip(1.0 - state.previous / np.maximum(p, tiny), 0.0, 1.0)
+                w *= self.onset_floor + (1 - self.onset_floor) * new
+            state.previous = p
+            if self.coherence_power > 0 or self.diffuse_power > 0 or self.diffuse_subtract:
+                b = self._beta
+                state.cross_avg = b * state.cross_avg + (1 - b) * cross[j]
+                state.left_avg = b * state.left_avg + (1 - b) * pow_l[j]
+                state.right_avg = b * state.right_avg + (1 - b) * pow_r[j]
+                den = np.sqrt(state.left_avg * state.right_avg)
+                gamma = np.where(den > tiny, state.cross_avg / np.maximum(den, tiny), 0.0)
+                mag = np.abs(gamma)
+                if self.coherence_power > 0:
+                    w *= np.clip(mag, 0.0, 1.0) ** self.coherence_power
+                if self.diffuse_power > 0 or self.diffuse_subtract:
+                    # coherent-to-diffuse ratio, DOA-independent estimator (Thiergart, Del Galdo, Habets 2012)
+                    # Re{(G_n - G_x) / (G_x - exp(i arg G_x))}, written with |G_x| and cos(arg G_x) so that a
+                    # fully coherent bin (|G_x| = 1) gives an infinite ratio, not 0 / 0.
+                    cos_phase = np.where(mag > tiny, np.real(gamma) / np.maximum(mag, tiny), 1.0)
+                    cdr = (mag - self.diffuse_coherence * cos_phase) / np.maximum(1.0 - mag, 1e-12)
+                    cdr = np.clip(cdr, 0.0, 1e12)
+                    direct = cdr / (1.0 + cdr)
+                    if self.diffuse_power > 0:
+                        w *= direct ** self.diffuse_power
+                    if self.diffuse_subtract:
+                        cross[j] = cross[j] - self.diffuse_coherence * np.sqrt(pow_l[j] * pow_r[j]) * (1 - direct)
+            weights[j] = w * self.band
+        return self._terms(weights, cross, pow_l, pow_r)
+
+    def _terms(self, weights, cross, pow_l, pow_r) -> dict[str, np.ndarray]:
+        raise NotImplementedError
+
+    def finish_window(self, sums: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """From ``(n, K)`` per-window sums of the frame terms to ``(weighted cross-spectrum, norm)``."""
+        raise NotImplementedError
+
+    def estimate_windows(self, sums: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        weighted, norm = self.finish_window(sums)
+        return self._peak(weighted, norm)
+
+
+class RobustGccPhat(FrameMethod):
+    """GCC-PHAT over SNR-, onset- (and optionally coherence-) weighted short frames (module docstring)."""
+
+    name = "gcc-phat-robust"
+
+    def _terms(self, weights, cross, pow_l, pow_r):
+        mag = np.abs(cross)
+        tiny = np.finfo(np.float64).tiny
+        phat = np.where(mag > tiny, cross / np.maximum(mag, tiny), 0.0)
+        return {"cross": weights * phat, "weight": weights}
+
+    def finish_window(self, sums):
+        weighted = sums["cross"]
+        norm = (sums["weight"] * self._fold).sum(axis=1)
+        return weighted, norm
+
+
+class RobustCorrelogram(FrameMethod):
+    """Summary gammatone cross-correlogram over SNR-, onset- (and optionally coherence-) weighted short frames.
+
+    Extra parameter ``n_channels`` (32). The confidence is the mean normalised correlation over the channels.
+    """
+
+    name = "correlogram-robust"
+
+    def __init__(self, samplerate_hz: float, window_len: int, max_itd_s: float, *, n_channels: int = 32,
+                 **options) -> None:
+        super().__init__(samplerate_hz, window_len, max_itd_s, **options)
+        high = min(self.high_hz, 0.45 * self.samplerate_hz)
+        self.center_hz = erb_space_hz(self.low_hz, high, n_channels)
+        self.power_response = gammatone_power_response(self.center_hz, self.freqs_hz)  # (C, K)
+        self._folded_response = (self.power_response * self._fold).T  # (K, C)
+
+    def _terms(self, weights, cross, pow_l, pow_r):
+        return {"cross": weights * cross, "left": weights * pow_l, "right": weights * pow_r,
+                "left_raw": pow_l * self.band, "right_raw": pow_r * self.band}
+
+    def finish_window(self, sums):
+        tiny = np.finfo(np.float64).tiny
+        e_l = sums["left"] @ self._folded_response  # (n, C) weighted channel energies
+        e_r = sums["right"] @ self._folded_response
+        raw = np.sqrt((sums["left_raw"] @ self._folded_response) * (sums["right_raw"] @ self._folded_response))
+        # Per-channel confidence: the share of the channel's energy that survived the weighting. A channel that
+        # holds only noise (or only the fan) keeps its normalised correlation but loses its vote.
+        confidence = np.where(raw > tiny, np.sqrt(e_l * e_r) / np.maximum(raw, tiny), 0.0)
+        ch = np.where(raw > tiny, 1.0 / np.maximum(raw, tiny), 0.0)
+        weighted = (ch @ self.power_response) * sums["cross"]
+        norm = confidence.sum(axis=1)
+        return weighted, norm
