@@ -1,0 +1,195 @@
+from __future__ import annotations
+
+import inspect
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from avcore.gammatone import erb_space_hz, gammatone_power_response
+from avcore.geometry import MicPair
+from avcore.itd import METHODS, ItdStream, ItdTrack, extract_itds
+
+ALL_METHODS = ["correlogram", "gcc-phat", "correlogram-robust", "gcc-phat-robust"]
+
+
+def delayed_pair(delay_samples: float, fs: int, seconds: float = 1.0, seed: int = 0, level: float = 0.1):
+    """Left = right delayed by ``delay_samples`` (fractional, exact: a phase ramp on a periodic noise signal).
+
+    Left lagging means the sound reached the right microphone first: ITD = t_left - t_right = +delay.
+    """
+    rng = np.random.default_rng(seed)
+    n = int(seconds * fs)
+    right = level * rng.standard_normal(n)
+    freqs = np.fft.rfftfreq(n)
+    left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * freqs * delay_samples), n)
+    return left, right
+
+
+def test_registry_holds_the_two_methods_and_their_improved_forms():
+    assert set(ALL_METHODS) <= set(METHODS)
+
+
+def test_public_signature_and_paper_defaults():
+    sig = inspect.signature(extract_itds)
+    assert list(sig.parameters)[:8] == ["left", "right", "samplerate", "method", "window_s", "hop_s",
+                                        "energy_threshold", "max_itd_s"]
+    assert sig.parameters["window_s"].default == 0.15  # paper, Implementation Details: W = 150 ms
+    assert sig.parameters["hop_s"].default == 0.02  # f = 20 ms
+    assert sig.parameters["energy_threshold"].default == 1e-3  # E_A = 0.001
+    assert sig.parameters["method"].default == "correlogram"
+
+
+@pytest.mark.parametrize("method", ALL_METHODS)
+@pytest.mark.parametrize("fs,delay", [(16000, 3.0), (16000, -2.37), (16000, 0.0), (48000, 7.61), (48000, -11.0)])
+def test_pure_delays_recovered_within_a_tenth_of_a_sample(method, fs, delay):
+    left, right = delayed_pair(delay, fs, seconds=0.6)
+    track = extract_itds(left, right, fs, method=method)
+    assert len(track) == 1 + (len(left) - int(0.15 * fs)) // int(0.02 * fs)
+    np.testing.assert_allclose(track.itds_s * fs, delay, atol=0.1)
+
+
+@pytest.mark.parametrize("method", ALL_METHODS)
+def test_sign_agrees_with_micpair_in_both_channel_orders(method):
+    fs = 16000
+    mics = MicPair(left=(-0.06, 0, 0), right=(0.06, 0, 0))
+    source_on_right = np.array([1.0, 0.0, 1.5])
+    itd = float(mics.itd(source_on_right))
+    assert itd > 0
+    left, right = delayed_pair(itd * fs, fs, seconds=0.5)
+    forward = extract_itds(left, right, fs, method=method)
+    swapped = extract_itds(right, left, fs, method=method)
+    assert np.all(forward.itds_s > 0)
+    np.testing.assert_allclose(forward.itds_s, itd, atol=0.1 / fs)
+    np.testing.assert_allclose(swapped.itds_s, -itd, atol=0.1 / fs)
+
+
+@settings(max_examples=15, deadline=None)
+@given(delay=st.floats(-12.0, 12.0), seed=st.integers(0, 1000), method=st.sampled_from(["correlogram", "gcc-phat"]))
+def test_swapping_channels_negates_the_itd(delay, seed, method):
+    fs = 16000
+    left, right = delayed_pair(delay, fs, seconds=0.3, seed=seed)
+    a = extract_itds(left, right, fs, method=method)
+    b = extract_itds(right, left, fs, method=method)
+    np.testing.assert_allclose(a.itds_s, -b.itds_s, atol=0.02 / fs)
+
+
+@pytest.mark.parametrize("method", ALL_METHODS)
+def test_silence_and_sub_threshold_windows_yield_nothing(method):
+    fs = 16000
+    silence = np.zeros(fs)
+    assert len(extract_itds(silence, silence, fs, method=method)) == 0
+    quiet_l, quiet_r = delayed_pair(2.0, fs, level=0.01)  # mean power 1e-4 < E_A = 1e-3
+    assert len(extract_itds(quiet_l, quiet_r, fs, method=method)) == 0
+    # loud second half: only windows lying wholly in it... or mostly in it pass the gate
+    loud_l, loud_r = delayed_pair(2.0, fs, level=0.1)
+    left = np.concatenate([quiet_l, loud_l])
+    right = np.concatenate([quiet_r, loud_r])
+    track = extract_itds(left, right, fs, method=method)
+    assert len(track) > 0
+    assert np.all(track.times_s > 0.9)
+    assert np.all(track.energy >= 1e-3)
+
+
+def test_times_are_window_centres_on_the_hop_grid():
+    fs = 16000
+    left, right = delayed_pair(1.0, fs, seconds=1.0)
+    track = extract_itds(left, right, fs, method="gcc-phat", window_s=0.1, hop_s=0.025)
+    np.testing.assert_allclose(track.times_s, 0.05 + 0.025 * np.arange(len(track)))
+
+
+def test_min_confidence_drops_windows_and_confidence_is_bounded():
+    fs = 16000
+    rng = np.random.default_rng(3)
+    left, right = rng.standard_normal((2, fs)) * 0.1  # independent channels: no coherent peak
+    all_windows = extract_itds(left, right, fs, method="correlogram")
+    assert np.all(np.abs(all_windows.confidence) <= 1)
+    kept = extract_itds(left, right, fs, method="correlogram", min_confidence=0.5)
+    assert len(kept) < len(all_windows)
+
+
+@pytest.mark.parametrize("method", ALL_METHODS)
+def test_streaming_equals_batch(method):
+    fs = 16000
+    left, right = delayed_pair(-4.2, fs, seconds=1.5, seed=5)
+    left[: fs // 3] *= 0.05  # a quiet stretch: the energy gate skips windows in both forms
+    batch = extract_itds(left, right, fs, method=method)
+    stream = ItdStream(fs, method=method)
+    rng = np.random.default_rng(1)
+    parts, i = [], 0
+    while i < len(left):
+        n = int(rng.choice([1, 7, 160, 333, 2400, 5000]))
+        parts.append(stream.push(left[i:i + n], right[i:i + n]))
+        i += n
+    streamed = ItdTrack.concatenate(parts)
+    assert stream.samples_seen == len(left)
+    np.testing.assert_array_equal(streamed.times_s, batch.times_s)
+    np.testing.assert_allclose(streamed.itds_s, batch.itds_s, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(streamed.confidence, batch.confidence, rtol=0, atol=1e-9)
+
+
+def test_stream_push_stereo_block():
+    fs = 16000
+    left, right = delayed_pair(2.0, fs, seconds=0.5)
+    stream = ItdStream(fs, method="gcc-phat")
+    track = stream.push_stereo(np.stack([left, right], axis=1))
+    np.testing.assert_allclose(track.itds_s * fs, 2.0, atol=0.1)
+    with pytest.raises(ValueError, match=r"shape \(n, 2\)"):
+        stream.push_stereo(np.zeros((10, 3)))
+
+
+@pytest.mark.parametrize("bad,match", [(np.nan, "NaN or infinite"), (np.inf, "NaN or infinite")])
+def test_nan_and_inf_are_errors(bad, match):
+    left, right = delayed_pair(1.0, 16000, seconds=0.3)
+    left[100] = bad
+    with pytest.raises(ValueError, match=match):
+        extract_itds(left, right, 16000)
+    with pytest.raises(ValueError, match=match):
+        ItdStream(16000).push(left, right)
+
+
+def test_bad_inputs_are_clear_errors():
+    fs = 16000
+    left, right = delayed_pair(1.0, fs, seconds=0.3)
+    with pytest.raises(ValueError, match="same length"):
+        extract_itds(left, right[:-1], fs)
+    with pytest.raises(ValueError, match="1-D array"):
+        extract_itds(np.stack([left, right]), right, fs)
+    with pytest.raises(ValueError, match="shorter than one window"):
+        extract_itds(left[:1000], right[:1000], fs)
+    with pytest.raises(ValueError, match="method must be one of"):
+        extract_itds(left, right, fs, method="music")
+    with pytest.raises(ValueError, match="window_s must be a positive"):
+        extract_itds(left, right, fs, window_s=-0.1)
+    with pytest.raises(ValueError, match="max_itd_s"):
+        extract_itds(left, right, fs, window_s=0.01, max_itd_s=0.01)
+    with pytest.raises(ValueError, match="energy_threshold"):
+        extract_itds(left, right, fs, energy_threshold=-1.0)
+    with pytest.raises(TypeError, match="samplerate"):
+        extract_itds(left, right, "16000")
+    with pytest.raises(TypeError, match="does not take these options"):
+        extract_itds(left, right, fs, method="gcc-phat", n_channels=16)
+
+
+def test_lag_search_is_limited_to_max_itd():
+    fs = 16000
+    left, right = delayed_pair(12.0, fs, seconds=0.5)  # 750 us, outside +-300 us
+    track = extract_itds(left, right, fs, method="gcc-phat", max_itd_s=3e-4)
+    assert np.all(np.abs(track.itds_s) <= 3e-4 + 1e-12)
+
+
+def test_erb_spacing_and_gammatone_response():
+    centres = erb_space_hz(80.0, 5000.0, 32)
+    assert centres.shape == (32,)
+    np.testing.assert_allclose([centres[0], centres[-1]], [80.0, 5000.0])
+    assert np.all(np.diff(centres) > 0)
+    freqs = np.linspace(0, 8000, 4001)
+    response = gammatone_power_response(centres, freqs)
+    np.testing.assert_allclose(response.max(axis=1), 1.0)
+    peaks = freqs[np.argmax(response, axis=1)]
+    np.testing.assert_allclose(peaks, centres, atol=8.0)
+    # one ERB away from the centre a 4th-order gammatone is down by (1 + (1/1.019)^2)^-4, about -11.7 dB
+    i = np.argmin(np.abs(freqs - (1000 + 24.7 * (4.37 + 1))))
+    one_erb = gammatone_power_response(np.array([1000.0]), freqs)[0, i]
+    assert 10 * np.log10(one_erb) == pytest.approx(-11.7, abs=0.6)
