@@ -75,20 +75,26 @@ class SpeakingTest:
     share ``outlier_share`` of the K ITDs were spread uniformly over the ITD interval, the count in the window
     would be Poisson; the count must exceed its ``quantile`` and be at least ``min_itds``. ``use_tau_a`` also
     keeps the paper's threshold (off by default: measured in ``avhear eval synthetic``, it costs 2-20 points of
-    audio TP on the Var sequences and removes no false positive).
+    audio TP on the Var sequences and removes no false positive). With ``shared_counts`` an ITD in the window
+    counts with its posterior beta_kn, so that an ITD between two people is not counted twice.
     """
 
     outlier_aware: bool = True
     window_sd: float = 2.0
     min_sd_s: float = 20e-6
-    outlier_share: float = 0.3
-    quantile: float = 0.99
-    min_itds: int = 3
+    outlier_share: float = 0.2
+    quantile: float = 0.9
+    min_itds: int = 2
     use_tau_a: bool = False
+    shared_counts: bool = True
 
-    def decide(self, beta_counts: np.ndarray, itds: np.ndarray, model: Mixture1D
+    def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D
                ) -> tuple[np.ndarray, np.ndarray, float]:
-        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A."""
+        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
+
+        beta : (K, N) the auditory posteriors of the N persons (eq. beta_kn, outlier column dropped).
+        """
+        beta_counts = beta.sum(axis=0)
         n, k = beta_counts.size, itds.size
         tau = speaking_threshold(k, n)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -96,7 +102,9 @@ class SpeakingTest:
         speaking = beta_counts > tau if (self.use_tau_a or not self.outlier_aware) else np.ones(n, dtype=bool)
         if self.outlier_aware and n:
             half = self.window_sd * np.maximum(np.sqrt(model.variances), self.min_sd_s)
-            counts = (np.abs(itds[:, None] - model.means[None, :]) <= half[None, :]).sum(axis=0)
+            inside = np.abs(itds[:, None] - model.means[None, :]) <= half[None, :]
+            # an ITD between two people counts for each as much as its posterior says (shared, not doubled)
+            counts = (beta * inside).sum(axis=0) if self.shared_counts else inside.sum(axis=0)
             lam = self.outlier_share * k * np.minimum(2.0 * half * model.outlier_density, 1.0)
             need = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds)
             speaking &= counts >= need
@@ -295,7 +303,7 @@ class MotionGuidedHearing:
             positions, cov, abar, beta = positions[keep], cov[keep], abar[keep], beta[:, keep]
         self.previous_ = model
         bbar = beta.sum(axis=0)
-        speaking, prob, tau = p.speaking.decide(bbar, a, model)
+        speaking, prob, tau = p.speaking.decide(beta, a, model)
         return MotionGuidedOutput(positions, cov, speaking, prob, model.means.copy(), bbar, abar, model, bic, n_sel,
                                   tau)
 
@@ -444,7 +452,7 @@ class FaceGuidedHearing:
             w, mu, var, beta, n_iter = self._em(a, w, mu, var)
         model = Mixture1D(w, mu, var, self.support)
         bbar = beta[:, :-1].sum(axis=0)
-        speaking, prob, tau = p.speaking.decide(bbar, a, model)
+        speaking, prob, tau = p.speaking.decide(beta[:, :-1], a, model)
         return FaceGuidedOutput(speaking, prob, mu.copy(), bbar, model, tau, n_iter)
 
     def _em(self, a: np.ndarray, w: np.ndarray, mu: np.ndarray, var: np.ndarray

@@ -8,7 +8,15 @@ import time
 
 from app.errors import UserError
 from avcore.synthetic import SEQUENCES
-from avcore.synthetic_eval import PAPER_AUDIO, PAPER_VISUAL, VARIANTS, SequenceScore, evaluate_sequence
+from avcore.synthetic_eval import (
+    FACE_VARIANTS,
+    PAPER_AUDIO,
+    PAPER_VISUAL,
+    VARIANTS,
+    SequenceScore,
+    evaluate_face_guided,
+    evaluate_sequence,
+)
 
 VARIANT_LABELS = {"paper": "paper's method", "avhear": "avhear"}
 
@@ -30,6 +38,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="seeds of the generated sequences (default: 0 1 2)")
     syn.add_argument("--variant", nargs="+", choices=sorted(VARIANTS), default=["paper", "avhear"],
                      help="which variants of the method to run (default: both)")
+    syn.add_argument("--face-guided", action="store_true",
+                     help="also run Algorithm 2 (faces given) with its variants on the same sequences (table 3)")
     syn.add_argument("--json", action="store_true", help="print the results as JSON instead of tables")
     syn.set_defaults(func=run_synthetic)
 
@@ -51,10 +61,20 @@ def run_synthetic(args: argparse.Namespace) -> int:
         for variant in args.variant:
             scores.append(evaluate_sequence(name, seeds, VARIANTS[variant](), variant=variant,
                                             progress=None if args.json else _progress))
+    face: list[SequenceScore] = []
+    if args.face_guided:
+        for name in args.sequence:
+            for variant, params in FACE_VARIANTS.items():
+                face.append(evaluate_face_guided(name, seeds, params(), variant=variant))
     if args.json:
-        print(json.dumps(_as_json(scores, seeds), indent=2))
+        out = _as_json(scores, seeds)
+        out["face_guided"] = [s.as_dict() for s in face]
+        print(json.dumps(out, indent=2))
     else:
         print(format_tables(scores, seeds))
+        if face:
+            print()
+            print(format_face_table(face, seeds))
         print(f"\n({time.perf_counter() - start:.1f} s)")
     return 0
 
@@ -108,4 +128,24 @@ def format_tables(scores: list[SequenceScore], seeds: list[int]) -> str:
             lines.append(f"{'':8s} {VARIANT_LABELS.get(s.variant, s.variant):22s} {t.audio_fp / n:7.1f} "
                          f"{t.audio_fn / n:6.1f} {_pct(t.audio_fn, speak):>9s} {t.audio_tp / n:6.1f} "
                          f"{_pct(t.audio_tp, speak):>9s}")
+    return "\n".join(lines)
+
+
+def format_face_table(scores: list[SequenceScore], seeds: list[int]) -> str:
+    """Table 3 (avhear's): Algorithm 2's speaking states with the faces given, per variant."""
+    n = len(seeds)
+    lines = [
+        "Table 3 - Face-Guided Robot Hearing (Algorithm 2), faces = visible people + 1 cm noise; speaking states.",
+        "paper = means free, tau_A = K/(N+2); anchored = means kept at the faces; avhear = anchored + outlier-aware.",
+        f"{'Seq.':8s} {'variant':22s} {'FP':>7s} {'FN':>16s} {'TP':>16s}",
+    ]
+    for name in dict.fromkeys(s.sequence for s in scores):
+        for s in scores:
+            if s.sequence != name:
+                continue
+            t = s.totals
+            speak = t.audio_tp + t.audio_fn
+            lines.append(f"{name if s is scores[0] or s.variant == 'paper' else '':8s} {s.variant:22s} "
+                         f"{t.audio_fp / n:7.1f} {t.audio_fn / n:6.1f} {_pct(t.audio_fn, speak):>9s} "
+                         f"{t.audio_tp / n:6.1f} {_pct(t.audio_tp, speak):>9s}")
     return "\n".join(lines)
