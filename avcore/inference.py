@@ -1,19 +1,19 @@
 """Multimodal inference: Motion-Guided (Algorithm 1) and Face-Guided (Algorithm 2) Robot Hearing.
 
 Both classes keep the paper's method selectable (``Params.paper()``) beside avhear's default, which adds what the
-paper's own evaluation showed missing (section 7.1 and the issue's analysis):
+paper's own evaluation showed missing (section 7.1), each measured by ``avhear eval synthetic``:
 
-* people who cross in ITD space form one 1-D cluster: a cluster whose back-projected 3D points are spread wider
-  than a person is split in 3D (``split_3d``);
-* projected 3D outliers form spurious 1-D clusters whose 3D points are spread over the field of view; besides
-  the paper's small-determinant test (eq. hat_svect, "covariance"), clusters too diffuse to be a person and
-  clusters with too few points are dropped (``max_spread_m``, ``min_points``);
-* tau_A = K / (N + 2) fires on reverberation outliers when nobody speaks: the speaking test also asks for more
-  ITDs near the cluster than stray ITDs would put there by chance (:class:`SpeakingTest`).
+* a newcomer far from every known cluster is found (``initial_models(grow_at_residual=True)``);
+* each 1-D cluster is refined in 3D (:mod:`avcore.refine3d`): people who cross in ITD space are split, 3D outliers
+  on the cluster's hyperboloid no longer pull its position, clusters of projected outliers (no compact 3D group)
+  are dropped, pieces of one person are merged (``refine_3d``);
+* the speaking test asks for more ITDs near a person than stray ITDs would put there by chance, instead of
+  tau_A = K / (N + 2) (:class:`avcore.speaking.SpeakingTest`);
+* Algorithm 2 keeps its means anchored at the faces (``FaceGuidedParams.anchor_means``).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,6 +32,7 @@ from avcore.mixture import (
     unpack,
 )
 from avcore.refine3d import compact_groups, group_from_members, merge_close
+from avcore.speaking import SpeakingTest, speaking_threshold
 
 __all__ = [
     "FaceGuidedHearing",
@@ -43,73 +44,6 @@ __all__ = [
     "SpeakingTest",
     "speaking_threshold",
 ]
-
-
-def speaking_threshold(n_itds: int, n_objects: int) -> float:
-    """tau_A = K / (N + 2) (section 6, implementation details), the threshold of eq. (audio_act)."""
-    return n_itds / (n_objects + 2.0)
-
-
-def _poisson_quantile(q: float, lam: np.ndarray, k_max: int = 200) -> np.ndarray:
-    """Smallest k with P(X <= k) >= q for X ~ Poisson(lam), vectorised (scipy.stats' ppf costs ~100 us a call)."""
-    lam = np.atleast_1d(np.asarray(lam, dtype=np.float64))
-    k = np.arange(k_max + 1)
-    # log pmf = k log lam - lam - log k!, accumulated in the log domain then exponentiated
-    log_fact = np.concatenate([[0.0], np.cumsum(np.log(k[1:]))])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_pmf = k[None, :] * np.log(lam[:, None]) - lam[:, None] - log_fact[None, :]
-    cdf = np.cumsum(np.exp(log_pmf), axis=1)
-    cdf[lam == 0] = 1.0
-    return (cdf < q).sum(axis=1).astype(np.float64)
-
-
-@dataclass(frozen=True)
-class SpeakingTest:
-    """The speaking decision of eq. (audio_act) and avhear's outlier-aware replacement of it.
-
-    The paper: speaking when beta_bar_n > tau_A = K / (N + 2). That threshold fails both ways: with nobody
-    speaking, tau_A is small and a cluster fires on a couple of stray ITDs (reverberation, noise); with talkers
-    the cameras do not see (or people the vision missed), K grows with ITDs that are nobody's in the model and
-    tau_A silences the visible talker. The outlier-aware test (``outlier_aware``) asks instead whether the ITDs
-    within +-``window_sd`` sigma of the cluster (sigma at least ``min_sd_s``) are more than chance allows: if a
-    share ``outlier_share`` of the K ITDs were spread uniformly over the ITD interval, the count in the window
-    would be Poisson; the count must exceed its ``quantile`` and be at least ``min_itds``. ``use_tau_a`` also
-    keeps the paper's threshold (off by default: measured in ``avhear eval synthetic``, it costs 2-20 points of
-    audio TP on the Var sequences and removes no false positive). With ``shared_counts`` an ITD in the window
-    counts with its posterior beta_kn, so that an ITD between two people is not counted twice.
-    """
-
-    outlier_aware: bool = True
-    window_sd: float = 2.0
-    min_sd_s: float = 20e-6
-    outlier_share: float = 0.2
-    quantile: float = 0.9
-    min_itds: int = 2
-    use_tau_a: bool = False
-    shared_counts: bool = True
-
-    def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D
-               ) -> tuple[np.ndarray, np.ndarray, float]:
-        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
-
-        beta : (K, N) the auditory posteriors of the N persons (eq. beta_kn, outlier column dropped).
-        """
-        beta_counts = beta.sum(axis=0)
-        n, k = beta_counts.size, itds.size
-        tau = speaking_threshold(k, n)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            prob = np.where(beta_counts + tau > 0, beta_counts / (beta_counts + tau), 0.0)
-        speaking = beta_counts > tau if (self.use_tau_a or not self.outlier_aware) else np.ones(n, dtype=bool)
-        if self.outlier_aware and n:
-            half = self.window_sd * np.maximum(np.sqrt(model.variances), self.min_sd_s)
-            inside = np.abs(itds[:, None] - model.means[None, :]) <= half[None, :]
-            # an ITD between two people counts for each as much as its posterior says (shared, not doubled)
-            counts = (beta * inside).sum(axis=0) if self.shared_counts else inside.sum(axis=0)
-            lam = self.outlier_share * k * np.minimum(2.0 * half * model.outlier_density, 1.0)
-            need = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds)
-            speaking &= counts >= need
-            prob = np.minimum(prob, counts / (counts + need - 0.5))
-        return speaking, prob, tau
 
 
 # ----------------------------------------------------------------------------------------------------------------

@@ -1,0 +1,56 @@
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy import stats
+
+from avcore.mixture import Mixture1D
+from avcore.speaking import SpeakingTest, _poisson_quantile, speaking_threshold
+
+SUPPORT = (-350e-6, 350e-6)
+MODEL = Mixture1D(np.array([0.3, 0.3, 0.4]), np.array([-100e-6, 100e-6]), np.array([4e-10, 4e-10]), SUPPORT)
+
+
+@given(st.floats(0.0, 80.0), st.sampled_from([0.5, 0.9, 0.95, 0.99]))
+def test_poisson_quantile_matches_scipy(lam: float, q: float) -> None:
+    assert _poisson_quantile(q, np.array([lam]))[0] == stats.poisson.ppf(q, lam) or lam == 0
+
+
+def _beta(itds: np.ndarray) -> np.ndarray:
+    return MODEL.responsibilities(itds)[:, :-1]
+
+
+def test_paper_rule_is_tau_a() -> None:
+    itds = np.array([-100e-6, -95e-6, -105e-6, 100e-6, 250e-6])
+    paper = SpeakingTest(outlier_aware=False)
+    speaking, prob, tau = paper.decide(_beta(itds), itds, MODEL)
+    assert tau == pytest.approx(speaking_threshold(5, 2)) == pytest.approx(5 / 4)
+    assert speaking.tolist() == [True, False]
+    np.testing.assert_array_equal(prob > 0.5, speaking)
+
+
+def test_outlier_aware_ignores_a_few_stray_itds() -> None:
+    # three stray ITDs, one of them by chance on a person: the paper's tau_A = 3/4 fires, ours does not
+    itds = np.array([-98e-6, 20e-6, 300e-6])
+    paper, _, _ = SpeakingTest(outlier_aware=False).decide(_beta(itds), itds, MODEL)
+    ours, prob, _ = SpeakingTest().decide(_beta(itds), itds, MODEL)
+    assert paper[0] and not ours.any()
+    assert np.all(prob <= 0.5)
+
+
+def test_outlier_aware_keeps_a_talker_among_unseen_ones() -> None:
+    # 8 ITDs of the visible talker, 14 of talkers the model does not know: tau_A = 22/4 = 5.5 is met
+    # by few, ours counts the talker's ITDs against chance
+    rng = np.random.default_rng(0)
+    itds = np.concatenate([rng.normal(-100e-6, 10e-6, 6), rng.normal(280e-6, 10e-6, 16)])
+    paper, _, _ = SpeakingTest(outlier_aware=False).decide(_beta(itds), itds, MODEL)
+    ours, prob, _ = SpeakingTest().decide(_beta(itds), itds, MODEL)
+    assert not paper[0] and ours[0] and not ours[1]
+    np.testing.assert_array_equal(prob > 0.5, ours)
+
+
+def test_no_itds_nobody_speaks() -> None:
+    speaking, prob, tau = SpeakingTest().decide(np.zeros((0, 2)), np.empty(0), MODEL)
+    assert not speaking.any() and np.all(prob == 0) and tau == 0
