@@ -69,6 +69,9 @@ class MotionGuidedParams:
     kernel_sd_m : the person-sized kernel of the 3D refinement (x, y, z standard deviations, metres).
     max_sd_m : a 3D group wider than this along any axis is not a person.
     merge_distance_m : 3D groups closer than this are one person (a blob cut into two 1-D clusters).
+    warm_start_candidates : for every N, start EM from the better (on the new data) of the paper's initialisation
+        and the previous interval's fit with N components: people move little between intervals, so EM needs
+        fewer iterations (a speed-up; the paper initialises every N from the selected model only).
     """
 
     n_max: int = 10
@@ -83,6 +86,7 @@ class MotionGuidedParams:
     min_points: float = 60.0
     max_sd_m: float = 0.6
     merge_distance_m: float = 0.3
+    warm_start_candidates: bool = True
 
     def __post_init__(self) -> None:
         if not 0 <= self.n_max <= 50:
@@ -93,7 +97,7 @@ class MotionGuidedParams:
     @classmethod
     def paper(cls) -> MotionGuidedParams:
         """The method as the paper describes it: moments of eq. (hat_svect), determinant test, tau_A = K/(N+2)."""
-        return cls(speaking=SpeakingTest(outlier_aware=False), refine_3d=False)
+        return cls(speaking=SpeakingTest(outlier_aware=False), refine_3d=False, warm_start_candidates=False)
 
 
 @dataclass(frozen=True)
@@ -139,6 +143,13 @@ def _weighted_moments(points: np.ndarray, alpha: np.ndarray) -> tuple[np.ndarray
     return means, cov, abar
 
 
+def _choose(a: Packed, b: Packed, take_b: np.ndarray) -> Packed:
+    """Per model, ``b``'s parameters where ``take_b`` else ``a``'s (two batches with the same sizes)."""
+    slot_b = np.repeat(take_b, a.sizes)
+    return Packed(a.sizes.copy(), np.where(slot_b, b.wg, a.wg), np.where(slot_b, b.mu, a.mu),
+                  np.where(slot_b, b.var, a.var), np.where(take_b, b.wo, a.wo))
+
+
 class MotionGuidedHearing:
     """Motion-Guided Robot Hearing, the paper's Algorithm 1 (section 4.5).
 
@@ -154,9 +165,12 @@ class MotionGuidedHearing:
         self.params = params if params is not None else MotionGuidedParams()
         self.support = mics.itd_interval()
         self.previous_: Mixture1D | None = None
+        self._candidates: Packed | None = None
 
     def reset(self) -> None:
+        """Forget the previous interval."""
         self.previous_ = None
+        self._candidates = None
 
     def _empty_output(self, bic: np.ndarray, n_sel: int, tau: float) -> MotionGuidedOutput:
         return MotionGuidedOutput(np.empty((0, 3)), np.empty((0, 3, 3)), np.empty(0, dtype=bool), np.empty(0),
@@ -183,13 +197,20 @@ class MotionGuidedHearing:
         inits = initial_models(self.previous_, p.n_max, self.support, data, outlier_weight=p.init_outlier_weight)
         n_obs = v_s.size + a_s.size
         u = 1.0 / ((self.support[1] - self.support[0]) * US)
+        start = pack(inits[1:]) if p.n_max else None
+        if p.warm_start_candidates and self._candidates is not None and data.total > 0:
+            # per N, start from the better of the paper's initialisation and last interval's fit with N components
+            ll_new = log_likelihoods(data.x_us, data.stats[:, 0], start, u)
+            ll_old = log_likelihoods(data.x_us, data.stats[:, 0], self._candidates, u)
+            start = _choose(start, self._candidates, ll_old > ll_new)
         ll0 = n_obs * np.log(1.0 / (self.support[1] - self.support[0]))  # N = 0: all outliers
         if p.n_max == 0:
             return inits, None, None, np.array([ll0])
         kw = dict(tol=em.tol, var_floor=em.var_floor_s2 * US * US, min_wo=em.min_outlier_weight,
                   max_iter=em.max_iter)
         # (a) initial models, (b) standard EM on the projected visual data: all candidates in one batch
-        vis, _, _, _ = run_em(data.x_us, data.stats, pack(inits[1:]), u, **kw)
+        vis, _, _, _ = run_em(data.x_us, data.stats, start, u, **kw)
+        self._candidates = vis
         # alpha is fixed from here on; the fusion EM needs it only as per-class sums
         vis_g, vis_o = class_sums(data.x_us, data.stats, vis, u)
         # (c) vision-guided EM fusion on the ITDs
@@ -213,7 +234,7 @@ class MotionGuidedHearing:
         v = self.mics.itd(pts)
         if pts.shape[0] == 0:
             # Nothing to see: no AV object can be formed (the model is vision-guided).
-            self.previous_ = None
+            self.reset()
             return self._empty_output(np.zeros(p.n_max + 1), 0, speaking_threshold(a.size, 0))
         inits, vis_batch, fused_batch, bic = self._fit(v, a)
         n_sel = int(np.argmax(bic))
