@@ -160,7 +160,36 @@ def _groups(points: np.ndarray, weights: np.ndarray, ks: np.ndarray, min_mass: f
         if sd > max_sd_m or peaked < min_peakedness:
             continue
         groups.append(Group3D(members, mass, m, cov))
+    if len(groups) > 1:
+        groups = _share(points, weights, groups, ks, max_kernels)
     return groups
+
+
+def _share(points: np.ndarray, weights: np.ndarray, groups: list[Group3D], ks: np.ndarray, max_kernels: float,
+           n_iter: int = 5) -> list[Group3D]:
+    """Re-share the points of overlapping groups by their Gaussian densities (a 3D E-step over the groups).
+
+    Groups are found one after another and each takes every point within its cut-off, so a later group misses
+    its points on the side of an earlier neighbour and its mean moves away from it. Sharing the points by
+    posterior (a few EM iterations of a 3D mixture of the groups, covariances capped as in the fit) undoes that.
+    """
+    means = np.array([g.mean for g in groups])
+    covs = np.array([g.cov for g in groups])
+    masses = np.array([g.mass for g in groups])
+    resp = np.zeros((len(groups), points.shape[0]))
+    for _ in range(n_iter):
+        inv = np.linalg.inv(covs)
+        norm = masses / np.sqrt(np.linalg.det(covs))
+        d = points[None, :, :] - means[:, None, :]
+        d2 = np.einsum("gmi,gij,gmj->gm", d, inv, d)
+        dens = norm[:, None] * np.exp(-0.5 * np.minimum(d2, 50.0))
+        resp = weights * dens / np.maximum(dens.sum(axis=0), 1e-300) * (d2 < _CUT2)
+        masses = np.maximum(resp.sum(axis=1), 1e-300)
+        means = (resp @ points) / masses[:, None]
+        d = points[None, :, :] - means[:, None, :]
+        covs = np.array([_cap(ks, (resp[i][:, None] * d[i]).T @ d[i] / masses[i] / _TRUNC + np.eye(3) * 1e-6,
+                              max_kernels) for i in range(len(groups))])
+    return [Group3D(resp[i], float(masses[i]), means[i], covs[i]) for i in range(len(groups))]
 
 
 def group_from_members(points: np.ndarray, members: np.ndarray) -> Group3D:

@@ -1,0 +1,66 @@
+from __future__ import annotations
+
+import numpy as np
+
+from avcore.refine3d import GAUSS_PEAKEDNESS, UNIFORM_PEAKEDNESS, compact_groups, group_from_members, merge_close
+
+BODY = np.array([0.12, 0.25, 0.08])
+
+
+def _blob(rng: np.random.Generator, centre: list[float], n: int = 500) -> np.ndarray:
+    return np.asarray(centre) + rng.normal(0, BODY, (n, 3))
+
+
+def test_peakedness_constants() -> None:
+    assert GAUSS_PEAKEDNESS > 0.2 > 0.04 > UNIFORM_PEAKEDNESS
+
+
+def test_two_people_side_by_side_are_two_groups() -> None:
+    rng = np.random.default_rng(0)
+    centres = [[0.1, 0.0, 2.3], [0.55, 0.0, 2.25]]  # 45 cm apart, as when people cross in ITD space
+    pts = np.concatenate([_blob(rng, c) for c in centres])
+    groups = compact_groups(pts, np.ones(len(pts)))
+    assert len(groups) == 2
+    found = sorted(g.mean[0] for g in groups)
+    np.testing.assert_allclose(found, [0.1, 0.55], atol=0.03)
+    for g in groups:
+        assert 400 < g.mass < 600
+        assert np.all(np.sqrt(np.diag(g.cov)) < 2 * BODY + 0.05)
+    assert sum(g.mass for g in groups) <= len(pts) + 1e-6
+
+
+def test_outliers_do_not_pull_the_position() -> None:
+    rng = np.random.default_rng(1)
+    person = _blob(rng, [0.3, 0.0, 2.0])
+    z = rng.uniform(0.8, 6, 150)
+    outliers = np.c_[0.15 * z + rng.normal(0, 0.05, 150), rng.uniform(-1, 1, 150) * 0.4 * z, z]  # on a bearing
+    pts = np.concatenate([person, outliers])
+    (group,) = compact_groups(pts, np.ones(len(pts)))
+    assert np.linalg.norm(group.mean - [0.3, 0.0, 2.0]) < 0.03
+    naive = pts.mean(axis=0)
+    assert np.linalg.norm(naive - [0.3, 0.0, 2.0]) > 0.2
+
+
+def test_diffuse_points_make_no_group() -> None:
+    rng = np.random.default_rng(2)
+    z = rng.uniform(0.8, 6, 400)
+    pts = np.c_[rng.uniform(-1, 1, 400) * 0.577 * z, rng.uniform(-1, 1, 400) * 0.4 * z, z]
+    assert compact_groups(pts, np.ones(len(pts))) == []
+
+
+def test_weights_select_the_cluster() -> None:
+    rng = np.random.default_rng(3)
+    a, b = _blob(rng, [-0.5, 0, 2]), _blob(rng, [0.5, 0, 2])
+    pts = np.concatenate([a, b])
+    w = np.r_[np.ones(500), np.zeros(500)]
+    (g,) = compact_groups(pts, w)
+    assert g.mean[0] < -0.4 and g.members[500:].sum() == 0
+
+
+def test_merge_close_groups() -> None:
+    rng = np.random.default_rng(4)
+    pts = _blob(rng, [0, 0, 2], 600)
+    left = group_from_members(pts, (pts[:, 0] < 0).astype(float))
+    right = group_from_members(pts, (pts[:, 0] >= 0).astype(float))
+    far = group_from_members(pts + [1.0, 0, 0], np.ones(600))
+    assert sorted(map(sorted, merge_close([left, right, far], pts, 0.3))) == [[0, 1], [2]]
