@@ -1,0 +1,491 @@
+"""The Rerun operator console: the paper's visualisation tool (section 6, figure vtool) and more, as Rerun data.
+
+Every ``rr.*`` call of the application lives here (DESIGN.md); what is drawn is computed by the pure helpers of
+:mod:`app.console_geometry`. The default layout of these entities is :func:`layouts.blueprint.default_blueprint`.
+
+Entity paths (``<id>`` is a person id; static entities are logged once, when the console is created):
+
+======================================  ==========================================================  ========
+path                                    what                                                        when
+======================================  ==========================================================  ========
+``scene``                               3D scene frame, right-down-forward (ViewCoordinates RDF)     static
+``scene/robot``                         the robot's head: a box around its sensors (Boxes3D)         static
+``scene/robot/mics``                    the two microphones M_L, M_R (Points3D)                      static
+``scene/cameras/{left,right}``          rectified cameras: Transform3D + Pinhole (frusta)            static
+``scene/cameras/left/image``            the left image, JPEG (EncodedImage) or raw (Image)           frame
+``scene/cameras/left/faces/<id>``       pane 1: face box (Boxes2D) + speaking circle (Points2D)      frame
+``scene/heads/<id>``                    each head in 3D (Ellipsoids3D; solid when speaking)          frame
+``scene/hm3d_points``                   HM3D points of the interval (Points3D), when given           frame
+``birdseye/robot``, ``birdseye/mics``   pane 2: the robot and its microphones, seen from above       static
+``birdseye/fov``, ``birdseye/rings``    the cameras' fields of view; range rings every metre         static
+``birdseye/heads/<id>``                 each head: circle (Ellipses2D) + speaking disc (Points2D)    frame
+``itd/axis``                            pane 3: the ITD axis (microseconds) and its ticks            static
+``itd/histogram``                       the interval's ITD histogram, one step outline (LineStrips2D)  frame
+``itd/outliers``                        the uniform outlier class' level (LineStrips2D)              frame
+``itd/faces/<id>``                      the person's fitted Gaussian (LineStrips2D) and its mapped
+                                        ITD c1 A(S) + c0 on the axis (Points2D)                      frame
+``itd/bars``                            the same histogram as a BarChart (abscissa in microseconds,  frame
+                                        sent with the first frame only: it never changes)
+``people/<id>/speaking_probability``    speaking probability per person (Scalars)                   frame
+``counts/{people,speakers,itds}``       number of people, of speakers, of ITDs in the interval      frame
+``diagnostics/<key>``                   any diagnostics figure, e.g. ``fps/vision``, ``latency_ms/…``  frame
+``events``                              people appearing and leaving (TextLog)                       frame
+======================================  ==========================================================  ========
+
+Timelines: ``frame`` (sequence, the frame number) and ``capture_time`` (the capture stamp: a timestamp when the
+console knows the wall-clock time of the stamp clock's zero, else a duration since that zero).
+
+ITD-space units: the horizontal axis is in microseconds; heights are the fraction of the interval's ITDs per bin
+(see :mod:`app.console_geometry`), drawn upwards (negative y in the 2D view).
+"""
+from __future__ import annotations
+
+import logging
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+import rerun as rr
+
+from app import console_geometry as geo
+from avcore.geometry import MicPair
+from avcore.mixture import Mixture1D
+from avcore.stereo import StereoRig
+from layouts.blueprint import APPLICATION_ID
+
+__all__ = ["APPLICATION_ID", "TIMELINE_CAPTURE", "TIMELINE_FRAME", "Console", "ConsoleFrame"]
+
+log = logging.getLogger(__name__)
+
+TIMELINE_FRAME = "frame"
+TIMELINE_CAPTURE = "capture_time"
+
+SCENE = "scene"
+ROBOT = "scene/robot"
+MICS_3D = "scene/robot/mics"
+CAMERA_LEFT = "scene/cameras/left"
+CAMERA_RIGHT = "scene/cameras/right"
+IMAGE = f"{CAMERA_LEFT}/image"
+FACES = f"{CAMERA_LEFT}/faces"
+HEADS_3D = "scene/heads"
+HM3D_POINTS = "scene/hm3d_points"
+BIRDSEYE = "birdseye"
+BIRDSEYE_HEADS = "birdseye/heads"
+ITD = "itd"
+ITD_FACES = "itd/faces"
+ITD_BARS = "itd/bars"
+PEOPLE = "people"
+COUNTS = "counts"
+DIAGNOSTICS = "diagnostics"
+EVENTS = "events"
+
+_SOLID = rr.components.FillMode.Solid
+_WIREFRAME = rr.components.FillMode.MajorWireframe
+_KEY = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")
+
+
+def _array(value: Any, name: str, shape_tail: tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
+    arr = np.asarray(value, dtype=dtype)
+    if arr.ndim == 1 and arr.size == 0 and shape_tail:
+        arr = arr.reshape((0, *shape_tail))
+    if arr.ndim != 1 + len(shape_tail) or arr.shape[1:] != shape_tail:
+        want = "(N" + "".join(f", {s}" for s in shape_tail) + ")"
+        raise ValueError(f"{name} must be an array of shape {want}, got shape {arr.shape}")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class ConsoleFrame:
+    """One fused result to display: a vision frame, the ITDs of its time frame and what inference made of them.
+
+    Parameters
+    ----------
+    stamp_s : float, seconds
+        Capture stamp of the vision frame on the application's clock (DESIGN.md).
+    frame : int
+        Frame number (the ``frame`` timeline).
+    image : (H, W) or (H, W, 3) uint8, or None
+        The rectified left image, grey or BGR (OpenCV's order). None leaves the last logged image in place.
+    boxes : (N, 4) float, pixels, or None
+        Face boxes (x, y, w, h) in the left image; None when the heads come without boxes (motion-guided): the
+        circles are then drawn at the projected heads.
+    faces_xyz : (N, 3) float, metres
+        Head (face) centres in the scene frame.
+    speaking : (N,) bool; probability : (N,) float in [0, 1]
+        The speaking states and probabilities of inference (eq. audio_act).
+    itds_s : (K,) float, seconds
+        The ITDs of the interval.
+    model : Mixture1D or None
+        The fitted 1-D model, its N Gaussian components in the order of the faces; None draws no curve.
+    person_ids : (N,) int or None
+        Stable ids of the people when a tracker gives them; None numbers the faces 0..N-1 in this frame.
+    points_xyz : (M, 3) float, metres, or None
+        HM3D points of the interval (motion-guided), drawn in the 3D view.
+    diagnostics : mapping from key to number
+        Figures of the pipeline logged as time series under ``diagnostics/<key>``. Conventional keys:
+        ``fps/<stage>``, ``latency_ms/<what>``, ``queue_depth/<queue>``, ``drops/<queue>``, ``audio_overflows``.
+    """
+
+    stamp_s: float
+    frame: int
+    image: np.ndarray | None
+    boxes: np.ndarray | None
+    faces_xyz: np.ndarray
+    speaking: np.ndarray
+    probability: np.ndarray
+    itds_s: np.ndarray
+    model: Mixture1D | None = None
+    person_ids: np.ndarray | None = None
+    points_xyz: np.ndarray | None = None
+    diagnostics: Mapping[str, float] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.stamp_s, (int, float, np.floating, np.integer)) and np.isfinite(self.stamp_s)):
+            raise ValueError(f"stamp_s must be a finite number of seconds, got {self.stamp_s!r}")
+        if not isinstance(self.frame, (int, np.integer)) or isinstance(self.frame, bool):
+            raise TypeError(f"frame must be an int frame number, got {type(self.frame).__name__}")
+        if self.image is not None:
+            img = self.image
+            if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or not (
+                img.ndim == 2 or (img.ndim == 3 and img.shape[2] == 3)
+            ):
+                got = f"{img.dtype} {img.shape}" if isinstance(img, np.ndarray) else type(img).__name__
+                raise ValueError(f"image must be a (H, W) grey or (H, W, 3) BGR uint8 array, got {got}")
+        faces = _array(self.faces_xyz, "faces_xyz", (3,))
+        n = faces.shape[0]
+        boxes = None if self.boxes is None else _array(self.boxes, "boxes", (4,))
+        speaking = np.asarray(self.speaking)
+        speaking = speaking.astype(bool) if speaking.size == 0 else speaking  # [] reads as float64
+        prob = np.asarray(self.probability, dtype=np.float64)
+        ids = np.arange(n) if self.person_ids is None else np.asarray(self.person_ids)
+        ids = ids.astype(np.int64) if ids.size == 0 else ids
+        for name, arr in (("speaking", speaking), ("probability", prob), ("person_ids", ids)):
+            if arr.ndim != 1:
+                raise ValueError(f"{name} must be a 1-D array with one value per face, got shape {arr.shape}")
+        for name, arr in (("boxes", boxes), ("speaking", speaking), ("probability", prob), ("person_ids", ids)):
+            if arr is not None and arr.shape[0] != n:
+                raise ValueError(f"{name} must have one row per face ({n} faces in faces_xyz), got {arr.shape[0]}")
+        if speaking.dtype != bool:
+            raise TypeError(f"speaking must be an array of bool, got dtype {speaking.dtype}")
+        if not np.issubdtype(ids.dtype, np.integer):
+            raise TypeError(f"person_ids must be integers, got dtype {ids.dtype}")
+        if len(set(ids.tolist())) != n:
+            raise ValueError(f"person_ids must be distinct, got {ids.tolist()}")
+        if not (np.all(np.isfinite(faces)) and (boxes is None or np.all(np.isfinite(boxes)))):
+            raise ValueError("faces_xyz and boxes must be finite; drop unmatched faces before building the frame")
+        if np.any(~((prob >= 0) & (prob <= 1))):
+            raise ValueError(f"probability must lie in [0, 1], got {prob.tolist()}")
+        if np.ndim(self.itds_s) != 1:
+            raise ValueError(f"itds_s must be a 1-D array of seconds, got shape {np.shape(self.itds_s)}")
+        itds = np.asarray(self.itds_s, dtype=np.float64)
+        if self.model is not None:
+            if not isinstance(self.model, Mixture1D):
+                raise TypeError(f"model must be a Mixture1D or None, got {type(self.model).__name__}")
+            if self.model.n_components != n:
+                raise ValueError(f"model has {self.model.n_components} Gaussian components but there are {n} faces; "
+                                 "pass the model fitted to these faces (one component per face, same order)")
+        points = None if self.points_xyz is None else _array(self.points_xyz, "points_xyz", (3,))
+        diag = dict(self.diagnostics or {})
+        for key, value in diag.items():
+            if not isinstance(key, str) or not _KEY.match(key):
+                raise ValueError(f"diagnostics key {key!r} must be a path like 'fps/vision' (letters, digits, _ . -)")
+            if not isinstance(value, (int, float, np.integer, np.floating)) or isinstance(value, bool):
+                raise TypeError(f"diagnostics[{key!r}] must be a number, got {type(value).__name__}")
+        for name, value in (("faces_xyz", faces), ("boxes", boxes), ("speaking", speaking), ("probability", prob),
+                            ("person_ids", ids.astype(np.int64)), ("itds_s", itds), ("points_xyz", points),
+                            ("diagnostics", diag)):
+            object.__setattr__(self, name, value)
+
+    @property
+    def n_people(self) -> int:
+        """N, the number of faces (heads) in the frame."""
+        return int(self.faces_xyz.shape[0])
+
+    @classmethod
+    def from_face_guided(cls, stamp_s: float, frame: int, image: np.ndarray | None, boxes: np.ndarray,
+                         faces_xyz: np.ndarray, itds_s: np.ndarray, output: Any, *,
+                         person_ids: np.ndarray | None = None,
+                         diagnostics: Mapping[str, float] | None = None) -> ConsoleFrame:
+        """From F3D faces (boxes (N, 4) px, faces_xyz (N, 3) m) and a ``FaceGuidedOutput`` of the same faces."""
+        return cls(stamp_s, frame, image, boxes, faces_xyz, output.speaking, output.probability, itds_s,
+                   output.model, person_ids, None, diagnostics or {})
+
+    @classmethod
+    def from_motion_guided(cls, stamp_s: float, frame: int, image: np.ndarray | None, points_xyz: np.ndarray,
+                           itds_s: np.ndarray, output: Any, *, person_ids: np.ndarray | None = None,
+                           diagnostics: Mapping[str, float] | None = None) -> ConsoleFrame:
+        """From HM3D points (M, 3) m and a ``MotionGuidedOutput``: the heads are the estimated positions."""
+        return cls(stamp_s, frame, image, None, output.positions, output.speaking, output.probability, itds_s,
+                   output.model, person_ids, points_xyz, diagnostics or {})
+
+
+class Console:
+    """Logs the operator console to a Rerun recording.
+
+    Parameters
+    ----------
+    rig : StereoRig
+        The stereo rig (its rectified geometry: camera centres, intrinsics, image size).
+    mics : MicPair
+        The microphones and the affine AV correction (the ITD axis covers their reachable interval).
+    recording : rr.RecordingStream or None
+        Where to log; None uses the current (global or thread-local) recording of ``rr.init``.
+    jpeg_quality : int in [1, 100], or None
+        Images are JPEG-compressed at this quality (bounded .rrd size and viewer memory); None logs raw pixels.
+    image_every : int >= 1
+        Log one image out of this many frames (the overlays are logged every frame).
+    itd_bin_s : float, seconds
+        Width of the ITD histogram's bins.
+    capture_epoch_s : float or None, seconds
+        Unix time of the stamp clock's zero (``time.time() - time.monotonic()`` for live stamps): the
+        ``capture_time`` timeline is then a timestamp. None makes it a duration since the clock's zero (replays,
+        the simulator).
+    head_radius_m : float, metres
+        Radius of a drawn head.
+    fov_depth_m : float, metres
+        How far the bird's-eye view draws the fields of view and range rings.
+
+    Static data (robot, microphones, cameras, bird's-eye furniture, ITD axis) is logged when the console is made.
+    :meth:`log` is meant for one thread (the fusion loop): Rerun's time cursor is per thread.
+    """
+
+    def __init__(self, rig: StereoRig, mics: MicPair, *, recording: rr.RecordingStream | None = None,
+                 jpeg_quality: int | None = 80, image_every: int = 1, itd_bin_s: float = 10e-6,
+                 capture_epoch_s: float | None = None, head_radius_m: float = 0.09,
+                 fov_depth_m: float = 6.0) -> None:
+        if not isinstance(rig, StereoRig):
+            raise TypeError(f"rig must be a StereoRig, got {type(rig).__name__}")
+        if not isinstance(mics, MicPair):
+            raise TypeError(f"mics must be a MicPair, got {type(mics).__name__}")
+        if jpeg_quality is not None and not (isinstance(jpeg_quality, int) and 1 <= jpeg_quality <= 100):
+            raise ValueError(f"jpeg_quality must be an int in [1, 100] or None for raw images, got {jpeg_quality!r}")
+        if not (isinstance(image_every, int) and image_every >= 1):
+            raise ValueError(f"image_every must be an int >= 1, got {image_every!r}")
+        for name, value in (("head_radius_m", head_radius_m), ("fov_depth_m", fov_depth_m)):
+            if not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number of metres, got {value!r}")
+        if capture_epoch_s is not None and not np.isfinite(capture_epoch_s):
+            raise ValueError(f"capture_epoch_s must be a finite Unix time in seconds or None, got {capture_epoch_s!r}")
+        self.rig = rig
+        self.mics = mics
+        self.recording = recording
+        self.jpeg_quality = jpeg_quality
+        self.image_every = image_every
+        self.capture_epoch_s = capture_epoch_s
+        self.head_radius_m = float(head_radius_m)
+        self.fov_depth_m = float(fov_depth_m)
+        self.itd_pane = geo.ItdPane.for_mics(mics, bin_s=itd_bin_s)
+        self._edges_s = self.itd_pane.edges_s
+        self._present: set[int] = set()
+        self._styled: set[int] = set()
+        self._had_points = False
+        self._bars_axis_logged = False
+        self.frames_logged = 0
+        self.log_static()
+
+    # ------------------------------------------------------------------ helpers
+    def _log(self, path: str, *archetypes: Any, static: bool = False) -> None:
+        rr.log(path, *archetypes, static=static, recording=self.recording)
+
+    def _set_time(self, frame: ConsoleFrame) -> None:
+        rr.set_time(TIMELINE_FRAME, sequence=int(frame.frame), recording=self.recording)
+        if self.capture_epoch_s is None:
+            rr.set_time(TIMELINE_CAPTURE, duration=float(frame.stamp_s), recording=self.recording)
+        else:
+            rr.set_time(TIMELINE_CAPTURE, timestamp=float(frame.stamp_s) + self.capture_epoch_s,
+                        recording=self.recording)
+
+    # ------------------------------------------------------------------ static data
+    def log_static(self) -> None:
+        """The rig, the microphones and the fixed parts of the panes (``static=True``: shown at every time)."""
+        rig, mics = self.rig, self.mics
+        self._log(SCENE, rr.ViewCoordinates.RDF, static=True)
+        lo, hi = geo.robot_bounds(mics, rig)
+        self._log(ROBOT, rr.Boxes3D(centers=[0.5 * (lo + hi)], half_sizes=[0.5 * (hi - lo)], colors=[(90, 90, 90)],
+                                    labels=["robot"]), static=True)
+        mic_xyz = np.array([mics.left, mics.right])
+        self._log(MICS_3D, rr.Points3D(mic_xyz, radii=0.015, colors=[(220, 40, 40)], labels=["M_L", "M_R"]),
+                  static=True)
+        cameras = zip((CAMERA_LEFT, CAMERA_RIGHT), geo.camera_centres(rig), (rig.proj_left, rig.proj_right),
+                      strict=True)
+        for path, centre, proj in cameras:
+            self._log(path, rr.Transform3D(translation=centre), static=True)
+            self._log(path, rr.Pinhole(image_from_camera=proj[:, :3], resolution=list(rig.image_size),
+                                       camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.5), static=True)
+
+        outline_lo, outline_hi = geo.birdseye(lo), geo.birdseye(hi)
+        x0, x1 = sorted((outline_lo[0], outline_hi[0]))
+        y0, y1 = sorted((outline_lo[1], outline_hi[1]))
+        self._log(f"{BIRDSEYE}/robot", rr.LineStrips2D([[(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]],
+                                                       radii=0.01, colors=[(90, 90, 90)], labels=["robot"]),
+                  static=True)
+        self._log(f"{BIRDSEYE}/mics", rr.Points2D(geo.birdseye(mic_xyz), radii=0.02, colors=[(220, 40, 40)],
+                                                  labels=["M_L", "M_R"]), static=True)
+        self._log(f"{BIRDSEYE}/fov", rr.LineStrips2D(list(geo.fov_strips_birdseye(rig, self.fov_depth_m)),
+                                                     radii=0.008, colors=[(30, 90, 200), (30, 150, 220)],
+                                                     labels=["left camera", "right camera"]), static=True)
+        radii_m = np.arange(1.0, np.floor(self.fov_depth_m) + 0.5)
+        rings = geo.range_rings_birdseye(radii_m)
+        self._log(f"{BIRDSEYE}/rings", rr.LineStrips2D(list(rings), radii=0.004, colors=[(170, 170, 170)],
+                                                       labels=[f"{r:g} m" for r in radii_m], show_labels=False),
+                  static=True)
+
+        pane = self.itd_pane
+        lo_s, hi_s = pane.range_s
+        ticks_us = np.arange(np.ceil(lo_s * 1e4), np.floor(hi_s * 1e4) + 1) * 100.0  # every 100 us
+        tick_len = 0.02 * pane.height_per_fraction
+        strips = [pane.xy(np.array([lo_s, hi_s]), np.zeros(2))]
+        strips += [np.array([[t, 0.0], [t, tick_len]]) for t in ticks_us]
+        support_s = np.array(mics.itd_interval())
+        top = 0.4  # the vertical scale's top, fraction of the ITDs per bin
+        strips += [pane.xy(np.full(2, s), np.array([0.0, top])) for s in support_s]  # the reachable interval
+        colors = [(60, 60, 60)] * (1 + ticks_us.size) + [(200, 200, 200)] * 2
+        self._log(f"{ITD}/axis", rr.LineStrips2D(strips, radii=0.6, colors=colors), static=True)
+        labels = [f"{t:+.0f} us" if t else "0" for t in ticks_us]
+        self._log(f"{ITD}/axis/ticks", rr.Points2D(np.stack([ticks_us, np.full(ticks_us.size, 2.5 * tick_len)], 1),
+                                                   radii=0.1, colors=[(60, 60, 60)], labels=labels), static=True)
+        fractions = np.linspace(0.1, top, 4)
+        self._log(f"{ITD}/axis/fraction", rr.Points2D(pane.xy(np.full(4, lo_s), fractions), radii=1.0,
+                                                      colors=[(120, 120, 120)],
+                                                      labels=[f"{f:g} of ITDs/bin" for f in fractions]),
+                  static=True)
+        self._log(f"{COUNTS}/people", rr.SeriesLines(names="people", colors=[(40, 40, 40)]), static=True)
+        self._log(f"{COUNTS}/speakers", rr.SeriesLines(names="speakers", colors=[(214, 39, 40)]), static=True)
+        self._log(f"{COUNTS}/itds", rr.SeriesLines(names="ITDs in the interval", colors=[(31, 119, 180)]),
+                  static=True)
+
+    # ------------------------------------------------------------------ per frame
+    def log(self, frame: ConsoleFrame) -> None:
+        """Log one fused result on the ``frame`` and ``capture_time`` timelines; clear people no longer present."""
+        if not isinstance(frame, ConsoleFrame):
+            raise TypeError(f"frame must be a ConsoleFrame, got {type(frame).__name__}")
+        if frame.image is not None and frame.image.shape[1::-1] != tuple(self.rig.image_size):
+            raise ValueError(f"image must be of the rig's size {self.rig.image_size} (width, height), got "
+                             f"{frame.image.shape[1::-1]}")
+        self._set_time(frame)
+        ids = [int(i) for i in frame.person_ids]
+        colors = geo.pack_rgba(geo.person_colors(frame.person_ids))
+        self._clear_departed(set(ids))
+        if frame.image is not None and self.frames_logged % self.image_every == 0:
+            self._log_image(frame.image)
+        self._log_faces(frame, ids, colors)
+        self._log_heads(frame, ids, colors)
+        self._log_itd_space(frame, ids, colors)
+        self._log_series(frame, ids, colors)
+        self._log_points(frame.points_xyz)
+        self.frames_logged += 1
+
+    def _clear_departed(self, now: set[int]) -> None:
+        departed = sorted(self._present - now)
+        arrived = sorted(now - self._present)
+        for pid in departed:
+            for root in (FACES, HEADS_3D, BIRDSEYE_HEADS, ITD_FACES):
+                self._log(f"{root}/{pid}", rr.Clear(recursive=True))
+        if departed or arrived:
+            parts = [f"person {p} appeared" for p in arrived] + [f"person {p} left" for p in departed]
+            self._log(EVENTS, rr.TextLog("; ".join(parts), level=rr.TextLogLevel.INFO))
+        self._present = now
+
+    def _log_image(self, image: np.ndarray) -> None:
+        if self.jpeg_quality is None:
+            self._log(IMAGE, rr.Image(image, color_model="L" if image.ndim == 2 else "BGR"))
+            return
+        ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality])
+        if not ok:  # never seen with uint8 images; keep the console alive and say so
+            log.warning("JPEG encoding of a %s image failed; image not logged", image.shape)
+            return
+        self._log(IMAGE, rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg"))
+
+    def _log_faces(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
+        """Pane 1: a box on each face and a solid circle whose darkness codes the speaking probability."""
+        if frame.boxes is not None:
+            centres, radii = geo.face_circles_px(frame.boxes)
+        else:
+            centres, radii = geo.head_circles_px(self.rig, frame.faces_xyz, self.head_radius_m)
+        discs = geo.pack_rgba(geo.speaking_rgba(frame.probability))
+        for n, pid in enumerate(ids):
+            label = f"{pid}: {frame.probability[n]:.2f}"
+            parts: list[Any] = [rr.Points2D([centres[n]], radii=[radii[n]], colors=discs[n:n + 1], draw_order=20.0)]
+            if frame.boxes is not None:
+                box = frame.boxes[n]
+                parts.append(rr.Boxes2D(mins=[box[:2]], sizes=[box[2:]], colors=colors[n:n + 1], labels=[label],
+                                        radii=[3.0 if frame.speaking[n] else 1.5], draw_order=15.0))
+            self._log(f"{FACES}/{pid}", *parts)
+
+    def _log_heads(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
+        """Pane 2 (bird's-eye view: a circle per head) and the heads of the 3D view."""
+        r = self.head_radius_m
+        flat = geo.birdseye(frame.faces_xyz)
+        discs = geo.pack_rgba(geo.speaking_rgba(frame.probability))
+        for n, pid in enumerate(ids):
+            label = f"{pid}: {frame.probability[n]:.2f}"
+            self._log(f"{BIRDSEYE_HEADS}/{pid}",
+                      rr.Ellipses2D(centers=[flat[n]], half_sizes=[(r, r)], colors=colors[n:n + 1], labels=[label],
+                                    line_radii=[0.02 if frame.speaking[n] else 0.01]),
+                      rr.Points2D([flat[n]], radii=[0.6 * r], colors=discs[n:n + 1]))
+            self._log(f"{HEADS_3D}/{pid}",
+                      rr.Ellipsoids3D(centers=[frame.faces_xyz[n]], half_sizes=[(r, r, r)], colors=colors[n:n + 1],
+                                      labels=[label], fill_mode=_SOLID if frame.speaking[n] else _WIREFRAME))
+
+    def _log_itd_space(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
+        """Pane 3: the histogram of the interval's ITDs and each mapped face as its fitted Gaussian."""
+        pane, edges = self.itd_pane, self._edges_s
+        counts, outside = geo.itd_histogram(frame.itds_s, edges)
+        k = frame.itds_s.size
+        fractions = counts / k if k else np.zeros(counts.shape)
+        xs, ys = geo.histogram_outline(edges, fractions)
+        label = f"{k} ITDs" + (f" ({outside} outside the axis)" if outside else "")
+        self._log(f"{ITD}/histogram", rr.LineStrips2D([pane.xy(xs, ys)], radii=0.8, colors=[(40, 40, 40)],
+                                                      labels=[label]))
+        if self._bars_axis_logged:
+            # the bars' positions never change: sent with the first counts only (a tensor conversion costs
+            # ~0.4 ms; static would not do: static values would hide the per-frame ones)
+            self._log(ITD_BARS, rr.BarChart.from_fields(values=counts))
+        else:
+            centres_us = 0.5 * (edges[1:] + edges[:-1]) * 1e6
+            self._log(ITD_BARS, rr.BarChart(counts, abscissa=centres_us, color=(40, 40, 40),
+                                            widths=np.full(centres_us.size, pane.bin_s * 1e6, np.float32)))
+            self._bars_axis_logged = True
+        if frame.model is None:
+            self._log(f"{ITD}/outliers", rr.Clear(recursive=False))
+            for pid in ids:
+                self._log(f"{ITD_FACES}/{pid}", rr.Clear(recursive=True))
+            return
+        level = geo.outlier_level(frame.model, pane.bin_s)
+        lo_s, hi_s = frame.model.support
+        self._log(f"{ITD}/outliers", rr.LineStrips2D([pane.xy(np.array([lo_s, hi_s]), np.full(2, level))],
+                                                     radii=0.5, colors=[(150, 150, 150)], labels=["outliers"]))
+        curves = geo.gaussian_curves(frame.model, pane.bin_s, clip_s=pane.range_s)
+        mapped_s = self.mics.itd(frame.faces_xyz) if frame.n_people else np.zeros(0)
+        for n, pid in enumerate(ids):
+            x, y = curves[n]
+            self._log(f"{ITD_FACES}/{pid}",
+                      rr.LineStrips2D([pane.xy(x, y)], radii=[1.5 if frame.speaking[n] else 0.8],
+                                      colors=colors[n:n + 1],
+                                      labels=[f"{pid}: mu {frame.model.means[n] * 1e6:+.0f} us"]),
+                      rr.Points2D(pane.xy(mapped_s[n:n + 1], np.zeros(1)), radii=[4.0], colors=colors[n:n + 1]))
+
+    def _log_series(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
+        """Speaking probability per person, the counts and the diagnostics, as time series."""
+        for n, pid in enumerate(ids):
+            path = f"{PEOPLE}/{pid}/speaking_probability"
+            if pid not in self._styled:
+                self._log(path, rr.SeriesLines(names=f"person {pid}", colors=colors[n:n + 1]), static=True)
+                self._styled.add(pid)
+            self._log(path, rr.Scalars(float(frame.probability[n])))
+        self._log(f"{COUNTS}/people", rr.Scalars(float(frame.n_people)))
+        self._log(f"{COUNTS}/speakers", rr.Scalars(float(np.count_nonzero(frame.speaking))))
+        self._log(f"{COUNTS}/itds", rr.Scalars(float(frame.itds_s.size)))
+        for key, value in frame.diagnostics.items():
+            self._log(f"{DIAGNOSTICS}/{key}", rr.Scalars(float(value)))
+
+    def _log_points(self, points: np.ndarray | None) -> None:
+        if points is not None:
+            self._log(HM3D_POINTS, rr.Points3D(points, radii=0.01, colors=[(120, 120, 120)]))
+            self._had_points = True
+        elif self._had_points:
+            self._log(HM3D_POINTS, rr.Clear(recursive=False))
+            self._had_points = False

@@ -1,0 +1,108 @@
+"""The default layout of the operator console (a Rerun blueprint), and the saved ``layouts/default.rbl``.
+
+Left, the paper's visualisation tool (section 6, figure vtool) in its own arrangement: the left image with the face
+boxes and speaking circles (top left), the bird's-eye view (top right), the ITD space with the histogram and the
+fitted Gaussians (bottom left; a tab holds the same histogram as a bar chart with numeric axes), and the speaking
+probability of each person over time (bottom right). Right, what the paper did not have: the 3D scene, the counts
+and the pipeline's diagnostics, and the events (people appearing and leaving).
+
+The view origins are the entity paths that :mod:`app.console` logs (its module docstring lists them). This module
+does not import :mod:`app` (``app`` uses ``layouts``, not the other way round); a test checks that both agree.
+
+``python -m layouts.blueprint [PATH]`` writes the blueprint (default ``layouts/default.rbl``); open it with a
+recording: ``rerun recordings/demo.rrd layouts/default.rbl``.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import rerun.blueprint as rrb
+
+__all__ = ["APPLICATION_ID", "DEFAULT_RBL", "HISTORY_S", "default_blueprint", "main", "save_default_blueprint"]
+
+APPLICATION_ID = "avhear"  # a saved blueprint applies to recordings of this application id
+DEFAULT_RBL = Path(__file__).resolve().parent / "default.rbl"
+HISTORY_S = 30.0  # seconds of history the time series show behind the time cursor
+_HISTORY_FRAMES = 900  # the same at 30 frames per second, on the frame timeline
+
+
+def _recent() -> list[rrb.VisibleTimeRange]:
+    """A scrolling window over the last :data:`HISTORY_S` seconds, on both timelines."""
+    return [
+        rrb.VisibleTimeRange("capture_time", start=rrb.TimeRangeBoundary.cursor_relative(seconds=-HISTORY_S),
+                             end=rrb.TimeRangeBoundary.cursor_relative()),
+        rrb.VisibleTimeRange("frame", start=rrb.TimeRangeBoundary.cursor_relative(seq=-_HISTORY_FRAMES),
+                             end=rrb.TimeRangeBoundary.cursor_relative()),
+    ]
+
+
+def default_blueprint() -> rrb.Blueprint:
+    """The console's default layout: the paper's three panes plus the 3D scene, time series and diagnostics.
+
+    Rig-independent: the 2D views fit their bounds to the static data the console logs (the camera's resolution,
+    the bird's-eye range rings, the ITD axis), so one saved ``.rbl`` serves every rig.
+    """
+    image = rrb.Spatial2DView(origin="scene/cameras/left", name="Left image")
+    birdseye = rrb.Spatial2DView(origin="birdseye", name="Bird's-eye view (x-z, forward up)")
+    itd_space = rrb.Spatial2DView(origin="itd", contents=["+ $origin/**", "- $origin/bars"],
+                                  name="ITD space (us; fraction of ITDs per bin)")
+    itd_bars = rrb.BarChartView(origin="itd/bars", name="ITD histogram (counts)")
+    speaking = rrb.TimeSeriesView(origin="people", name="Speaking probability",
+                                  axis_y=rrb.ScalarAxis(range=(0.0, 1.0), zoom_lock=True),
+                                  plot_legend=rrb.PlotLegend(rrb.Corner2D.LeftTop), time_ranges=_recent())
+    scene = rrb.Spatial3DView(origin="scene", name="Scene 3D")
+    counts = rrb.TimeSeriesView(origin="counts", name="People and ITDs", time_ranges=_recent())
+    fps = rrb.TimeSeriesView(origin="diagnostics/fps", name="FPS per stage", time_ranges=_recent())
+    latency = rrb.TimeSeriesView(origin="diagnostics/latency_ms", name="Latency (ms)", time_ranges=_recent())
+    queues = rrb.TimeSeriesView(
+        origin="diagnostics",
+        contents=["+ $origin/queue_depth/**", "+ $origin/drops/**", "+ $origin/audio_overflows"],
+        name="Queues, drops, overflows", time_ranges=_recent(),
+    )
+    events = rrb.TextLogView(origin="events", name="Events")
+
+    paper = rrb.Vertical(
+        rrb.Horizontal(image, birdseye, column_shares=[4, 3]),
+        rrb.Horizontal(rrb.Tabs(itd_space, itd_bars, active_tab=0), speaking, column_shares=[4, 3]),
+        row_shares=[3, 2],
+        name="Vision-guided robot hearing",
+    )
+    extra = rrb.Vertical(
+        scene,
+        rrb.Tabs(counts, fps, latency, queues, active_tab=0),
+        events,
+        row_shares=[3, 2, 1],
+        name="Scene and diagnostics",
+    )
+    return rrb.Blueprint(
+        rrb.Horizontal(paper, extra, column_shares=[3, 1]),
+        rrb.TimePanel(timeline="capture_time", state="collapsed"),
+        rrb.SelectionPanel(state="hidden"),
+        collapse_panels=False,
+    )
+
+
+def save_default_blueprint(path: str | Path = DEFAULT_RBL) -> Path:
+    """Write :func:`default_blueprint` to ``path`` (a ``.rbl`` file) and return the path."""
+    out = Path(path)
+    if out.suffix != ".rbl":
+        raise ValueError(f"a blueprint file must end in .rbl, got {str(out)!r}")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    default_blueprint().save(APPLICATION_ID, out)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m layouts.blueprint [PATH]``: write the default blueprint."""
+    parser = argparse.ArgumentParser(prog="python -m layouts.blueprint", description=__doc__.splitlines()[0])
+    parser.add_argument("path", nargs="?", default=str(DEFAULT_RBL), help="where to write the .rbl file")
+    args = parser.parse_args(argv)
+    out = save_default_blueprint(args.path)
+    print(f"wrote {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

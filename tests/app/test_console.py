@@ -1,0 +1,524 @@
+"""The Rerun operator console: pure drawing helpers with numbers, and recordings written then read back.
+
+The recordings are written with ``RecordingStream.save`` into ``tmp_path`` and read with rerun's own reader for
+0.41 (``rerun.chunk.RrdReader``); no viewer, no network.
+"""
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import rerun as rr
+from rerun.chunk import RrdReader
+
+from app import console_geometry as geo
+from app.console import Console, ConsoleFrame
+from avcore.faces import locate_faces
+from avcore.geometry import MicPair
+from avcore.inference import FaceGuidedHearing
+from avcore.mixture import Mixture1D
+from avcore.render import default_scene
+from avcore.stereo import StereoRig
+from layouts.blueprint import (
+    APPLICATION_ID,
+    DEFAULT_RBL,
+    default_blueprint,
+    save_default_blueprint,
+)
+
+# A warning from rerun means something was not logged (a bad component value...): make it a failure.
+pytestmark = pytest.mark.filterwarnings("error::rerun.error_utils.RerunWarning")
+
+MICS = MicPair()
+RIG = StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12)
+
+
+# ---------------------------------------------------------------------------------------------- reading .rrd back
+class Rrd:
+    """The rows of one recording, by entity path: ``rows[path]`` is a list of (frame or None, {column: value})."""
+
+    def __init__(self, path: Path) -> None:
+        self.rows: dict[str, list[tuple[int | None, dict]]] = defaultdict(list)
+        for chunk in RrdReader(path).stream().to_chunks():
+            batch = chunk.to_record_batch()
+            cols = {n: batch.column(n).to_pylist() for n in batch.schema.names
+                    if n not in ("rerun.controls.RowId", "log_time", "capture_time")}
+            if "capture_time" in batch.schema.names:
+                cols["capture_time_ns"] = batch.column("capture_time").cast("int64").to_pylist()
+            for i in range(batch.num_rows):
+                row = {n: v[i] for n, v in cols.items()}
+                self.rows[chunk.entity_path].append((row.pop("frame", None), row))
+        for rows in self.rows.values():
+            rows.sort(key=lambda r: -1 if r[0] is None else r[0])
+
+    def values(self, path: str, column: str) -> list:
+        """The column's value on every row that has it, in frame order (static rows first)."""
+        return [row[column] for _, row in self.rows[path] if row.get(column) is not None]
+
+    def frames(self, path: str, column: str) -> list[int | None]:
+        return [f for f, row in self.rows[path] if row.get(column) is not None]
+
+
+def _tensor(value: list) -> np.ndarray:
+    """A logged tensor (BarChart values, abscissa): one row holding {shape, names, buffer}."""
+    (tensor,) = value
+    buffer = tensor["buffer"]
+    data = buffer[1] if isinstance(buffer, tuple) else buffer  # a dense union reads as (type name, values)
+    return np.asarray(data).reshape(tensor["shape"])
+
+
+# ---------------------------------------------------------------------------------------------- pure helpers
+def test_speaking_circle_is_darker_when_more_likely() -> None:
+    rgba = geo.speaking_rgba(np.array([0.0, 0.5, 1.0]))
+    assert rgba.dtype == np.uint8 and rgba.shape == (3, 4)
+    assert rgba[:, 0].tolist() == [255, 128, 0]
+    assert np.all(rgba[:, 0] == rgba[:, 1]) and np.all(rgba[:, 1] == rgba[:, 2])  # grey
+    assert np.all(np.diff(rgba[:, 3].astype(int)) > 0)  # more opaque as well
+
+
+def test_colours_pack_as_rrggbbaa() -> None:
+    packed = geo.pack_rgba(np.array([[1, 2, 3], [255, 0, 16]], np.uint8))
+    assert packed.dtype == np.uint32 and packed.tolist() == [0x010203FF, 0xFF0010FF]
+    assert geo.pack_rgba(np.array([[1, 2, 3, 4]], np.uint8)).tolist() == [0x01020304]
+    with pytest.raises(ValueError, match="colors"):
+        geo.pack_rgba(np.zeros((2, 5), np.uint8))
+
+
+def test_face_circle_sits_at_the_box_centre() -> None:
+    centres, radii = geo.face_circles_px(np.array([[10.0, 20.0, 40.0, 60.0]]))
+    np.testing.assert_allclose(centres, [[30.0, 50.0]])
+    np.testing.assert_allclose(radii, [8.0])
+
+
+def test_head_circles_project_onto_the_left_image() -> None:
+    centres, radii = geo.head_circles_px(RIG, np.array([[0.06, 0.0, 2.0]]), 0.1)
+    # (0.06, 0, 2) is straight ahead of the left camera centre (-0.06) offset by 0.12 m: u = cx + f 0.12 / 2
+    np.testing.assert_allclose(centres, [[319.5 + 554.0 * 0.12 / 2.0, 239.5]])
+    np.testing.assert_allclose(radii, [554.0 * 0.1 / 2.0])
+
+
+def test_birdseye_puts_forward_up() -> None:
+    np.testing.assert_allclose(geo.birdseye(np.array([[1.0, 5.0, 2.0], [-0.5, 0.0, 0.3]])),
+                               [[1.0, -2.0], [-0.5, -0.3]])
+
+
+def test_fields_of_view_open_symmetrically_from_each_camera() -> None:
+    strips = geo.fov_strips_birdseye(RIG, depth_m=6.0)
+    assert strips.shape == (2, 3, 2)
+    np.testing.assert_allclose(strips[:, 1], [[-0.06, 0.0], [0.06, 0.0]])  # the camera centres
+    np.testing.assert_allclose(strips[:, [0, 2], 1], -6.0)  # edges at 6 m depth, drawn upwards
+    half_width = 6.0 * 320.0 / 554.0  # edges of the outer pixels, u = -0.5 and 639.5
+    np.testing.assert_allclose(strips[0, 0, 0], -0.06 - half_width)
+    np.testing.assert_allclose(strips[0, 2, 0], -0.06 + half_width)
+    angle = np.degrees(2 * np.arctan(320.0 / 554.0))
+    assert 59.0 < angle < 61.0  # the default scene's 60 degree field of view
+
+
+def test_range_rings_are_half_circles_in_front() -> None:
+    rings = geo.range_rings_birdseye(np.array([1.0, 2.5]), n_points=31)
+    assert rings.shape == (2, 31, 2)
+    np.testing.assert_allclose(np.linalg.norm(rings, axis=-1), [[1.0] * 31, [2.5] * 31])
+    assert np.all(rings[..., 1] <= 1e-12)  # in front of the robot, i.e. up in the view
+    np.testing.assert_allclose(rings[:, [0, -1], 0], [[-1.0, 1.0], [-2.5, 2.5]], atol=1e-12)
+
+
+def test_robot_box_holds_every_sensor() -> None:
+    mics = MicPair(left=(-0.1, 0.02, 0.03), right=(0.1, 0.02, 0.03))
+    lo, hi = geo.robot_bounds(mics, RIG, margin_m=0.04)
+    np.testing.assert_allclose(lo, [-0.14, -0.04, -0.04])
+    np.testing.assert_allclose(hi, [0.14, 0.06, 0.07])
+
+
+def test_itd_pane_covers_the_reachable_interval_with_whole_bins() -> None:
+    pane = geo.ItdPane.for_mics(MICS, bin_s=10e-6)
+    lo, hi = MICS.itd_interval()
+    assert pane.range_s[0] < lo and pane.range_s[1] > hi
+    np.testing.assert_allclose(pane.range_s[1] - pane.range_s[0], 1.5 * (hi - lo))
+    edges = pane.edges_s
+    np.testing.assert_allclose(np.diff(edges), 10e-6)
+    assert edges[0] <= pane.range_s[0] and edges[-1] >= pane.range_s[1]
+    assert edges[-1] - edges[0] < pane.range_s[1] - pane.range_s[0] + 10e-6
+    np.testing.assert_allclose(0.5 * (edges[0] + edges[-1]), 0.0, atol=1e-15)  # symmetric around c0 = 0
+    np.testing.assert_allclose(pane.xy(np.array([1e-4]), np.array([0.5])), [[100.0, -0.5 * pane.height_per_fraction]])
+
+
+def test_itd_pane_rejects_a_bad_range() -> None:
+    with pytest.raises(ValueError, match="range_s"):
+        geo.ItdPane((1e-4, -1e-4), 1e-5, 100.0)
+    with pytest.raises(ValueError, match="bin_s"):
+        geo.ItdPane((-1e-4, 1e-4), 0.0, 100.0)
+
+
+def test_histogram_counts_inside_and_reports_the_rest() -> None:
+    edges = np.array([-2e-4, -1e-4, 0.0, 1e-4, 2e-4])
+    counts, outside = geo.itd_histogram(np.array([-1.5e-4, 0.5e-4, 0.6e-4, 1.5e-4, 3e-4, np.nan, -9e-4]), edges)
+    assert counts.tolist() == [1, 0, 2, 1]
+    assert outside == 3
+
+
+def test_histogram_outline_steps_along_the_bar_tops() -> None:
+    xs, ys = geo.histogram_outline(np.array([0.0, 1.0, 2.0]), np.array([3.0, 5.0]))
+    assert xs.tolist() == [0.0, 0.0, 1.0, 1.0, 2.0, 2.0]
+    assert ys.tolist() == [0.0, 3.0, 3.0, 5.0, 5.0, 0.0]
+    assert np.trapezoid(ys, xs) == pytest.approx(8.0)  # the area of the bars
+
+
+def test_gaussian_curve_predicts_the_fraction_of_itds_per_bin() -> None:
+    model = Mixture1D(np.array([0.6, 0.3, 0.1]), np.array([-1e-4, 1.2e-4]), np.array([1e-9, 4e-10]),
+                      MICS.itd_interval())
+    bin_s = 10e-6
+    curves = geo.gaussian_curves(model, bin_s, n_points=401)
+    assert len(curves) == 2
+    for n, (x, y) in enumerate(curves):
+        sigma = np.sqrt(model.variances[n])
+        np.testing.assert_allclose([x[0], x[-1]], model.means[n] + np.array([-4, 4]) * sigma)
+        peak = model.weights[n] * bin_s / np.sqrt(2 * np.pi * model.variances[n])
+        assert y.max() == pytest.approx(peak, rel=1e-6)
+        # integrated over ITD space, y / bin_s gives the component's weight (within 4 sigma: 99.994%)
+        assert np.trapezoid(y, x) / bin_s == pytest.approx(model.weights[n], rel=1e-3)
+    clipped = geo.gaussian_curves(model, bin_s, clip_s=(2e-4, 1e-3))  # mu_0 + 4 sigma_0 = 26 us
+    assert clipped[0][0].size == 0  # entirely left of the shown range
+    assert geo.outlier_level(model, bin_s) == pytest.approx(0.1 * bin_s / (MICS.itd_interval()[1] * 2))
+
+
+def test_gaussian_curve_lies_on_the_histogram_of_its_samples() -> None:
+    rng = np.random.default_rng(3)
+    mu, sigma = 5e-5, 3.2e-5
+    itds = rng.normal(mu, sigma, 20000)
+    pane = geo.ItdPane.for_mics(MICS, bin_s=10e-6)
+    counts, outside = geo.itd_histogram(itds, pane.edges_s)
+    assert outside == 0
+    model = Mixture1D(np.array([1.0 - 1e-12, 1e-12]), np.array([mu]), np.array([sigma**2]), MICS.itd_interval())
+    centres = 0.5 * (pane.edges_s[1:] + pane.edges_s[:-1])
+    predicted = model.component_densities(centres)[:, 0] * pane.bin_s
+    near = np.abs(centres - mu) < sigma
+    np.testing.assert_allclose(counts[near] / itds.size, predicted[near], rtol=0.1)
+
+
+def test_person_colours_are_stable_per_id() -> None:
+    c = geo.person_colors(np.array([0, 3, 10, 13]))
+    assert c.shape == (4, 3) and c.dtype == np.uint8
+    assert np.array_equal(c[0], c[2]) and np.array_equal(c[1], c[3]) and not np.array_equal(c[0], c[1])
+
+
+# ---------------------------------------------------------------------------------------------- ConsoleFrame
+def _frame(**kw: object) -> ConsoleFrame:
+    base: dict[str, object] = {
+        "stamp_s": 0.0, "frame": 0, "image": None, "boxes": np.array([[10.0, 10.0, 50.0, 50.0]]),
+        "faces_xyz": np.array([[0.0, 0.0, 2.0]]), "speaking": np.array([True]), "probability": np.array([0.9]),
+        "itds_s": np.array([1e-5, -2e-5]),
+    }
+    base.update(kw)
+    return ConsoleFrame(**base)  # type: ignore[arg-type]
+
+
+def test_console_frame_defaults_and_empty_scene() -> None:
+    f = _frame()
+    assert f.person_ids.tolist() == [0] and f.n_people == 1 and f.diagnostics == {}
+    empty = _frame(boxes=np.zeros((0, 4)), faces_xyz=np.zeros((0, 3)), speaking=[], probability=[], itds_s=[])
+    assert empty.n_people == 0 and empty.speaking.dtype == bool
+
+
+@pytest.mark.parametrize(("kw", "match"), [
+    ({"boxes": np.zeros((2, 4))}, "boxes must have one row per face"),
+    ({"probability": np.array([1.5])}, r"probability must lie in \[0, 1\]"),
+    ({"image": np.zeros((4, 4), np.float32)}, "uint8"),
+    ({"itds_s": np.zeros((2, 2))}, "itds_s must be a 1-D array"),
+    ({"probability": np.array([[0.5]])}, "probability must be a 1-D array"),
+    ({"faces_xyz": np.array([[np.nan, 0.0, 1.0]])}, "finite"),
+    ({"person_ids": np.array([4, 4]), "faces_xyz": np.ones((2, 3)), "boxes": np.ones((2, 4)), "speaking": [True, False],
+      "probability": [0.5, 0.5]}, "distinct"),
+    ({"model": Mixture1D.outliers_only((-1e-4, 1e-4))}, "model has 0 Gaussian components but there are 1"),
+    ({"diagnostics": {"fps vision": 3.0}}, "diagnostics key"),
+    ({"stamp_s": float("nan")}, "stamp_s"),
+])
+def test_console_frame_rejects_inconsistent_input(kw: dict, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        _frame(**kw)
+
+
+def test_console_frame_rejects_wrong_types() -> None:
+    with pytest.raises(TypeError, match="speaking must be an array of bool"):
+        _frame(speaking=np.array([0.7]))
+    with pytest.raises(TypeError, match="person_ids must be integers"):
+        _frame(person_ids=np.array([1.0]))
+    with pytest.raises(TypeError, match="frame must be an int"):
+        _frame(frame=1.0)
+    with pytest.raises(TypeError, match="diagnostics"):
+        _frame(diagnostics={"fps/vision": "fast"})
+
+
+def test_console_rejects_bad_settings() -> None:
+    with pytest.raises(ValueError, match="jpeg_quality"):
+        Console(RIG, MICS, recording=rr.RecordingStream(APPLICATION_ID), jpeg_quality=0)
+    with pytest.raises(TypeError, match="rig must be a StereoRig"):
+        Console(object(), MICS)  # type: ignore[arg-type]
+
+
+# ---------------------------------------------------------------------------------------------- recordings
+@pytest.fixture(scope="module")
+def scene() -> dict:
+    """One rendered 640x480 frame of the default scene (three drawn faces) and its F3D faces."""
+    renderer = default_scene()
+    frame = renderer.render(0.0)
+    faces = locate_faces(frame.left, frame.right, renderer.rig)
+    assert len(faces) == 3
+    return {"rig": renderer.rig, "image": frame.left, "boxes": faces.boxes, "xyz": faces.points}
+
+
+def _itds_of_speaker(xyz: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """ITDs of an interval in which person 1 speaks: 14 around its mapped ITD, 3 outliers, 1 far off the axis."""
+    return np.concatenate([MICS.itd(xyz[1]) + rng.normal(0.0, 2e-5, 14), rng.uniform(-3e-4, 3e-4, 3), [2e-3]])
+
+
+@pytest.fixture(scope="module")
+def recorded(scene: dict, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """Five frames logged to a .rrd: three people for four frames, then person 2 leaves."""
+    path = tmp_path_factory.mktemp("console") / "run.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(scene["rig"], MICS, recording=rec)
+    fg = FaceGuidedHearing(MICS)
+    rng = np.random.default_rng(0)
+    logged = []
+    for i in range(5):
+        n = 3 if i < 4 else 2
+        itds = _itds_of_speaker(scene["xyz"], rng)
+        out = fg.step(scene["xyz"][:n], itds)
+        frame = ConsoleFrame.from_face_guided(
+            10.0 + i / 30.0, i, scene["image"], scene["boxes"][:n], scene["xyz"][:n], itds, out,
+            person_ids=np.array([7, 8, 9])[:n],
+            diagnostics={"fps/vision": 30.0 - i, "latency_ms/capture_to_log": 12.5, "audio_overflows": 0},
+        )
+        console.log(frame)
+        logged.append((frame, out))
+    rec.disconnect()
+    return {"rrd": Rrd(path), "logged": logged, "path": path}
+
+
+def test_static_rig_microphones_and_cameras(recorded: dict, scene: dict) -> None:
+    rrd = recorded["rrd"]
+    assert rrd.frames("/scene/robot/mics", "Points3D:positions") == [None]  # static
+    np.testing.assert_allclose(rrd.values("/scene/robot/mics", "Points3D:positions")[0], [MICS.left, MICS.right])
+    assert rrd.values("/scene/cameras/left", "Pinhole:resolution")[0] == [[640.0, 480.0]]
+    k = np.array(rrd.values("/scene/cameras/left", "Pinhole:image_from_camera")[0]).reshape(3, 3).T
+    np.testing.assert_allclose(k, scene["rig"].proj_left[:, :3])
+    np.testing.assert_allclose(rrd.values("/scene/cameras/right", "Transform3D:translation")[0], [[0.06, 0.0, 0.0]])
+    assert len(rrd.values("/birdseye/fov", "LineStrips2D:strips")[0]) == 2
+    assert rrd.values("/scene", "ViewCoordinates:xyz")  # right-down-forward
+
+
+def test_timelines_follow_frame_numbers_and_capture_stamps(recorded: dict) -> None:
+    rows = recorded["rrd"].rows["/counts/people"]
+    timed = [(f, row["capture_time_ns"]) for f, row in rows if f is not None]
+    assert [f for f, _ in timed] == [0, 1, 2, 3, 4]
+    np.testing.assert_allclose([t * 1e-9 for _, t in timed], 10.0 + np.arange(5) / 30.0, atol=1e-9)
+
+
+def test_left_image_is_logged_as_jpeg_close_to_the_original(recorded: dict, scene: dict) -> None:
+    rrd = recorded["rrd"]
+    assert rrd.values("/scene/cameras/left/image", "EncodedImage:media_type")[0] == ["image/jpeg"]
+    blobs = rrd.values("/scene/cameras/left/image", "EncodedImage:blob")
+    assert len(blobs) == 5
+    jpeg = np.frombuffer(bytes(blobs[0][0]), np.uint8)
+    decoded = cv2.imdecode(jpeg, cv2.IMREAD_COLOR)
+    assert decoded.shape == scene["image"].shape
+    assert np.mean(np.abs(decoded.astype(float) - scene["image"])) < 6.0
+    assert jpeg.size < scene["image"].nbytes / 5
+
+
+def test_face_boxes_and_speaking_circles(recorded: dict, scene: dict) -> None:
+    rrd = recorded["rrd"]
+    _, out = recorded["logged"][0]
+    assert out.speaking.tolist() == [False, True, False]
+    greys = {}
+    for n, pid in enumerate((7, 8, 9)):
+        path = f"/scene/cameras/left/faces/{pid}"
+        x, y, w, h = scene["boxes"][n]
+        np.testing.assert_allclose(rrd.values(path, "Boxes2D:centers")[0], [[x + w / 2, y + h / 2]], rtol=1e-6)
+        np.testing.assert_allclose(rrd.values(path, "Boxes2D:half_sizes")[0], [[w / 2, h / 2]], rtol=1e-6)
+        np.testing.assert_allclose(rrd.values(path, "Points2D:positions")[0], [[x + w / 2, y + h / 2]], rtol=1e-6)
+        assert rrd.values(path, "Boxes2D:labels")[0] == [f"{pid}: {out.probability[n]:.2f}"]
+        greys[pid] = rrd.values(path, "Points2D:colors")[0][0] >> 24  # 0xRRGGBBAA: the red (= grey) level
+    assert greys[8] < 0.5 * 255 < greys[7] and greys[8] < greys[9]  # the speaker's circle is the dark one
+
+
+def test_birdseye_heads_and_3d_heads(recorded: dict, scene: dict) -> None:
+    rrd = recorded["rrd"]
+    for n, pid in enumerate((7, 8, 9)):
+        x, _, z = scene["xyz"][n]
+        np.testing.assert_allclose(rrd.values(f"/birdseye/heads/{pid}", "Ellipses2D:centers")[0], [[x, -z]],
+                                   rtol=1e-6)
+        np.testing.assert_allclose(rrd.values(f"/birdseye/heads/{pid}", "Ellipses2D:half_sizes")[0],
+                                   [[0.09, 0.09]], rtol=1e-6)
+        np.testing.assert_allclose(rrd.values(f"/scene/heads/{pid}", "Ellipsoids3D:centers")[0], [scene["xyz"][n]],
+                                   rtol=1e-6)
+
+
+def test_itd_histogram_and_fitted_gaussians(recorded: dict, scene: dict) -> None:
+    rrd = recorded["rrd"]
+    frame, out = recorded["logged"][0]
+    counts = _tensor(rrd.values("/itd/bars", "BarChart:values")[0])
+    abscissa = _tensor(rrd.values("/itd/bars", "BarChart:abscissa")[0])
+    assert counts.shape == abscissa.shape == (105,)  # 1050 us in 10 us bins
+    assert len(rrd.values("/itd/bars", "BarChart:values")) == 5
+    assert rrd.frames("/itd/bars", "BarChart:abscissa") == [0]  # the bars' positions are sent once
+    assert counts.sum() == frame.itds_s.size - 1  # the 2 ms ITD lies off the axis
+    # microseconds: +-350 us reachable, widened by a quarter of its 700 us on each side
+    np.testing.assert_allclose(abscissa[[0, -1]], [-520.0, 520.0])
+    mapped_us = MICS.itd(scene["xyz"][1]) * 1e6
+    assert abs(abscissa[np.argmax(counts)] - mapped_us) < 60.0  # the histogram peaks at the speaker
+    assert rrd.values("/itd/histogram", "LineStrips2D:labels")[0] == ["18 ITDs (1 outside the axis)"]
+    strip = np.array(rrd.values("/itd/histogram", "LineStrips2D:strips")[0][0])
+    assert strip.shape == (2 * counts.size + 2, 2) and np.all(strip[:, 1] <= 0)  # bars drawn upwards
+    curve = np.array(rrd.values("/itd/faces/8", "LineStrips2D:strips")[0][0])
+    peak_x_us = curve[np.argmin(curve[:, 1]), 0]
+    step_us = 8 * np.sqrt(out.model.variances[1]) * 1e6 / 63  # 64 points over mu +- 4 sigma
+    assert peak_x_us == pytest.approx(out.model.means[1] * 1e6, abs=0.5 * step_us + 1e-3)
+    np.testing.assert_allclose(rrd.values("/itd/faces/8", "Points2D:positions")[0], [[mapped_us, 0.0]], atol=1e-3)
+    # the speaker's curve is the tall one
+    tallest = {pid: -np.array(rrd.values(f"/itd/faces/{pid}", "LineStrips2D:strips")[0][0])[:, 1].min()
+               for pid in (7, 8, 9)}
+    assert tallest[8] > 5 * max(tallest[7], tallest[9])
+
+
+def test_time_series_per_person_counts_and_diagnostics(recorded: dict) -> None:
+    rrd = recorded["rrd"]
+    logged = recorded["logged"]
+    series = rrd.values("/people/8/speaking_probability", "Scalars:scalars")
+    np.testing.assert_allclose([s[0] for s in series], [out.probability[1] for _, out in logged])
+    assert rrd.values("/people/8/speaking_probability", "SeriesLines:names") == [["person 8"]]
+    assert len(rrd.values("/people/9/speaking_probability", "Scalars:scalars")) == 4
+    assert [v[0] for v in rrd.values("/counts/people", "Scalars:scalars")] == [3, 3, 3, 3, 2]
+    assert [v[0] for v in rrd.values("/counts/itds", "Scalars:scalars")] == [18] * 5
+    assert [v[0] for v in rrd.values("/diagnostics/fps/vision", "Scalars:scalars")] == [30, 29, 28, 27, 26]
+    assert rrd.values("/diagnostics/latency_ms/capture_to_log", "Scalars:scalars")[0] == [12.5]
+
+
+def test_departed_person_is_cleared_everywhere(recorded: dict) -> None:
+    rrd = recorded["rrd"]
+    for path in ("/scene/cameras/left/faces/9", "/scene/heads/9", "/birdseye/heads/9", "/itd/faces/9"):
+        assert rrd.frames(path, "Clear:is_recursive") == [4], path
+        assert rrd.values(path, "Clear:is_recursive") == [[True]]
+    for path in ("/scene/cameras/left/faces/8", "/birdseye/heads/8"):
+        assert rrd.frames(path, "Clear:is_recursive") == []
+    texts = rrd.values("/events", "TextLog:text")
+    assert texts == [["person 7 appeared; person 8 appeared; person 9 appeared"], ["person 9 left"]]
+
+
+def test_motion_guided_frame_without_boxes_with_points(scene: dict, tmp_path: Path) -> None:
+    @dataclass
+    class Output:  # the fields of MotionGuidedOutput the console reads
+        positions: np.ndarray
+        speaking: np.ndarray
+        probability: np.ndarray
+        model: Mixture1D | None
+
+    points = np.random.default_rng(1).normal([0.1, 0.0, 2.1], 0.05, (50, 3))
+    out = Output(scene["xyz"][1:2], np.array([True]), np.array([0.8]), None)
+    path = tmp_path / "motion.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(scene["rig"], MICS, recording=rec, jpeg_quality=None, capture_epoch_s=1.7e9)
+    console.log(ConsoleFrame.from_motion_guided(0.5, 0, scene["image"], points, np.array([1e-5]), out))
+    console.log(ConsoleFrame.from_motion_guided(0.6, 1, None, None, np.array([1e-5]), out))  # type: ignore[arg-type]
+    rec.disconnect()
+    rrd = Rrd(path)
+    buffer = rrd.values("/scene/cameras/left/image", "Image:buffer")
+    assert len(buffer) == 1 and bytes(buffer[0][0]) == scene["image"].tobytes()  # raw, exact
+    assert "Boxes2D:centers" not in rrd.rows["/scene/cameras/left/faces/0"][0][1]
+    centre, _ = geo.head_circles_px(scene["rig"], scene["xyz"][1:2], 0.09)
+    np.testing.assert_allclose(rrd.values("/scene/cameras/left/faces/0", "Points2D:positions")[0], centre, rtol=1e-6)
+    np.testing.assert_allclose(rrd.values("/scene/hm3d_points", "Points3D:positions")[0], points, rtol=1e-6)
+    assert rrd.frames("/scene/hm3d_points", "Clear:is_recursive") == [1]
+    stamps = [row["capture_time_ns"] for f, row in rrd.rows["/counts/people"] if f is not None]
+    np.testing.assert_allclose(np.array(stamps) * 1e-9, [1.7e9 + 0.5, 1.7e9 + 0.6])  # a timestamp timeline
+
+
+def test_image_every_thins_the_images_not_the_overlays(scene: dict, tmp_path: Path) -> None:
+    path = tmp_path / "thin.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(scene["rig"], MICS, recording=rec, image_every=2)
+    for i in range(5):
+        console.log(_frame(frame=i, image=scene["image"]))
+    rec.disconnect()
+    rrd = Rrd(path)
+    assert rrd.frames("/scene/cameras/left/image", "EncodedImage:blob") == [0, 2, 4]
+    assert rrd.frames("/scene/cameras/left/faces/0", "Boxes2D:centers") == [0, 1, 2, 3, 4]
+
+
+def test_empty_scene_and_silence_are_logged(tmp_path: Path) -> None:
+    path = tmp_path / "empty.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(RIG, MICS, recording=rec)
+    nobody = {"boxes": np.zeros((0, 4)), "faces_xyz": np.zeros((0, 3)), "speaking": np.zeros(0, bool),
+              "probability": np.zeros(0)}
+    console.log(_frame(frame=0, itds_s=np.zeros(0), **nobody))
+    console.log(_frame(frame=1, model=Mixture1D.outliers_only(MICS.itd_interval()), **nobody))
+    rec.disconnect()
+    rrd = Rrd(path)
+    assert [v[0] for v in rrd.values("/counts/people", "Scalars:scalars")] == [0, 0]
+    assert [v[0] for v in rrd.values("/counts/itds", "Scalars:scalars")] == [0, 2]
+    assert _tensor(rrd.values("/itd/bars", "BarChart:values")[1]).sum() == 2
+    assert rrd.frames("/itd/outliers", "LineStrips2D:strips") == [1]  # no model at frame 0, outliers only at 1
+
+
+def test_image_of_the_wrong_size_is_refused(scene: dict) -> None:
+    console = Console(scene["rig"], MICS, recording=rr.RecordingStream(APPLICATION_ID))
+    with pytest.raises(ValueError, match="rig's size"):
+        console.log(_frame(image=np.zeros((240, 320, 3), np.uint8)))
+
+
+def test_jpeg_keeps_a_frame_several_times_smaller_than_raw(scene: dict) -> None:
+    sizes = {}
+    for quality in (None, 80):
+        rec = rr.RecordingStream(APPLICATION_ID)
+        stream = rec.memory_recording()
+        console = Console(scene["rig"], MICS, recording=rec, jpeg_quality=quality)
+        stream.drain_as_bytes()  # the static data
+        for i in range(3):
+            console.log(_frame(frame=i, image=scene["image"]))
+        rec.flush()
+        sizes[quality] = len(stream.drain_as_bytes()) / 3
+    assert sizes[None] > 0.5 * scene["image"].nbytes  # the file sink's LZ4 does not shrink a noisy image much
+    assert sizes[80] < sizes[None] / 5
+
+
+# ---------------------------------------------------------------------------------------------- blueprint
+def _origins(path: Path) -> set[str]:
+    reader = RrdReader(path)
+    (store,) = reader.blueprints()
+    assert store.application_id == APPLICATION_ID
+    out = set()
+    for chunk in reader.stream(store=store).to_chunks():
+        batch = chunk.to_record_batch()
+        if "ViewBlueprint:space_origin" in batch.schema.names:
+            out.update(o for v in batch.column("ViewBlueprint:space_origin").to_pylist() for o in v)
+    return out
+
+
+def test_blueprint_views_look_at_what_the_console_logs(recorded: dict, tmp_path: Path) -> None:
+    assert default_blueprint() is not None
+    path = save_default_blueprint(tmp_path / "console.rbl")
+    origins = _origins(path)
+    assert {"scene/cameras/left", "birdseye", "itd", "itd/bars", "people", "scene", "counts",
+            "diagnostics/fps", "diagnostics/latency_ms", "events"} <= origins
+    logged = set(recorded["rrd"].rows)
+    for origin in origins:
+        assert any(p == f"/{origin}" or p.startswith(f"/{origin}/") for p in logged), origin
+
+
+def test_saved_default_blueprint_is_current(tmp_path: Path) -> None:
+    assert DEFAULT_RBL.name == "default.rbl" and DEFAULT_RBL.is_file()
+    assert _origins(DEFAULT_RBL) == _origins(save_default_blueprint(tmp_path / "fresh.rbl"))
+
+
+def test_blueprint_file_needs_the_rbl_suffix(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match=r"\.rbl"):
+        save_default_blueprint(tmp_path / "layout.rrd")
