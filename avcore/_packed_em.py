@@ -10,6 +10,7 @@ floor, variance floor).
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -137,33 +138,32 @@ class _Live:
         return slot_keep
 
 
-def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: int, tol: float, var_floor: float,
-           min_wo: float, history: list[np.ndarray] | None = None) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
-    """Standard EM on weighted 1-D data (bins with exact stats) for packed models.
+def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.ndarray], np.ndarray],
+             sums: Callable[[_Live, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]], w_total: float, *,
+             max_iter: int, tol: float, var_floor: float, min_wo: float, history: list[np.ndarray] | None
+             ) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
+    """The EM loop, written once for both EMs: E-step on ``x``, convergence of ``objective``, M-step.
 
-    x : (B,) where responsibilities are evaluated; stats : (B, 3) count, sum x, sum x^2 per bin.
-    Returns the fitted models, their final log-likelihood (C,), n_iter (C,), converged (C,). ``history`` receives
-    the log-likelihood of every model before each M-step (np.nan for models that have left the batch).
+    objective(live, total) -> (C_live,) the quantity EM must not lower, from the E-step's densities;
+    sums(live, resp, resp_outlier) -> ((S_live, 3) sums of r, r x, r x^2 per Gaussian slot, (C_live,) outlier
+    counts), from the responsibilities of ``x``. Returns the models, the final objective (C,), n_iter (C,) and
+    converged (C,); ``history`` receives the objective of every model at every E-step (nan once it has left).
     """
     p = p.copy()
     c = p.sizes.size
     n_iter = np.zeros(c, dtype=np.int64)
     converged = np.zeros(c, dtype=bool)
-    loglik = np.full(c, -np.inf)
-    cnt = stats[:, 0]
-    w_total = float(cnt.sum())
-    if x.size == 0 or c == 0:
-        return p, np.zeros(c), n_iter, np.ones(c, dtype=bool)
+    value = np.full(c, -np.inf)
     lv = _Live(p)
     for it in range(max_iter + 1):
         dens, dens_o, total = e_step(x, lv.sizes, lv.wg, lv.mu, lv.var, lv.wo, u, lv.starts)
-        ll = cnt @ np.log(total)
+        obj = objective(lv, total)
         if history is not None:
             full = np.full(c, np.nan)
-            full[lv.idx] = ll
+            full[lv.idx] = obj
             history.append(full)
-        done = np.abs(ll - loglik[lv.idx]) < tol * w_total
-        loglik[lv.idx] = ll
+        done = np.abs(obj - value[lv.idx]) < tol * w_total
+        value[lv.idx] = obj
         converged[lv.idx[done]] = True
         if it == max_iter or np.all(done):
             break
@@ -171,12 +171,31 @@ def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: i
             slot_keep = lv.drop(done)
             dens, dens_o, total = dens[:, slot_keep], dens_o[~done], total[:, ~done]
         dens /= total[:, lv.owner]
-        g_sums = dens.T @ stats
-        o_counts = cnt @ (dens_o / total)
+        g_sums, o_counts = sums(lv, dens, dens_o / total)
         lv.wg, lv.mu, lv.var, lv.wo = m_step(g_sums, o_counts, w_total, lv.sizes, lv.mu, lv.var, var_floor, min_wo)
         n_iter[lv.idx] += 1
     lv.store()
-    return p, loglik, n_iter, converged
+    return p, value, n_iter, converged
+
+
+def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: int, tol: float, var_floor: float,
+           min_wo: float, history: list[np.ndarray] | None = None) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
+    """Standard EM (eq. alpha_m and its M-step) on weighted 1-D data (bins with exact stats) for packed models.
+
+    x : (B,) where responsibilities are evaluated; stats : (B, 3) count, sum x, sum x^2 per bin.
+    Returns the fitted models, their final log-likelihood (C,), n_iter (C,), converged (C,). ``history`` receives
+    the log-likelihood of every model before each M-step (np.nan for models that have left the batch).
+    """
+    c = p.sizes.size
+    if x.size == 0 or c == 0:
+        return p.copy(), np.zeros(c), np.zeros(c, dtype=np.int64), np.ones(c, dtype=bool)
+    cnt = stats[:, 0]
+    return _em_loop(
+        p, x, u,
+        objective=lambda lv, total: cnt @ np.log(total),
+        sums=lambda lv, resp, resp_o: (resp.T @ stats, cnt @ resp_o),
+        w_total=float(cnt.sum()), max_iter=max_iter, tol=tol, var_floor=var_floor, min_wo=min_wo, history=history,
+    )
 
 
 def class_sums(x: np.ndarray, stats: np.ndarray, p: Packed, u: float) -> tuple[np.ndarray, np.ndarray]:
@@ -213,39 +232,18 @@ def run_fusion(vis_g: np.ndarray, vis_o: np.ndarray, m_total: float, a: np.ndarr
     Returns the fused models, n_iter (C,), converged (C,). ``history`` receives the constrained objective
     (fixed_q + auditory log-likelihood), which never decreases.
     """
-    p = p.copy()
     c = p.sizes.size
-    k = a.size
-    n_iter = np.zeros(c, dtype=np.int64)
-    converged = np.zeros(c, dtype=bool)
-    objective = np.full(c, -np.inf)
-    w_total = m_total + k
+    w_total = m_total + a.size
     if w_total == 0 or c == 0:
-        return p, n_iter, np.ones(c, dtype=bool)
-    a_stats = np.stack([np.ones(k), a, a * a], axis=1)
-    lv = _Live(p)
-    for it in range(max_iter + 1):
-        dens, dens_o, total = e_step(a, lv.sizes, lv.wg, lv.mu, lv.var, lv.wo, u, lv.starts)
-        obj = fixed_q(vis_g, vis_o, lv, u) + np.log(total).sum(axis=0)
-        if history is not None:
-            full = np.full(c, np.nan)
-            full[lv.idx] = obj
-            history.append(full)
-        done = np.abs(obj - objective[lv.idx]) < tol * w_total
-        objective[lv.idx] = obj
-        converged[lv.idx[done]] = True
-        if it == max_iter or np.all(done):
-            break
-        if np.any(done):
-            slot_keep = lv.drop(done)
-            dens, dens_o, total = dens[:, slot_keep], dens_o[~done], total[:, ~done]
-        dens /= total[:, lv.owner]
-        g_sums = vis_g[lv.slots] + dens.T @ a_stats
-        o_counts = vis_o[lv.idx] + (dens_o / total).sum(axis=0)
-        lv.wg, lv.mu, lv.var, lv.wo = m_step(g_sums, o_counts, w_total, lv.sizes, lv.mu, lv.var, var_floor, min_wo)
-        n_iter[lv.idx] += 1
-    lv.store()
-    return p, n_iter, converged
+        return p.copy(), np.zeros(c, dtype=np.int64), np.ones(c, dtype=bool)
+    a_stats = np.stack([np.ones(a.size), a, a * a], axis=1)
+    fused, _, n_iter, converged = _em_loop(
+        p, a, u,
+        objective=lambda lv, total: fixed_q(vis_g, vis_o, lv, u) + np.log(total).sum(axis=0),
+        sums=lambda lv, resp, resp_o: (vis_g[lv.slots] + resp.T @ a_stats, vis_o[lv.idx] + resp_o.sum(axis=0)),
+        w_total=w_total, max_iter=max_iter, tol=tol, var_floor=var_floor, min_wo=min_wo, history=history,
+    )
+    return fused, n_iter, converged
 
 
 def log_likelihoods(x: np.ndarray, cnt: np.ndarray, p: Packed, u: float) -> np.ndarray:
