@@ -170,7 +170,14 @@ class Mixture1D:
 
     def density(self, x: object) -> np.ndarray:
         """p(x; Theta) of eq. (prob_model), 1/s."""
-        return self.component_densities(x).sum(axis=1)
+        return self._density(as_samples(x, "x"))
+
+    def _density(self, xs: np.ndarray) -> np.ndarray:
+        """:meth:`density` of a checked 1-D float array (a hot path of the initialisation)."""
+        z2 = (xs[:, None] - self.means[None, :]) ** 2 / self.variances[None, :]
+        gauss = np.exp(-0.5 * np.minimum(z2, _Z2_CLIP))
+        return gauss @ (self.weights[:-1] / np.sqrt(2.0 * np.pi * self.variances)) + self.weights[-1] * (
+            self.outlier_density)
 
     def responsibilities(self, x: object) -> np.ndarray:
         """Posterior of each class given each observation (eqs. alpha_m / beta_kn): ``(len(x), N + 1)``."""
@@ -429,27 +436,33 @@ def _seed_model(data: BinnedSamples, support: tuple[float, float], outlier_weigh
 
 
 class _ResidualGrid:
-    """The data's smoothed density on a 1 us grid over the support, computed once per interval."""
+    """The data's smoothed density on a 2 us grid over the support, computed once per interval."""
+
+    STEP_S = 2e-6
 
     def __init__(self, data: BinnedSamples, support: tuple[float, float], sd_s: float) -> None:
         lo, hi = support
-        self.grid = np.arange(lo, hi, 1e-6)
+        self.grid = np.arange(lo, hi, self.STEP_S)
         self.sd_s = sd_s
         self.total = data.total
-        counts = np.bincount(np.clip(((data.x_us / US - lo) / 1e-6).astype(np.int64), 0, self.grid.size - 1),
+        step = self.STEP_S
+        counts = np.bincount(np.clip(((data.x_us / US - lo) / step).astype(np.int64), 0, self.grid.size - 1),
                              weights=data.stats[:, 0], minlength=self.grid.size)
-        half = int(np.ceil(4 * sd_s / 1e-6))
-        k = np.exp(-0.5 * (np.arange(-half, half + 1) * 1e-6 / sd_s) ** 2)
-        self.smooth = np.convolve(counts, k / k.sum(), mode="same")  # counts per 1 us bin
+        half = int(np.ceil(4 * sd_s / step))
+        k = np.exp(-0.5 * (np.arange(-half, half + 1) * step / sd_s) ** 2)
+        self.smooth = np.convolve(counts, k / k.sum(), mode="same")  # counts per grid step
 
-    def add_component(self, model: Mixture1D) -> Mixture1D | None:
+    def add_component(self, model: Mixture1D, density_on_grid: np.ndarray | None = None) -> Mixture1D | None:
+        """``model`` plus a component at the largest excess (``density_on_grid``: the model's density on
+        ``self.grid`` if the caller has it)."""
         if self.total <= 0:
             return None
-        excess = self.smooth - model.density(self.grid) * 1e-6 * self.total
+        dens = model._density(self.grid) if density_on_grid is None else density_on_grid
+        excess = self.smooth - dens * self.STEP_S * self.total
         i = int(np.argmax(excess))
         if excess[i] <= 0:
             return None
-        width = self.sd_s / 1e-6 * np.sqrt(2.0 * np.pi)  # bins under a Gaussian of unit peak
+        width = self.sd_s / self.STEP_S * np.sqrt(2.0 * np.pi)  # grid steps under a Gaussian of unit peak
         weight = float(np.clip(excess[i] * width / self.total, 0.02, 0.5))
         weights = np.concatenate([model.weights[:-1] * (1.0 - weight), [weight], [model.weights[-1] * (1.0 - weight)]])
         return Mixture1D._trusted(weights, np.append(model.means, self.grid[i]), np.append(model.variances, self.sd_s**2),
@@ -459,7 +472,7 @@ class _ResidualGrid:
 def add_at_residual_peak(model: Mixture1D, data: BinnedSamples, sd_s: float = 15e-6) -> Mixture1D | None:
     """A model with one more component, placed where the data most exceed what ``model`` explains.
 
-    The data histogram (1 us bins, smoothed with a Gaussian of ``sd_s``) minus the model's expected counts; the
+    The data histogram (2 us bins, smoothed with a Gaussian of ``sd_s``) minus the model's expected counts; the
     new component sits at the largest excess with variance ``sd_s^2`` and the excess's share of the data as weight
     (taken from the other classes in proportion). None when the data hold no excess.
     """
@@ -500,27 +513,53 @@ def initial_models(
             g = base.weights[:-1] * (1.0 - outlier_weight / 10) / base.weights[:-1].sum()
             base = Mixture1D(np.append(g, outlier_weight / 10), base.means, base.variances, support)
     n_prev = base.n_components
+    for n in range(1, min(n_prev, n_max) + 1):
+        g = base.weights[:n]
+        g = g * (1.0 - base.weights[-1]) / g.sum() if g.sum() > 0 else np.full(n, (1.0 - base.weights[-1]) / n)
+        models.append(Mixture1D._trusted(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n], support))
+    if n_max <= n_prev:
+        return models
+    if n_prev == 0:
+        models.append(base)
+    # Growing one component at a time; the densities of the current model on the data bins and on the residual
+    # grid are updated incrementally (a split or an added component changes one or two terms).
     x = data.x_us / US
-    residual = _ResidualGrid(data, support, 15e-6) if grow_at_residual and n_max > n_prev else None
-    for n in range(1, n_max + 1):
-        if n <= n_prev:
-            g = base.weights[:n]
-            g = g * (1.0 - base.weights[-1]) / g.sum() if g.sum() > 0 else np.full(n, (1.0 - base.weights[-1]) / n)
-            models.append(Mixture1D._trusted(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n],
-                                             support))
-            continue
-        prev = models[-1]
+    cnt = data.stats[:, 0]
+    residual = _ResidualGrid(data, support, 15e-6) if grow_at_residual and data.total > 0 else None
+    prev = models[-1]
+    dens_x = prev._density(x)
+    dens_g = prev._density(residual.grid) if residual is not None else None
+    for _ in range(len(models), n_max + 1):
         db = davies_bouldin(prev.means, np.sqrt(prev.variances))
         # ties (e.g. two components) go to the widest component
         idx = int(np.lexsort((-prev.variances, -db))[0])
         split = split_at_mean(prev, idx)
-        added = residual.add_component(prev) if residual is not None else None
-        if added is not None and data.total > 0:
-            cnt = data.stats[:, 0]
-            if cnt @ np.log(added.density(x)) > cnt @ np.log(split.density(x)):
-                split = added
-        models.append(split)
+        pi_i, mu_i, var_i = prev.weights[idx], prev.means[idx], prev.variances[idx]
+        halves = split.means[-2:], split.variances[-1]
+
+        def split_density(z: np.ndarray) -> np.ndarray:
+            return (pi_i * (0.5 * _gauss(z, halves[0][0], halves[1]) + 0.5 * _gauss(z, halves[0][1], halves[1])
+                            - _gauss(z, mu_i, var_i)))
+
+        new, new_x = split, dens_x + split_density(x)
+        added = residual.add_component(prev, dens_g) if residual is not None else None
+        if added is not None:
+            w, mu, var = added.weights[-2], added.means[-1], added.variances[-1]
+            added_x = (1.0 - w) * dens_x + w * _gauss(x, mu, var)
+            if cnt @ np.log(added_x) > cnt @ np.log(new_x):
+                new, new_x = added, added_x
+                new_g = (1.0 - w) * dens_g + w * _gauss(residual.grid, mu, var)
+            else:
+                new_g = dens_g + split_density(residual.grid)
+        else:
+            new_g = None
+        models.append(new)
+        prev, dens_x, dens_g = new, new_x, new_g
     return models
+
+
+def _gauss(x: np.ndarray, mu: float, var: float) -> np.ndarray:
+    return np.exp(-0.5 * np.minimum((x - mu) ** 2 / var, _Z2_CLIP)) / np.sqrt(2.0 * np.pi * var)
 
 
 # ----------------------------------------------------------------------------------------------------------------
