@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import ndimage, stats
 
 __all__ = ["Group3D", "compact_groups"]
 
@@ -64,8 +64,7 @@ def _densest_cell(points: np.ndarray, w: np.ndarray, cell_m: float) -> tuple[np.
     flat = idx[:, 0] * shape[1] + idx[:, 1]
     hist = np.bincount(flat, weights=w, minlength=int(shape[0] * shape[1])).reshape(shape)
     # 3x3 box smoothing so that a person split over cell borders still wins
-    padded = np.pad(hist, 1)
-    smooth = sum(padded[i:i + shape[0], j:j + shape[1]] for i in range(3) for j in range(3))
+    smooth = ndimage.uniform_filter(hist, size=3, mode="constant")
     best = np.unravel_index(int(np.argmax(smooth)), smooth.shape)
     in_cell = (np.abs(idx[:, 0] - best[0]) <= 1) & (np.abs(idx[:, 1] - best[1]) <= 1)
     ww = w * in_cell
@@ -96,7 +95,7 @@ def compact_groups(
     """
     weights = np.asarray(weights, dtype=np.float64)
     # most points of the interval have ~0 posterior for this cluster: work on the others only
-    support = np.flatnonzero(weights > 1e-3)
+    support = np.flatnonzero(weights > 0.02)
     sub = _groups(points[support], weights[support], np.asarray(kernel_sd_m, dtype=np.float64), min_mass,
                   max_groups, max_sd_m, min_peakedness, max_kernels, n_shift, n_refit)
     out = []
