@@ -405,7 +405,7 @@ class FaceGuidedHearing:
         beta = np.zeros((k, n + 1))
         if k and n:
             w, mu, var, beta, n_iter = self._em(a, w, mu, var)
-        model = Mixture1D(w, mu, var, self.support)
+        model = Mixture1D._trusted(w, mu, var, self.support)
         bbar = beta[:, :-1].sum(axis=0)
         speaking, prob, tau = p.speaking.decide(beta[:, :-1], a, model)
         return FaceGuidedOutput(speaking, prob, mu.copy(), bbar, model, tau, n_iter)

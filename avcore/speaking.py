@@ -15,14 +15,19 @@ def speaking_threshold(n_itds: int, n_objects: int) -> float:
     return n_itds / (n_objects + 2.0)
 
 
-def _poisson_quantile(q: float, lam: np.ndarray, k_max: int = 200) -> np.ndarray:
-    """Smallest k with P(X <= k) >= q for X ~ Poisson(lam), vectorised (scipy.stats' ppf costs ~100 us a call)."""
+_LOG_FACT = np.concatenate([[0.0], np.cumsum(np.log(np.arange(1, 401)))])  # log k!, k = 0..400
+
+
+def _poisson_quantile(q: float, lam: np.ndarray) -> np.ndarray:
+    """Smallest k with P(X <= k) >= q for X ~ Poisson(lam), vectorised (scipy.stats' ppf costs ~100 us a call).
+
+    Exact for lam up to about 300 (the sum runs to k = lam + 10 sqrt(lam) + 20, at most 400).
+    """
     lam = np.atleast_1d(np.asarray(lam, dtype=np.float64))
+    k_max = int(min(400, lam.max(initial=0.0) + 10.0 * np.sqrt(lam.max(initial=0.0)) + 20))
     k = np.arange(k_max + 1)
-    # log pmf = k log lam - lam - log k!, accumulated in the log domain then exponentiated
-    log_fact = np.concatenate([[0.0], np.cumsum(np.log(k[1:]))])
     with np.errstate(divide="ignore", invalid="ignore"):
-        log_pmf = k[None, :] * np.log(lam[:, None]) - lam[:, None] - log_fact[None, :]
+        log_pmf = k[None, :] * np.log(lam[:, None]) - lam[:, None] - _LOG_FACT[None, : k_max + 1]
     cdf = np.cumsum(np.exp(log_pmf), axis=1)
     cdf[lam == 0] = 1.0
     return (cdf < q).sum(axis=1).astype(np.float64)
