@@ -1,0 +1,419 @@
+"""The real-time process of DESIGN.md: grabber, vision, audio, ITD worker and fusion threads (paper section 6).
+
+```
+source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] --+
+                                                                         +--q--> [fusion: TimeFrame -> inference]
+source.audio()  --> [audio]   --q--> [ITD worker: ItdStream] ------------+            --> on_result (Rerun, ...)
+```
+
+Every queue is a :class:`~app.queues.DropOldestQueue`: producers never block (a slow consumer loses the oldest
+items, counted in the stats). The fusion thread alone owns the TimeFrame synchroniser (RSB's strategy, section 6:
+each vision result collects the ITDs of its time frame) and the inference object, so they need no locks.
+
+Failure handling: a bad frame (wrong shape, unreadable) or a block with NaN samples is counted and skipped; an
+exception in a worker is stored, stops the pipeline and is re-raised by :meth:`Pipeline.run` in the main thread;
+Ctrl-C (or :meth:`Pipeline.stop`, e.g. from a SIGTERM handler) stops every thread within about a second.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Literal, Protocol
+
+import numpy as np
+
+from app.queues import DropOldestQueue
+from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
+from avcore.geometry import MicPair
+from avcore.inference import FaceGuidedHearing, MotionGuidedHearing
+from avcore.itd import ItdStream
+from avcore.motion import harris_motion_points
+from avcore.stereo import StereoRig
+from avcore.sync import TimeFrame
+
+log = logging.getLogger(__name__)
+
+__all__ = ["AudioBlock", "FusionResult", "Pipeline", "PipelineConfig", "PipelineStats", "Source", "StereoFrame"]
+
+
+@dataclass(frozen=True)
+class StereoFrame:
+    """A synchronised stereo pair: ``stamp_s`` capture time (seconds, the pipeline's clock), ``index`` frame number,
+    ``left`` and ``right`` (h, w[, 3]) uint8 rectified images of the rig."""
+
+    stamp_s: float
+    index: int
+    left: np.ndarray
+    right: np.ndarray
+
+
+@dataclass(frozen=True)
+class AudioBlock:
+    """A block of audio: ``stamp_s`` capture time of its first sample (seconds), ``samples`` (n, channels) float."""
+
+    stamp_s: float
+    samples: np.ndarray
+
+
+class Source(Protocol):
+    """What the pipeline needs from cameras + microphones, a recording or the simulator.
+
+    ``frames`` and ``audio`` are blocking iterators paced by the source (real time, or as fast as possible for a
+    replay); they end when the source is exhausted or ``stop`` is set. ``channels`` are the (left, right) channel
+    numbers of the audio blocks. A source with ``realtime = False`` (a replay as fast as possible) gets
+    back-pressure instead of drops: nothing of a recording is lost.
+    """
+
+    rig: StereoRig
+    mics: MicPair
+    samplerate_hz: float
+    channels: tuple[int, int]
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]: ...
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]: ...
+
+
+@dataclass(frozen=True)
+class PipelineConfig:
+    """Settings of the process; defaults are the paper's implementation details (section 6).
+
+    inference : "face" (Algorithm 2, the default, as on NAO) or "motion" (Algorithm 1 on HM3D points).
+    itd_method, window_s, hop_s, energy_threshold : the ITD extraction (W = 150 ms, f = 20 ms, E_A = 0.001).
+    frame_window_s : face-guided: each vision result collects the ITDs within +- this of its stamp.
+    interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
+    *_queue : queue lengths (items); a full queue drops its oldest item.
+    """
+
+    inference: Literal["face", "motion"] = "face"
+    itd_method: str = "gcc-phat"
+    window_s: float = 0.15
+    hop_s: float = 0.02
+    energy_threshold: float = 1e-3
+    frame_window_s: float = 0.2
+    interval_s: float = 0.4
+    frame_queue: int = 4
+    audio_queue: int = 256
+    fusion_queue: int = 1024
+    join_timeout_s: float = 2.0
+
+    def __post_init__(self) -> None:
+        if self.inference not in ("face", "motion"):
+            raise ValueError(f"inference must be 'face' or 'motion', got {self.inference!r}")
+        for name in ("window_s", "hop_s", "frame_window_s", "interval_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
+
+
+@dataclass(frozen=True)
+class FusionResult:
+    """One fused result.
+
+    stamp_s : capture time of the vision result (a frame, or an interval's centre). index : its frame number.
+    image : the left image (h, w[, 3]) uint8. boxes : (N, 4) face boxes in pixels (None for motion-guided).
+    xyz : (N, 3) metres, the faces (face-guided) or the HM3D points (motion-guided). itds_s : (K,) the ITDs of its
+    time frame. output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp.
+    """
+
+    stamp_s: float
+    index: int
+    image: np.ndarray
+    boxes: np.ndarray | None
+    xyz: np.ndarray
+    itds_s: np.ndarray
+    output: Any
+    latency_s: float
+
+
+@dataclass
+class PipelineStats:
+    """Counters of a run (thread-safe enough: each counter has one writer)."""
+
+    started_s: float = 0.0
+    ended_s: float = 0.0
+    frames: int = 0
+    bad_frames: int = 0
+    vision_results: int = 0
+    audio_blocks: int = 0
+    bad_audio_blocks: int = 0
+    audio_gaps: int = 0
+    itds: int = 0
+    results: int = 0
+    stage_time_s: dict[str, float] = field(default_factory=dict)
+    latencies_s: list[float] = field(default_factory=list)
+    drops: dict[str, int] = field(default_factory=dict)
+    overflows: int = 0
+    interrupted: bool = False
+
+    @property
+    def duration_s(self) -> float:
+        return max(self.ended_s - self.started_s, 1e-9)
+
+    def as_dict(self) -> dict[str, Any]:
+        lat = np.asarray(self.latencies_s[-10_000:])
+        return {
+            "duration_s": round(self.duration_s, 3),
+            "fps": round(self.results / self.duration_s, 2),
+            "frames": self.frames,
+            "bad_frames": self.bad_frames,
+            "results": self.results,
+            "itds": self.itds,
+            "audio_blocks": self.audio_blocks,
+            "bad_audio_blocks": self.bad_audio_blocks,
+            "audio_gaps": self.audio_gaps,
+            "latency_ms_p50": round(float(np.percentile(lat, 50)) * 1e3, 2) if lat.size else None,
+            "latency_ms_p95": round(float(np.percentile(lat, 95)) * 1e3, 2) if lat.size else None,
+            "stage_ms_per_item": {k: round(v * 1e3, 3) for k, v in self.stage_time_s.items()},
+            "drops": dict(self.drops),
+            "overflows": self.overflows,
+            "interrupted": self.interrupted,
+        }
+
+    def summary(self) -> str:
+        d = self.as_dict()
+        return (f"{d['results']} results in {d['duration_s']} s ({d['fps']} per s), latency p95 "
+                f"{d['latency_ms_p95']} ms, {d['itds']} ITDs, drops {sum(d['drops'].values())}, "
+                f"overflows {d['overflows']}, bad frames {d['bad_frames']}")
+
+
+class _Stop(Exception):
+    """Raised inside a worker when the pipeline stops."""
+
+
+class Pipeline:
+    """Runs a :class:`Source` through vision, ITD extraction and fusion in threads; calls ``on_result`` from the
+    fusion thread for every fused result (so that all Rerun logging happens in one thread).
+
+    ``clock`` is the clock of the source's stamps (``time.monotonic`` for live and real-speed sources).
+    """
+
+    def __init__(self, source: Source, config: PipelineConfig | None = None,
+                 on_result: Callable[[FusionResult], None] | None = None, *,
+                 detector: FaceDetector | None = None, clock: Callable[[], float] = time.monotonic) -> None:
+        self.source = source
+        self.config = config if config is not None else PipelineConfig()
+        self.on_result = on_result
+        self.clock = clock
+        self.detector = detector if detector is not None else TrackingFaceDetector()
+        self.stats = PipelineStats()
+        self._stop = threading.Event()
+        self._errors: list[tuple[str, BaseException]] = []
+        c = self.config
+        self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(c.frame_queue, "frames")
+        self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
+        self._q_fusion: DropOldestQueue[tuple[str, float, Any]] = DropOldestQueue(c.fusion_queue, "fusion")
+        self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
+        # a live source must never wait; a replay as fast as possible waits for room rather than lose data
+        self._backpressure = not getattr(source, "realtime", True)
+
+    # -- control ---------------------------------------------------------------------------------------------
+
+    def stop(self) -> None:
+        """Ask every thread to finish (safe from a signal handler)."""
+        self._stop.set()
+
+    def run(self, duration_s: float | None = None) -> PipelineStats:
+        """Run until the source ends, ``duration_s`` of wall time passes, :meth:`stop` or Ctrl-C.
+
+        Re-raises the first exception of a worker thread after all threads have been joined.
+        """
+        workers = [
+            ("fusion", self._fusion_loop), ("itd", self._itd_loop), ("vision", self._vision_loop),
+            ("audio", self._audio_loop), ("grabber", self._grab_loop),
+        ]
+        threads = [threading.Thread(target=self._guard, args=(name, fn), name=f"avhear-{name}", daemon=True)
+                   for name, fn in workers]
+        self.stats.started_s = time.perf_counter()
+        try:
+            for t in threads:
+                t.start()
+            deadline = None if duration_s is None else time.perf_counter() + duration_s
+            while not self._done["fusion"].wait(0.05):
+                if self._stop.is_set() or (deadline is not None and time.perf_counter() >= deadline):
+                    break
+        except KeyboardInterrupt:
+            self.stats.interrupted = True
+        finally:
+            self._stop.set()
+            for t in reversed(threads):  # reverse start order: producers first
+                t.join(self.config.join_timeout_s)
+                if t.is_alive():
+                    log.warning("thread %s did not stop within %.1f s", t.name, self.config.join_timeout_s)
+            self.stats.ended_s = time.perf_counter()
+            self.stats.drops = {q.name: q.dropped for q in (self._q_frames, self._q_audio, self._q_fusion)}
+            self.stats.overflows = int(getattr(self.source, "overflows", 0))
+        if self._errors:
+            name, exc = self._errors[0]
+            raise RuntimeError(f"the {name} thread failed: {exc}") from exc
+        return self.stats
+
+    def _guard(self, name: str, fn: Callable[[], None]) -> None:
+        try:
+            fn()
+        except _Stop:
+            pass
+        except BaseException as exc:  # stored and re-raised by run() in the main thread
+            log.exception("%s thread failed", name)
+            self._errors.append((name, exc))
+            self._stop.set()
+        finally:
+            self._done[name].set()
+
+    def _offer(self, q: DropOldestQueue, item: Any) -> None:
+        while self._backpressure and not self._stop.is_set() and not q.wait_for_room(0.05):
+            pass
+        q.put(item)
+
+    def _timed(self, stage: str, start: float, count: int) -> None:
+        elapsed = time.perf_counter() - start
+        prev = self.stats.stage_time_s.get(stage, 0.0)
+        self.stats.stage_time_s[stage] = prev + (elapsed - prev) / max(count, 1)  # running mean per item
+
+    def _take(self, q: DropOldestQueue, upstream: str) -> Any:
+        """The next item of ``q``; raises _Stop when the pipeline stops or upstream is done and ``q`` is empty."""
+        while True:
+            if self._stop.is_set():
+                raise _Stop
+            item = q.get(timeout=0.05)
+            if item is not None:
+                return item
+            if self._done[upstream].is_set() and len(q) == 0:
+                raise _Stop
+
+    # -- threads ---------------------------------------------------------------------------------------------
+
+    def _grab_loop(self) -> None:
+        for frame in self.source.frames(self._stop):
+            if self._stop.is_set():
+                return
+            self.stats.frames += 1
+            self._offer(self._q_frames, frame)
+
+    def _audio_loop(self) -> None:
+        for block in self.source.audio(self._stop):
+            if self._stop.is_set():
+                return
+            self._offer(self._q_audio, block)
+
+    def _vision_loop(self) -> None:
+        rig = self.source.rig
+        motion = self.config.inference == "motion"
+        interval: list[StereoFrame] = []
+        n = 0
+        while True:
+            frame = self._take(self._q_frames, "grabber")
+            t0 = time.perf_counter()
+            if not _good_frame(frame, rig):
+                self.stats.bad_frames += 1
+                continue
+            if not motion:
+                try:
+                    faces = locate_faces(frame.left, frame.right, rig, detector=self.detector)
+                except ValueError as exc:
+                    log.debug("bad frame %d: %s", frame.index, exc)
+                    self.stats.bad_frames += 1
+                    continue
+                self._q_fusion.put(("vision", frame.stamp_s, (frame.stamp_s, frame, faces.boxes, faces.points)))
+            else:
+                interval.append(frame)
+                if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
+                    continue
+                points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
+                mid = interval[len(interval) // 2]
+                stamp = 0.5 * (interval[0].stamp_s + interval[-1].stamp_s)
+                self._q_fusion.put(("vision", stamp, (stamp, mid, None, points)))
+                interval = []
+            n += 1
+            self.stats.vision_results = n
+            self._timed("vision", t0, n)
+
+    def _itd_loop(self) -> None:
+        c = self.config
+        src = self.source
+        left, right = src.channels
+        stream: ItdStream | None = None
+        start_s = expected_s = 0.0
+        n = 0
+        while True:
+            block = self._take(self._q_audio, "audio")
+            t0 = time.perf_counter()
+            samples = np.asarray(block.samples, dtype=np.float64)
+            if samples.ndim != 2 or samples.shape[1] <= max(left, right):
+                self.stats.bad_audio_blocks += 1
+                continue
+            if not np.all(np.isfinite(samples)):
+                self.stats.bad_audio_blocks += 1
+                samples = np.nan_to_num(samples, nan=0.0, posinf=0.0, neginf=0.0)
+            if stream is None or abs(block.stamp_s - expected_s) > c.hop_s:
+                # first block, or samples were lost (an overflow, a dropped block): restart at this block's clock
+                if stream is not None:
+                    self.stats.audio_gaps += 1
+                stream = ItdStream(src.samplerate_hz, method=c.itd_method, window_s=c.window_s, hop_s=c.hop_s,
+                                   energy_threshold=c.energy_threshold)
+                start_s = block.stamp_s
+            expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
+            track = stream.push(samples[:, left], samples[:, right])
+            for t, itd in zip(track.times_s, track.itds_s):
+                self._q_fusion.put(("itd", start_s + float(t), float(itd)))
+            self.stats.itds += len(track)
+            # the audio clock: windows centred before this time are all extracted
+            self._q_fusion.put(("clock", expected_s - c.window_s / 2, None))
+            n += 1
+            self.stats.audio_blocks = n
+            self._timed("itd", t0, n)
+
+    def _fusion_loop(self) -> None:
+        c = self.config
+        mics = self.source.mics
+        sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
+        hearing = FaceGuidedHearing(mics) if c.inference == "face" else MotionGuidedHearing(mics)
+        while True:
+            if self._stop.is_set():
+                raise _Stop
+            message = self._q_fusion.get(timeout=0.05)
+            if message is None:
+                if self._done["vision"].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
+                    for vision, itds in sync.flush():  # the source is over: the last frames get the ITDs there are
+                        self._fuse(hearing, vision, itds)
+                    return
+                continue
+            kind, stamp, item = message
+            if kind == "vision":
+                completed = sync.push_primary(stamp, item)
+            elif kind == "itd":
+                completed = sync.push_secondary(stamp, item)
+            else:  # the audio clock moved on without ITDs (silence): frames before it are complete
+                completed = sync.advance(stamp)
+            for vision, itds in completed:
+                self._fuse(hearing, vision, itds)
+
+    def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, vision: tuple, itds: list[float]) -> None:
+        t0 = time.perf_counter()
+        stamp, frame, boxes, xyz = vision
+        a = np.asarray(itds, dtype=np.float64)
+        output = hearing.step(xyz, a)
+        latency = self.clock() - stamp
+        result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, latency)
+        self.stats.latencies_s.append(latency)
+        if len(self.stats.latencies_s) > 100_000:
+            del self.stats.latencies_s[:50_000]
+        if self.on_result is not None:
+            self.on_result(result)
+        self.stats.results += 1
+        self._timed("fusion", t0, self.stats.results)
+
+
+def _good_frame(frame: Any, rig: StereoRig) -> bool:
+    """A usable stereo pair: two uint8 images of the rig's size."""
+    if not isinstance(frame, StereoFrame):
+        return False
+    size = tuple(rig.image_size)
+    for img in (frame.left, frame.right):
+        if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.ndim not in (2, 3):
+            return False
+        if img.shape[1::-1] != size:
+            return False
+    return True

@@ -1,0 +1,137 @@
+"""The threaded pipeline on a small fake source: rendered stereo frames and a talker's delayed noise."""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+
+import numpy as np
+import pytest
+
+from app.pipeline import AudioBlock, FusionResult, Pipeline, PipelineConfig, StereoFrame
+from avcore.geometry import MicPair
+from avcore.render import default_scene
+
+FS = 16_000
+SCENE = default_scene(None, n_people=3)  # drawn faces: no shared data needed
+MICS = MicPair()
+TALKER = 2  # the person at (0.75, -0.1, 2.9)
+
+
+class FakeSource:
+    """Frames of the rendered scene at ``fps``; 4-channel audio where channels 1 and 3 carry the talker's noise
+    delayed by the talker's ITD (left = ch 1, right = ch 3), optionally with bad frames and NaN blocks."""
+
+    def __init__(self, duration_s: float = 1.6, fps: float = 10.0, realtime: bool = False, bad_every: int = 0,
+                 nan_block: int = -1) -> None:
+        self.rig = SCENE.rig
+        self.mics = MICS
+        self.samplerate_hz = FS
+        self.channels = (1, 3)
+        self.duration_s, self.fps, self.realtime = duration_s, fps, realtime  # not realtime: as fast as possible
+        self.bad_every, self.nan_block = bad_every, nan_block
+        self.t0 = time.monotonic()
+        frame = SCENE.render(0.0)
+        self.left, self.right, self.faces = frame.left, frame.right, frame.faces
+        rng = np.random.default_rng(0)
+        n = int(duration_s * FS) + 64
+        itd = float(MICS.itd(self.faces[TALKER]))
+        lag = int(round(itd * FS))  # ITD = t_left - t_right > 0: the left channel lags
+        noise = rng.normal(0, 0.3, n + abs(lag))
+        self.audio_data = np.zeros((n, 4), dtype=np.float32)
+        self.audio_data[:, 3] = noise[abs(lag): abs(lag) + n] if lag >= 0 else noise[:n]
+        self.audio_data[:, 1] = noise[:n] if lag >= 0 else noise[abs(lag): abs(lag) + n]
+        self.audio_data[:, [0, 2]] = rng.normal(0, 0.01, (n, 2))
+        self.expected_itd = lag / FS
+
+    def _pace(self, stamp: float, stop: threading.Event) -> None:
+        if self.realtime:
+            delay = stamp - time.monotonic()
+            if delay > 0:
+                stop.wait(delay)
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
+        for i in range(int(self.duration_s * self.fps)):
+            stamp = self.t0 + i / self.fps
+            self._pace(stamp, stop)
+            if stop.is_set():
+                return
+            if self.bad_every and i % self.bad_every == 1:
+                yield StereoFrame(stamp, i, self.left[:10], self.right)  # wrong size: must be counted, not fatal
+            else:
+                yield StereoFrame(stamp, i, self.left, self.right)
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
+        block = 512
+        for k, start in enumerate(range(0, self.audio_data.shape[0] - block, block)):
+            stamp = self.t0 + start / FS
+            self._pace(stamp, stop)
+            if stop.is_set():
+                return
+            samples = self.audio_data[start:start + block].copy()
+            if k == self.nan_block:
+                samples[5:9, 1] = np.nan
+            yield AudioBlock(stamp, samples)
+
+
+def _run(source: FakeSource, **kwargs: object) -> tuple[list[FusionResult], Pipeline]:
+    results: list[FusionResult] = []
+    pipe = Pipeline(source, PipelineConfig(**kwargs), results.append)
+    pipe.run(duration_s=30)
+    return results, pipe
+
+
+def test_face_guided_pipeline_finds_the_talker() -> None:
+    source = FakeSource()
+    results, pipe = _run(source)
+    assert len(results) == int(source.duration_s * source.fps)  # every frame fused, none lost
+    assert [r.index for r in results] == sorted(r.index for r in results)
+    late = [r for r in results if r.stamp_s - source.t0 > 0.4]  # once a full ITD window exists
+    assert late and all(r.xyz.shape == (3, 3) for r in late)
+    for r in late:
+        talker = int(np.argmin(np.linalg.norm(r.xyz - source.faces[TALKER], axis=1)))
+        assert r.output.speaking[talker], r.output.probability
+        assert r.output.speaking.sum() == 1
+        assert np.median(r.itds_s) == pytest.approx(source.expected_itd, abs=40e-6)
+    stats = pipe.stats.as_dict()
+    assert stats["results"] == len(results) and stats["itds"] > 50 and stats["bad_frames"] == 0
+
+
+def test_bad_frames_and_nan_audio_are_counted_not_fatal() -> None:
+    source = FakeSource(duration_s=1.0, bad_every=4, nan_block=3)
+    results, pipe = _run(source)
+    assert pipe.stats.bad_frames == 3  # frames 1, 5, 9
+    assert pipe.stats.bad_audio_blocks == 1
+    assert len(results) == 10 - 3
+
+
+def test_stop_is_quick_and_a_worker_error_reaches_the_caller() -> None:
+    source = FakeSource(duration_s=20.0, realtime=True)
+    pipe = Pipeline(source, PipelineConfig(), None)
+    timer = threading.Timer(0.5, pipe.stop)
+    timer.start()
+    t0 = time.perf_counter()
+    pipe.run()
+    assert time.perf_counter() - t0 < 3.0
+
+    def boom(result: FusionResult) -> None:
+        raise OSError("disk full")
+
+    with pytest.raises(RuntimeError, match="fusion thread failed: disk full"):
+        Pipeline(FakeSource(duration_s=1.0), PipelineConfig(), boom).run(duration_s=30)
+
+
+def test_motion_guided_variant_runs() -> None:
+    moving = default_scene(None, n_people=3, moving=True)
+    source = FakeSource(duration_s=1.3, fps=15.0)
+    frames = [moving.render(i / 15.0) for i in range(int(1.3 * 15))]
+
+    def frames_iter(stop: threading.Event) -> Iterator[StereoFrame]:
+        for i, f in enumerate(frames):
+            yield StereoFrame(source.t0 + i / 15.0, i, f.left, f.right)
+
+    source.frames = frames_iter  # type: ignore[method-assign]
+    results, _ = _run(source, inference="motion")
+    assert len(results) >= 2
+    assert all(r.boxes is None and r.xyz.ndim == 2 and r.xyz.shape[1] == 3 for r in results)
+    assert any(r.output.n >= 1 for r in results)
