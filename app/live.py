@@ -1,0 +1,172 @@
+"""The live source: two OpenCV cameras (or one side-by-side stereo camera) and a `sounddevice` input stream.
+
+Frames are stamped with ``time.monotonic()`` when grabbed (both cameras are grabbed before either is decoded, so
+their stamps differ by the grab time only; two separate cameras are paired by ApproximateTime), rectified with the
+rig, and delivered at the cameras' pace. Audio blocks are copied and enqueued by the PortAudio callback, which
+never blocks (python-sounddevice's own advice) and counts overflows; their stamps come from the stream's ADC time
+mapped onto the monotonic clock.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from app.pipeline import AudioBlock, StereoFrame
+from app.queues import DropOldestQueue
+from app.sound import DeviceError, load_sounddevice
+from avcore.geometry import MicPair
+from avcore.stereo import StereoRig
+from avcore.sync import ApproximateTime
+
+log = logging.getLogger(__name__)
+
+__all__ = ["LiveConfig", "LiveSource"]
+
+
+@dataclass(frozen=True)
+class LiveConfig:
+    """Devices of a live run.
+
+    left, right : OpenCV camera indices or paths/URLs of the two cameras; ``right=None`` with ``side_by_side``
+        means one camera delivering both images side by side (left half, right half).
+    fps : the frame rate asked of the cameras.
+    audio_device : a sounddevice input device (index or name substring); None for the default input.
+    samplerate_hz, n_channels : the input stream; channels : the (left, right) microphone channels (0-based).
+    block_frames : samples per callback.
+    max_failed_reads : consecutive failed grabs before the camera counts as gone.
+    """
+
+    left: int | str = 0
+    right: int | str | None = 1
+    side_by_side: bool = False
+    fps: float = 30.0
+    audio_device: int | str | None = None
+    samplerate_hz: int = 16_000
+    n_channels: int = 2
+    channels: tuple[int, int] = (0, 1)
+    block_frames: int = 512
+    max_failed_reads: int = 30
+
+    def __post_init__(self) -> None:
+        if self.side_by_side == (self.right is not None):
+            raise ValueError("give two cameras (left and right) or one side-by-side camera (right=None, "
+                             "side_by_side=True)")
+        if not all(0 <= c < self.n_channels for c in self.channels) or self.channels[0] == self.channels[1]:
+            raise ValueError(f"channels must be two different channel numbers below n_channels={self.n_channels}, "
+                             f"got {self.channels}")
+
+
+class LiveSource:
+    """Cameras and microphones for :class:`app.pipeline.Pipeline` (see module docstring)."""
+
+    realtime = True
+
+    def __init__(self, config: LiveConfig, rig: StereoRig, mics: MicPair) -> None:
+        self.config = config
+        self.rig = rig
+        self.mics = mics
+        self.samplerate_hz = float(config.samplerate_hz)
+        self.channels = config.channels
+        self.overflows = 0
+        self.failed_reads = 0
+
+    # -- video -------------------------------------------------------------------------------------------------
+
+    def _open(self, device: int | str) -> cv2.VideoCapture:
+        cap = cv2.VideoCapture(device)
+        if not cap.isOpened():
+            raise DeviceError(f"cannot open camera {device!r}: check that it is plugged in and not used by another "
+                              "program (on Linux: ls /dev/video*)")
+        w, h = self.rig.image_size
+        cap.set(cv2.CAP_PROP_FRAME_WIDTH, 2 * w if self.config.side_by_side else w)
+        cap.set(cv2.CAP_PROP_FRAME_HEIGHT, h)
+        cap.set(cv2.CAP_PROP_FPS, self.config.fps)
+        return cap
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
+        cfg = self.config
+        caps = [self._open(cfg.left)] if cfg.side_by_side else [self._open(cfg.left), self._open(cfg.right)]
+        pair = ApproximateTime(2, queue_size=4, max_interval_s=0.5 / cfg.fps)
+        index = 0
+        failed = 0
+        try:
+            while not stop.is_set():
+                stamps = []
+                ok = True
+                for cap in caps:  # grab all first: the exposures are as close in time as the driver allows
+                    ok &= cap.grab()
+                    stamps.append(time.monotonic())
+                images = [cap.retrieve()[1] if ok else None for cap in caps]
+                if not ok or any(img is None for img in images):
+                    failed += 1
+                    self.failed_reads += 1
+                    if failed >= cfg.max_failed_reads:
+                        raise DeviceError(f"the camera stopped delivering frames ({failed} failed reads in a row): "
+                                          "check its cable and that no other program uses it")
+                    stop.wait(0.01)
+                    continue
+                failed = 0
+                if cfg.side_by_side:
+                    half = images[0].shape[1] // 2
+                    pairs = [(stamps[0], images[0][:, :half], images[0][:, half:])]
+                else:  # two cameras: ApproximateTime pairs their frames by stamp
+                    sets = pair.push(0, stamps[0], (stamps[0], images[0])) + pair.push(1, stamps[1],
+                                                                                       (stamps[1], images[1]))
+                    pairs = [(max(sl, sr), left, right) for (sl, left), (sr, right) in sets]
+                for stamp, left, right in pairs:
+                    if left.shape[1::-1] != tuple(self.rig.image_size):
+                        if index == 0:
+                            log.warning("the cameras deliver %s images, the rig is calibrated for %s: resizing "
+                                        "(calibrate at the size the cameras deliver)", left.shape[1::-1],
+                                        tuple(self.rig.image_size))
+                        left = cv2.resize(left, tuple(self.rig.image_size))
+                        right = cv2.resize(right, tuple(self.rig.image_size))
+                    left, right = self.rig.rectify(left, right)
+                    yield StereoFrame(stamp, index, left, right)
+                    index += 1
+        finally:
+            for cap in caps:
+                cap.release()
+
+    # -- audio -------------------------------------------------------------------------------------------------
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
+        sd = load_sounddevice()
+        cfg = self.config
+        blocks: DropOldestQueue[tuple[float, np.ndarray]] = DropOldestQueue(256, "audio-callback")
+        offset: list[float] = []  # monotonic - stream time, measured once
+
+        def callback(indata: np.ndarray, frames: int, time_info: Any, status: Any) -> None:
+            # runs in PortAudio's thread: copy, stamp, enqueue; never block, never raise
+            if status.input_overflow:
+                self.overflows += 1
+            if not offset:
+                offset.append(time.monotonic() - time_info.currentTime)
+            blocks.put((time_info.inputBufferAdcTime + offset[0], indata.copy()))
+
+        try:
+            stream = sd.InputStream(device=cfg.audio_device, channels=cfg.n_channels, samplerate=cfg.samplerate_hz,
+                                    blocksize=cfg.block_frames, dtype="float32", callback=callback)
+        except Exception as exc:  # PortAudioError, ValueError for a bad device: the user's to fix
+            raise DeviceError(f"cannot open the audio input {cfg.audio_device!r} with {cfg.n_channels} channels at "
+                              f"{cfg.samplerate_hz} Hz ({exc}); list the devices with "
+                              "'python -m sounddevice'") from exc
+        with stream:
+            silent_s = 0.0
+            while not stop.is_set():
+                item = blocks.get(timeout=0.1)
+                if item is None:
+                    silent_s += 0.1
+                    if silent_s > 5.0 and not stream.active:
+                        raise DeviceError("the audio input stopped: was the device unplugged?")
+                    continue
+                silent_s = 0.0
+                yield AudioBlock(item[0], item[1])
+        self.overflows += blocks.dropped

@@ -1,0 +1,128 @@
+"""The live source through its real code paths: OpenCV reading video files as cameras, and the sounddevice
+callback path with a patched device (no camera or microphone on CI; the PulseAudio test comes with issue 6)."""
+from __future__ import annotations
+
+import threading
+import types
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import app.live
+from app.live import LiveConfig, LiveSource
+from app.sound import DeviceError
+from avcore.geometry import MicPair
+from avcore.stereo import StereoRig
+
+RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
+
+
+def _video(path: Path, n: int, width: int, shade: int) -> Path:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (width, 48))
+    assert writer.isOpened()
+    for i in range(n):
+        img = np.full((48, width, 3), shade, np.uint8)
+        cv2.putText(img, str(i), (5, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (255, 255, 255), 2)
+        writer.write(img)
+    writer.release()
+    return path
+
+
+def test_two_cameras_then_unplugged(tmp_path: Path) -> None:
+    left = _video(tmp_path / "l.avi", 8, 64, 40)
+    right = _video(tmp_path / "r.avi", 8, 64, 200)
+    src = LiveSource(LiveConfig(left=str(left), right=str(right), max_failed_reads=3), RIG, MicPair())
+    frames = []
+    with pytest.raises(DeviceError, match="stopped delivering frames"):
+        for f in src.frames(threading.Event()):
+            frames.append(f)
+    assert len(frames) >= 6  # ApproximateTime keeps the last pair waiting for a better match
+    assert all(f.left.shape == (48, 64, 3) and f.right.shape == (48, 64, 3) for f in frames)
+    assert all(f.left.mean() < f.right.mean() for f in frames)  # left and right not swapped
+    assert [f.index for f in frames] == list(range(len(frames)))
+    assert all(b.stamp_s >= a.stamp_s for a, b in zip(frames, frames[1:]))
+
+
+def test_side_by_side_camera(tmp_path: Path) -> None:
+    video = _video(tmp_path / "sbs.avi", 4, 128, 90)
+    src = LiveSource(LiveConfig(left=str(video), right=None, side_by_side=True, max_failed_reads=2), RIG,
+                     MicPair())
+    frames = []
+    with pytest.raises(DeviceError):
+        for f in src.frames(threading.Event()):
+            frames.append(f)
+    assert len(frames) == 4 and frames[0].left.shape == (48, 64, 3)
+
+
+def test_missing_camera_is_a_clear_error() -> None:
+    src = LiveSource(LiveConfig(left="/nonexistent/cam.avi", right="/nonexistent/cam2.avi"), RIG, MicPair())
+    with pytest.raises(DeviceError, match="cannot open camera"):
+        next(src.frames(threading.Event()))
+
+
+def test_bad_config() -> None:
+    with pytest.raises(ValueError, match="side-by-side"):
+        LiveConfig(left=0, right=1, side_by_side=True)
+    with pytest.raises(ValueError, match="channels"):
+        LiveConfig(channels=(0, 0))
+
+
+class _FakeStream:
+    """Stands in for sounddevice.InputStream: calls the callback from its own thread, like PortAudio."""
+
+    def __init__(self, *, callback, channels, samplerate, blocksize, **kwargs) -> None:  # noqa: ANN001
+        self.callback, self.channels, self.blocksize, self.samplerate = callback, channels, blocksize, samplerate
+        self.active = False
+        self._stop = threading.Event()
+
+    def __enter__(self) -> _FakeStream:
+        self.active = True
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join(1)
+        self.active = False
+
+    def _run(self) -> None:
+        t = 0.0
+        for k in range(20):
+            if self._stop.is_set():
+                return
+            data = np.full((self.blocksize, self.channels), k, np.float32)
+            info = types.SimpleNamespace(currentTime=t, inputBufferAdcTime=t)
+            status = types.SimpleNamespace(input_overflow=(k == 5))
+            self.callback(data, self.blocksize, info, status)
+            t += self.blocksize / self.samplerate
+            self._stop.wait(0.001)
+
+
+def test_audio_callback_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    fake = types.SimpleNamespace(InputStream=_FakeStream)
+    monkeypatch.setattr(app.live, "load_sounddevice", lambda: fake)
+    src = LiveSource(LiveConfig(n_channels=4, channels=(1, 3), block_frames=256), RIG, MicPair())
+    stop = threading.Event()
+    blocks = []
+    for block in src.audio(stop):
+        blocks.append(block)
+        if len(blocks) == 20:
+            stop.set()
+    assert [int(b.samples[0, 0]) for b in blocks] == list(range(20))
+    assert all(b.samples.shape == (256, 4) for b in blocks)
+    gaps = np.diff([b.stamp_s for b in blocks])
+    np.testing.assert_allclose(gaps, 256 / 16000, rtol=1e-9)
+    assert src.overflows == 1
+
+
+def test_audio_device_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    def refuse(**kwargs: object) -> None:
+        raise ValueError("No input device matching 'usb'")
+
+    monkeypatch.setattr(app.live, "load_sounddevice", lambda: types.SimpleNamespace(InputStream=refuse))
+    src = LiveSource(LiveConfig(audio_device="usb"), RIG, MicPair())
+    with pytest.raises(DeviceError, match="python -m sounddevice"):
+        next(src.audio(threading.Event()))
