@@ -408,10 +408,8 @@ class Pipeline:
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:
     """A usable stereo pair: two uint8 images of the rig's size."""
-    if not isinstance(frame, StereoFrame):
-        return False
     size = tuple(rig.image_size)
-    for img in (frame.left, frame.right):
+    for img in (getattr(frame, "left", None), getattr(frame, "right", None)):
         if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.ndim not in (2, 3):
             return False
         if img.shape[1::-1] != size:
