@@ -13,8 +13,9 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 
-__all__ = ["RingBuffer", "ChannelSelection", "select_channels"]
+__all__ = ["ChannelSelection", "RingBuffer", "select_channels"]
 
 
 class RingBuffer:
@@ -33,7 +34,7 @@ class RingBuffer:
     allocates nothing. ``read_*`` return a new ``(n, n_channels)`` array unless ``out`` is given.
     """
 
-    def __init__(self, n_channels: int, capacity: int, dtype: np.typing.DTypeLike = np.float64) -> None:
+    def __init__(self, n_channels: int, capacity: int, dtype: npt.DTypeLike = np.float64) -> None:
         if not isinstance(n_channels, (int, np.integer)) or isinstance(n_channels, bool) or n_channels < 1:
             raise ValueError(f"n_channels must be a positive integer, got {n_channels!r}")
         if not isinstance(capacity, (int, np.integer)) or isinstance(capacity, bool) or capacity < 1:
@@ -43,7 +44,7 @@ class RingBuffer:
 
     @classmethod
     def for_duration(cls, n_channels: int, duration_s: float, samplerate_hz: float,
-                     dtype: np.typing.DTypeLike = np.float64) -> RingBuffer:
+                     dtype: npt.DTypeLike = np.float64) -> RingBuffer:
         """A buffer holding at least ``duration_s`` seconds at ``samplerate_hz``."""
         if not (np.isfinite(duration_s) and duration_s > 0):
             raise ValueError(f"duration_s must be a positive number of seconds, got {duration_s!r}")
@@ -139,7 +140,7 @@ class RingBuffer:
 
     def read_latest_seconds(self, duration_s: float, samplerate_hz: float) -> np.ndarray:
         """The newest ``round(duration_s * samplerate_hz)`` samples."""
-        return self.read_latest(int(round(duration_s * samplerate_hz)))
+        return self.read_latest(round(duration_s * samplerate_hz))
 
 
 Layout = Literal["frames", "planar", "interleaved"]

@@ -31,8 +31,20 @@ from scipy.signal import fftconvolve, lfilter, resample_poly
 from ._validate import as_points
 from .geometry import SPEED_OF_SOUND, MicPair
 
-__all__ = ["Room", "RoomRecording", "simulate", "load_speech", "synthetic_speech", "fan_noise",
-           "pink_noise", "speech_turns", "window_truth", "noise_positions", "DEFAULT_DATA_DIR", "N_DIFFUSE"]
+__all__ = [
+    "DEFAULT_DATA_DIR",
+    "N_DIFFUSE",
+    "Room",
+    "RoomRecording",
+    "fan_noise",
+    "load_speech",
+    "noise_positions",
+    "pink_noise",
+    "simulate",
+    "speech_turns",
+    "synthetic_speech",
+    "window_truth",
+]
 
 DEFAULT_DATA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data"
 SPEECH_LEVEL_RMS = 0.1  # active speech at the microphones, full scale 1 (-20 dBFS): 10 dB above the paper's E_A
@@ -103,7 +115,7 @@ def synthetic_speech(duration_s: float, samplerate_hz: int, rng: np.random.Gener
     A harmonic complex (pitch gliding between 100 and 220 Hz) shaped by three moving formants and a syllabic
     envelope at about 4 Hz, plus a little breath noise: voiced, broadband enough for ITDs, and not stationary.
     """
-    n = int(round(duration_s * samplerate_hz))
+    n = round(duration_s * samplerate_hz)
     t = np.arange(n) / samplerate_hz
     f0 = rng.uniform(100, 220) * (1 + 0.15 * np.sin(2 * np.pi * rng.uniform(0.5, 2) * t + rng.uniform(0, 6)))
     phase = 2 * np.pi * np.cumsum(f0) / samplerate_hz
@@ -146,7 +158,7 @@ def speech_turns(n_talkers: int, duration_s: float, samplerate_hz: int, rng: np.
     """
     if n_talkers < 1:
         raise ValueError(f"n_talkers must be at least 1, got {n_talkers}")
-    n = int(round(duration_s * samplerate_hz))
+    n = round(duration_s * samplerate_hz)
     out = np.zeros((n_talkers, n))
     pos = int(rng.uniform(*pause_s) * samplerate_hz)
     k = 0
@@ -370,7 +382,7 @@ def simulate(room: Room, talkers_scene: object, duration_s: float = 10.0, seed: 
     if responses.shape[0] != sources.shape[0]:
         raise ValueError(f"rirs hold {responses.shape[0]} sources, expected {sources.shape[0]} "
                          "(talkers, noise sources, fan)")
-    n = int(round(duration_s * fs))
+    n = round(duration_s * fs)
 
     utterances = None if speech == "synthetic" else load_speech(fs, speech, data_dir)
     used = speech if utterances else "synthetic"
@@ -399,7 +411,7 @@ def simulate(room: Room, talkers_scene: object, duration_s: float = 10.0, seed: 
     mics = room.mic_pair()
     aligned = np.zeros_like(dry)
     for t, p in enumerate(talkers):
-        delay = int(round(np.linalg.norm(p) / mics.speed_of_sound * fs)) + 40
+        delay = round(np.linalg.norm(p) / mics.speed_of_sound * fs) + 40
         aligned[t, delay:] = dry[t, :n - delay]
     return RoomRecording(room=room, mics=mics, speech=speech_img, background=background, ego=ego, dry=aligned,
                          talkers_scene=talkers, talker_itds_s=np.atleast_1d(mics.itd(talkers)),
@@ -416,8 +428,8 @@ def window_truth(dry: np.ndarray, samplerate_hz: float, window_s: float = 0.15, 
     if its power is at least ``active_db`` relative to its mean power over its active samples (a speech window),
     else -1.
     """
-    w = int(round(window_s * samplerate_hz))
-    hop = int(round(hop_s * samplerate_hz))
+    w = round(window_s * samplerate_hz)
+    hop = round(hop_s * samplerate_hz)
     n = dry.shape[1]
     n_windows = 1 + (n - w) // hop
     csum = np.concatenate([np.zeros((dry.shape[0], 1)), np.cumsum(dry**2, axis=1)], axis=1)

@@ -24,5 +24,15 @@ register(GccPhat)
 register(RobustCorrelogram)
 register(RobustGccPhat)
 
-__all__ = ["METHODS", "ItdMethod", "ItdStream", "ItdTrack", "extract_itds", "make_method", "Correlogram",
-           "GccPhat", "RobustCorrelogram", "RobustGccPhat"]
+__all__ = [
+           "METHODS",
+           "Correlogram",
+           "GccPhat",
+           "ItdMethod",
+           "ItdStream",
+           "ItdTrack",
+           "RobustCorrelogram",
+           "RobustGccPhat",
+           "extract_itds",
+           "make_method",
+]

@@ -50,12 +50,11 @@ class ItdMethod(ABC):
             fold[-1] = 1.0
         self._fold = fold / self.nfft
         # Sub-sample refinement tables: the band-limited correlation r(p + d) for d in [-0.5, 0.5] (the integer
-        # peak is within half a sample of the true one) is a real matrix product with these cosines and sines.
+        # peak is within half a sample of the true one) is the real part of one matrix product.
         offsets = np.linspace(-0.5, 0.5, _FINE_STEPS + 1)
         self._fine_offsets = offsets
         angle = 2 * np.pi * np.outer(np.arange(n_bins), offsets) / self.nfft  # (K, F)
-        self._fine_cos = np.cos(angle) * self._fold[:, None]
-        self._fine_sin = np.sin(angle) * self._fold[:, None]
+        self._fine_phasors = np.exp(1j * angle) * self._fold[:, None]
         lags = np.arange(-self.max_lag, self.max_lag + 1)
         self._lags = lags
         self._lag_phasors = np.exp(2j * np.pi * np.outer(lags, np.arange(n_bins)) / self.nfft)  # (2L+1, K)
@@ -94,21 +93,22 @@ class ItdMethod(ABC):
         coarse = self._lags[best]
         # r(p + d) = sum_k fold_k Re(WC_k exp(2 pi i k (p + d) / nfft)), evaluated on a fine grid of d.
         shifted = weighted * self._lag_phasors[best]
-        fine = shifted.real @ self._fine_cos - shifted.imag @ self._fine_sin  # (n, F)
-        j = np.argmax(fine, axis=1)
-        j = np.clip(j, 1, fine.shape[1] - 2)
+        fine = (shifted @ self._fine_phasors).real  # (n, F)
+        j = np.minimum(np.maximum(np.argmax(fine, axis=1), 1), fine.shape[1] - 2)
         rows = np.arange(n)
         y0, y1, y2 = fine[rows, j - 1], fine[rows, j], fine[rows, j + 1]
+        # parabola through the three fine samples around the maximum (a maximum only if it curves down)
         denom = y0 - 2.0 * y1 + y2
-        with np.errstate(divide="ignore", invalid="ignore"):
-            shift = np.where(denom < 0, 0.5 * (y0 - y2) / denom, 0.0)
+        curved = denom < 0
+        shift = np.zeros(n)
+        shift[curved] = 0.5 * (y0[curved] - y2[curved]) / denom[curved]
         step = self._fine_offsets[1] - self._fine_offsets[0]
-        lag = coarse + self._fine_offsets[j] + np.clip(shift, -0.5, 0.5) * step
+        lag = coarse + self._fine_offsets[j] + np.minimum(np.maximum(shift, -0.5), 0.5) * step
         peak = np.maximum(y1, np.max(fine, axis=1))
-        itds = np.clip(lag / self.samplerate_hz, -self.max_itd_s, self.max_itd_s)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            confidence = peak / norm
-        bad = ~(np.isfinite(confidence) & (norm > 0))
+        itds = np.minimum(np.maximum(lag / self.samplerate_hz, -self.max_itd_s), self.max_itd_s)
+        usable = norm > 0
+        confidence = np.full(n, np.nan)
+        confidence[usable] = peak[usable] / norm[usable]
+        bad = ~np.isfinite(confidence)
         itds[bad] = np.nan
-        confidence[bad] = np.nan
-        return itds, np.clip(confidence, -1.0, 1.0)
+        return itds, np.minimum(np.maximum(confidence, -1.0), 1.0)

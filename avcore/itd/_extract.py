@@ -10,7 +10,7 @@ from ..ringbuffer import RingBuffer
 from ._base import ItdMethod
 from .robust import FrameState
 
-__all__ = ["ItdTrack", "ItdStream", "extract_itds", "METHODS", "make_method"]
+__all__ = ["METHODS", "ItdStream", "ItdTrack", "extract_itds", "make_method"]
 
 METHODS: dict[str, type[ItdMethod]] = {}
 
@@ -47,8 +47,11 @@ class ItdTrack:
 
     @staticmethod
     def concatenate(tracks: list[ItdTrack]) -> ItdTrack:
+        tracks = [t for t in tracks if len(t)]
         if not tracks:
             return ItdTrack.empty()
+        if len(tracks) == 1:
+            return tracks[0]
         return ItdTrack(*(np.concatenate([getattr(t, f) for t in tracks])
                           for f in ("times_s", "itds_s", "confidence", "energy")))
 
@@ -84,8 +87,8 @@ def make_method(samplerate: float, method: str = "correlogram", window_s: float 
         raise ValueError(f"min_confidence must lie in [-1, 1], got {min_confidence!r}")
     if method not in METHODS:
         raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}")
-    window_len = int(round(window_s * fs))
-    hop_len = int(round(hop_s * fs))
+    window_len = round(window_s * fs)
+    hop_len = round(hop_s * fs)
     if window_len < 16:
         raise ValueError(f"window_s={window_s} s is only {window_len} samples at {fs} Hz; use a longer window")
     if hop_len < 1:
@@ -105,6 +108,9 @@ def make_method(samplerate: float, method: str = "correlogram", window_s: float 
 
 
 def _signal(values: Any, name: str) -> np.ndarray:
+    if (isinstance(values, np.ndarray) and values.dtype == np.float64 and values.ndim == 1
+            and np.isfinite(values).all()):
+        return values  # the common case, checked cheaply (the ITD worker calls this for every block)
     arr = np.asarray(values)
     if arr.ndim != 1:
         raise ValueError(f"{name} must be a 1-D array of samples, got shape {arr.shape}")
@@ -117,10 +123,16 @@ def _signal(values: Any, name: str) -> np.ndarray:
     return arr
 
 
+def _mean_power(frames_l: np.ndarray, frames_r: np.ndarray) -> np.ndarray:
+    """``(n,)`` mean power ``mean((left^2 + right^2) / 2)`` of ``(n, w)`` frames: the paper's activity measure."""
+    w = frames_l.shape[1]
+    return (np.einsum("ij,ij->i", frames_l, frames_l) + np.einsum("ij,ij->i", frames_r, frames_r)) / (2 * w)
+
+
 def _process_windows(impl: ItdMethod, framing: _Framing, frames_l: np.ndarray, frames_r: np.ndarray,
                      starts: np.ndarray) -> ItdTrack:
     """Energy gate, then the method, on ``(n, window_len)`` frames whose first samples are at ``starts``."""
-    energy = 0.5 * (np.mean(frames_l**2, axis=1) + np.mean(frames_r**2, axis=1))
+    energy = _mean_power(frames_l, frames_r)
     keep = energy >= framing.energy_threshold
     if framing.energy_threshold == 0:
         keep &= energy > 0
@@ -196,10 +208,13 @@ class ItdStream:
     complete.
 
     The parameters are those of :func:`extract_itds`. Windows start at sample ``k * hop`` of the stream, as in the
-    batch form, and each window is processed on its own (the filterbank acts on the window's spectrum), so no
-    filter state crosses windows and the numbers equal the batch form's on the same signal.
+    batch form. The plain methods process each window on its own (the gammatone filterbank acts on the window's
+    spectrum), so no filter state crosses windows; the robust methods carry their state (noise floor, previous
+    frame, coherence averages) from frame to frame, and ``extract_itds`` runs them through this class. Either way
+    the numbers equal the batch form's on the same signal, whatever the block sizes.
 
     ``times_s`` are seconds from the stream's first sample; add the stream's start time for the shared clock.
+    Memory is bounded: a ring buffer of one window plus 4096 samples, and the frame terms of one window.
     """
 
     def __init__(self, samplerate: float, method: str = "correlogram", window_s: float = 0.15, hop_s: float = 0.02,
@@ -271,7 +286,7 @@ class ItdStream:
             return ItdTrack.empty()
         starts = np.arange(self._next_start, available - w + 1, hop)
         windows = np.stack([self._buffer.read_ending_at(int(s) + w, w) for s in starts])
-        energy = 0.5 * (np.mean(windows[:, :, 0] ** 2, axis=1) + np.mean(windows[:, :, 1] ** 2, axis=1))
+        energy = _mean_power(windows[:, :, 0], windows[:, :, 1])
         keep = energy >= self._framing.energy_threshold
         if self._framing.energy_threshold == 0:
             keep &= energy > 0

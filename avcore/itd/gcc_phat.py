@@ -12,7 +12,8 @@ class GccPhat(ItdMethod):
     """GCC-PHAT: the cross-spectrum whitened to unit magnitude, ``W(f) = 1 / |X_L(f) X_R(f)^*|``.
 
     Only the phase is kept, so every frequency votes equally for the delay; the peak height divided by its
-    largest possible value is the share of spectral energy-free "votes" that agree, a confidence in ``[-1, 1]``.
+    largest possible value (every bin in phase) measures how well the bins agree on the chosen lag, a confidence
+    in ``[-1, 1]``.
     Frequencies outside ``[low_hz, high_hz]`` are left out (the same band as the correlogram by default).
 
     Parameters

@@ -193,3 +193,25 @@ def test_erb_spacing_and_gammatone_response():
     i = np.argmin(np.abs(freqs - (1000 + 24.7 * (4.37 + 1))))
     one_erb = gammatone_power_response(np.array([1000.0]), freqs)[0, i]
     assert 10 * np.log10(one_erb) == pytest.approx(-11.7, abs=0.6)
+
+
+@pytest.mark.parametrize("options,match", [
+    ({"frame_s": 0.1}, "frame_s"),
+    ({"onset_floor": 2.0}, "onset_floor"),
+    ({"coherence_power": -1.0}, "coherence_power"),
+    ({"flatness_power": -1.0}, "flatness_power"),
+    ({"mic_distance_m": 0.0}, "mic_distance_m"),
+    ({"low_hz": 5000.0, "high_hz": 100.0}, "low_hz"),
+])
+def test_robust_options_are_validated(options, match):
+    left, right = delayed_pair(1.0, 16000, seconds=0.3)
+    with pytest.raises(ValueError, match=match):
+        extract_itds(left, right, 16000, method="gcc-phat-robust", **options)
+
+
+def test_robust_stream_with_odd_hop_uses_frames_on_the_hop_grid():
+    fs = 16000
+    left, right = delayed_pair(2.5, fs, seconds=0.8)
+    track = extract_itds(left, right, fs, method="correlogram-robust", hop_s=0.0150625)  # 241 samples: odd
+    np.testing.assert_allclose(track.itds_s * fs, 2.5, atol=0.1)
+    np.testing.assert_allclose(np.diff(track.times_s), 241 / fs)

@@ -8,9 +8,9 @@ import pytest
 
 pytest.importorskip("pyroomacoustics", reason="the room simulator needs the 'sim' extra")
 
-from avcore import roomsim  # noqa: E402
-from avcore.itd import extract_itds  # noqa: E402
-from avcore.roomsim import Room, load_speech, simulate, window_truth  # noqa: E402
+from avcore import roomsim
+from avcore.itd import extract_itds
+from avcore.roomsim import Room, load_speech, simulate, window_truth
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +51,7 @@ def test_recording_components_ground_truth_and_levels(small_recording):
     np.testing.assert_allclose(rec.talker_itds_s, rec.mics.itd(rec.talkers_scene))
     assert rec.talker_itds_s[0] > 0  # talker on the right
     assert 0.1 < rec.measured_rt60_s < 0.35
-    left, right = rec.mix(snr_db=10.0, ego_snr_db=None)
+    left, _ = rec.mix(snr_db=10.0, ego_snr_db=None)
     active = np.any(rec.dry != 0, axis=0)
     speech_only, _ = rec.mix(snr_db=None, ego_snr_db=None)
     assert np.sqrt(np.mean(speech_only[active] ** 2)) == pytest.approx(roomsim.SPEECH_LEVEL_RMS, rel=1e-6)
