@@ -82,14 +82,16 @@ class PipelineConfig:
     """Settings of the process; defaults are the paper's implementation details (section 6).
 
     inference : "face" (Algorithm 2, the default, as on NAO) or "motion" (Algorithm 1 on HM3D points).
-    itd_method, window_s, hop_s, energy_threshold : the ITD extraction (W = 150 ms, f = 20 ms, E_A = 0.001).
+    itd_method, window_s, hop_s, energy_threshold : the ITD extraction (W = 150 ms, f = 20 ms, E_A = 0.001);
+        "gcc-phat-robust" by default (the most accurate in reverberant rooms, benchmarks/itd_accuracy.py), the
+        paper's "correlogram" selectable. Lags are searched within 1.2 times the pair's free-field maximum.
     frame_window_s : face-guided: each vision result collects the ITDs within +- this of its stamp.
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
     *_queue : queue lengths (items); a full queue drops its oldest item.
     """
 
     inference: Literal["face", "motion"] = "face"
-    itd_method: str = "gcc-phat"
+    itd_method: str = "gcc-phat-robust"
     window_s: float = 0.15
     hop_s: float = 0.02
     energy_threshold: float = 1e-3
@@ -334,6 +336,8 @@ class Pipeline:
         c = self.config
         src = self.source
         left, right = src.channels
+        extra = ({"mic_distance_m": src.mics.distance_m, "speed_of_sound": src.mics.speed_of_sound}
+                 if c.itd_method.endswith("-robust") else {})
         stream: ItdStream | None = None
         start_s = expected_s = 0.0
         n = 0
@@ -352,7 +356,8 @@ class Pipeline:
                 if stream is not None:
                     self.stats.audio_gaps += 1
                 stream = ItdStream(src.samplerate_hz, method=c.itd_method, window_s=c.window_s, hop_s=c.hop_s,
-                                   energy_threshold=c.energy_threshold)
+                                   energy_threshold=c.energy_threshold, max_itd_s=1.2 * src.mics.max_itd_s,
+                                   **extra)
                 start_s = block.stamp_s
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
             track = stream.push(samples[:, left], samples[:, right])
