@@ -16,6 +16,7 @@ from app.errors import UserError
 COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.eval",
     "app.commands.calibrate",
+    "app.commands.simulate",
 )
 
 

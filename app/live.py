@@ -18,7 +18,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from app.pipeline import AudioBlock, StereoFrame
+from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from app.sound import DeviceError, load_sounddevice
 from avcore.geometry import MicPair
@@ -129,7 +129,7 @@ class LiveSource:
                         left = cv2.resize(left, tuple(self.rig.image_size))
                         right = cv2.resize(right, tuple(self.rig.image_size))
                     left, right = self.rig.rectify(left, right)
-                    yield StereoFrame(stamp, index, left, right)
+                    yield StereoFrame(index, stamp, left, right, stamp)
                     index += 1
         finally:
             for cap in caps:
@@ -160,6 +160,7 @@ class LiveSource:
                               "'python -m sounddevice'") from exc
         with stream:
             silent_s = 0.0
+            n_blocks = first_sample = 0
             while not stop.is_set():
                 item = blocks.get(timeout=0.1)
                 if item is None:
@@ -168,5 +169,8 @@ class LiveSource:
                         raise DeviceError("the audio input stopped: was the device unplugged?")
                     continue
                 silent_s = 0.0
-                yield AudioBlock(item[0], item[1])
+                samples = item[1]
+                yield AudioBlock(n_blocks, first_sample, item[0], samples, cfg.samplerate_hz)
+                n_blocks += 1
+                first_sample += samples.shape[0]
         self.overflows += blocks.dropped

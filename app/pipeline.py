@@ -25,6 +25,7 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
+from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.geometry import MicPair
@@ -36,26 +37,7 @@ from avcore.sync import TimeFrame
 
 log = logging.getLogger(__name__)
 
-__all__ = ["AudioBlock", "FusionResult", "Pipeline", "PipelineConfig", "PipelineStats", "Source", "StereoFrame"]
-
-
-@dataclass(frozen=True)
-class StereoFrame:
-    """A synchronised stereo pair: ``stamp_s`` capture time (seconds, the pipeline's clock), ``index`` frame number,
-    ``left`` and ``right`` (h, w[, 3]) uint8 rectified images of the rig."""
-
-    stamp_s: float
-    index: int
-    left: np.ndarray
-    right: np.ndarray
-
-
-@dataclass(frozen=True)
-class AudioBlock:
-    """A block of audio: ``stamp_s`` capture time of its first sample (seconds), ``samples`` (n, channels) float."""
-
-    stamp_s: float
-    samples: np.ndarray
+__all__ = ["FusionResult", "Pipeline", "PipelineConfig", "PipelineStats", "Source"]
 
 
 class Source(Protocol):

@@ -8,7 +8,8 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from app.pipeline import AudioBlock, FusionResult, Pipeline, PipelineConfig, StereoFrame
+from app.events import AudioBlock, StereoFrame
+from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from avcore.geometry import MicPair
 from avcore.render import default_scene
 
@@ -57,9 +58,9 @@ class FakeSource:
             if stop.is_set():
                 return
             if self.bad_every and i % self.bad_every == 1:
-                yield StereoFrame(stamp, i, self.left[:10], self.right)  # wrong size: must be counted, not fatal
+                yield StereoFrame(i, stamp, self.left[:10], self.right, stamp)  # wrong size: must be counted, not fatal
             else:
-                yield StereoFrame(stamp, i, self.left, self.right)
+                yield StereoFrame(i, stamp, self.left, self.right, stamp)
 
     def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
         block = 512
@@ -71,7 +72,7 @@ class FakeSource:
             samples = self.audio_data[start:start + block].copy()
             if k == self.nan_block:
                 samples[5:9, 1] = np.nan
-            yield AudioBlock(stamp, samples)
+            yield AudioBlock(k, start, stamp, samples, FS)
 
 
 def _run(source: FakeSource, **kwargs: object) -> tuple[list[FusionResult], Pipeline]:
@@ -128,7 +129,7 @@ def test_motion_guided_variant_runs() -> None:
 
     def frames_iter(stop: threading.Event) -> Iterator[StereoFrame]:
         for i, f in enumerate(frames):
-            yield StereoFrame(source.t0 + i / 15.0, i, f.left, f.right)
+            yield StereoFrame(i, source.t0 + i / 15.0, f.left, f.right, source.t0 + i / 15.0)
 
     source.frames = frames_iter  # type: ignore[method-assign]
     results, _ = _run(source, inference="motion")

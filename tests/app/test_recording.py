@@ -1,0 +1,146 @@
+"""Tests of app.recording: the raw recording folder, written and read back; broken files give clear errors."""
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+
+import cv2
+import numpy as np
+import pytest
+from scipy.io import wavfile
+
+from app.config import RigConfig, save_rig
+from app.recording import RecordingError, open_recording, write_recording
+from app.simsource import AudioBlock, SimSource, StereoFrame
+from avcore.stereo import StereoRig
+
+
+@pytest.fixture(scope="module")
+def source(tmp_path_factory):
+    missing = tmp_path_factory.mktemp("clean") / "no-shared-data"
+    return SimSource.from_preset("S2", duration_s=1.5, seed=1, fps=10, data_dir=missing)
+
+
+@pytest.fixture(scope="module")
+def png_folder(source, tmp_path_factory):
+    return write_recording(tmp_path_factory.mktemp("rec") / "s2", source, video="png")
+
+
+@pytest.fixture(scope="module")
+def avi_folder(source, tmp_path_factory):
+    return write_recording(tmp_path_factory.mktemp("rec") / "s2avi", source, video="avi")
+
+
+def test_lossless_round_trip_gives_the_same_stream(source, png_folder):
+    rec = open_recording(png_folder)
+    a, b = list(source.stream()), list(rec.stream())
+    assert len(a) == len(b) and rec.n_frames == source.n_frames == 15
+    for x, y in zip(a, b):
+        assert type(x) is type(y) and x.stamp_s == y.stamp_s
+        if isinstance(x, StereoFrame):
+            np.testing.assert_array_equal(x.left, y.left)
+            np.testing.assert_array_equal(x.right, y.right)
+            assert x.right_stamp_s == y.right_stamp_s
+            np.testing.assert_allclose(x.truth.positions_m, y.truth.positions_m)
+            np.testing.assert_array_equal(x.truth.speaking, y.truth.speaking)
+            np.testing.assert_array_equal(x.truth.visible, y.truth.visible)
+            np.testing.assert_allclose(x.truth.boxes_left, y.truth.boxes_left)
+            assert x.truth.names == y.truth.names
+        else:
+            np.testing.assert_array_equal(x.samples, y.samples)
+    assert rec.fps == 10 and rec.samplerate_hz == 16000 and rec.channels == {"left": 0, "right": 1}
+    assert rec.mics == source.mics and rec.stereo.focal_px == source.stereo.focal_px
+    assert len(rec.events) == len(source.scenario.events) and rec.meta["scenario"] == "S2"
+
+
+def test_mjpg_round_trip_is_close(source, avi_folder):
+    rec = open_recording(avi_folder)
+    frames = [f for f in rec.frames()]
+    assert len(frames) == 15
+    original = source._images(7)[0].astype(np.float64)
+    assert np.mean(np.abs(frames[7].left - original)) < 4.0
+
+
+def test_real_time_replay_rebases_the_stamps(png_folder):
+    rec = open_recording(png_folder)
+    items = list(rec.stream(realtime=True, start_s=100.0))
+    assert items[0].stamp_s == pytest.approx(100.0)
+    assert rec.stats.frames + rec.stats.frames_dropped == 15
+
+
+def _copy(folder, tmp_path):
+    dst = tmp_path / "copy"
+    shutil.copytree(folder, dst)
+    return dst
+
+
+def test_truncated_wav_is_reported_with_what_to_do(png_folder, tmp_path):
+    folder = _copy(png_folder, tmp_path)
+    data = (folder / "audio.wav").read_bytes()
+    (folder / "audio.wav").write_bytes(data[: len(data) // 2])
+    with pytest.raises(RecordingError, match=r"audio\.wav is truncated.*sox"):
+        open_recording(folder)
+    (folder / "audio.wav").write_bytes(b"not a wav at all")
+    with pytest.raises(RecordingError, match=r"audio\.wav: not a WAV file"):
+        open_recording(folder)
+
+
+def test_truncated_video_is_reported_with_the_file_and_frame(avi_folder, tmp_path):
+    folder = _copy(avi_folder, tmp_path)
+    data = (folder / "left.avi").read_bytes()
+    (folder / "left.avi").write_bytes(data[: len(data) // 2])
+    with pytest.raises(RecordingError, match=r"left\.avi.*(truncated|corrupt)"):
+        rec = open_recording(folder)
+        list(rec.frames())
+
+
+def test_missing_or_corrupt_files_are_named(png_folder, tmp_path):
+    folder = _copy(png_folder, tmp_path)
+    (folder / "right" / "000014.png").unlink()
+    with pytest.raises(RecordingError, match=r"right: holds 14 images but frames.csv lists 15"):
+        open_recording(folder)
+    (folder / "right" / "000014.png").write_bytes(b"garbage")
+    with pytest.raises(RecordingError, match=r"000014.png: cannot be decoded"):
+        list(open_recording(folder).frames())
+    shutil.copy(png_folder / "right" / "000014.png", folder / "right" / "000014.png")
+    lines = (folder / "frames.csv").read_text().splitlines()
+    lines[5] = "4,zero,0.4"
+    (folder / "frames.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(RecordingError, match=r"frames.csv, line 6"):
+        open_recording(folder)
+    (folder / "frames.csv").unlink()
+    with pytest.raises(RecordingError, match=r"frames.csv: missing"):
+        open_recording(folder)
+    with pytest.raises(RecordingError, match="no such recording folder"):
+        open_recording(tmp_path / "nowhere")
+
+
+def test_a_folder_made_with_other_tools_opens(tmp_path):
+    """Images from any camera tool, a float WAV from any recorder, a CSV by hand, no recording.json."""
+    folder = tmp_path / "handmade"
+    rig = StereoRig.ideal(500.0, (320, 240), 0.1)
+    folder.mkdir()
+    save_rig(folder / "rig.yaml", RigConfig(stereo=rig))
+    rng = np.random.default_rng(0)
+    for side in ("left", "right"):
+        (folder / side).mkdir()
+        for k in range(4):
+            cv2.imwrite(str(folder / side / f"img{k:03d}.png"), rng.integers(0, 255, (240, 320, 3), dtype=np.uint8))
+    audio = (0.1 * rng.standard_normal((8000, 4))).astype(np.float32)
+    wavfile.write(folder / "audio.wav", 16000, audio)
+    with open(folder / "frames.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["frame", "left_stamp_s", "right_stamp_s"])
+        for k in range(4):
+            w.writerow([k, 0.1 * k, 0.1 * k + 0.003])
+    rec = open_recording(folder, block_size=1000)
+    items = list(rec.stream())
+    blocks = [i for i in items if isinstance(i, AudioBlock)]
+    assert rec.n_channels == 4 and rec.fps == pytest.approx(10.0) and not rec.has_truth and rec.mics is None
+    np.testing.assert_array_equal(np.concatenate([b.samples for b in blocks]), audio)
+    assert [f.right_stamp_s for f in items if isinstance(f, StereoFrame)] == pytest.approx([0.003, 0.103, 0.203,
+                                                                                          0.303])
+    (folder / "recording.json").write_text(json.dumps({"channels": {"left": 0, "right": 7}}))
+    with pytest.raises(RecordingError, match="does not name a left and a right channel"):
+        open_recording(folder)
