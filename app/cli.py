@@ -17,6 +17,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.eval",
     "app.commands.calibrate",
     "app.commands.simulate",
+    "app.commands.run",
 )
 
 

@@ -130,6 +130,7 @@ class PipelineStats:
     latencies_s: list[float] = field(default_factory=list)
     drops: dict[str, int] = field(default_factory=dict)
     overflows: int = 0
+    late_frames: int = 0
     interrupted: bool = False
 
     @property
@@ -153,6 +154,7 @@ class PipelineStats:
             "stage_ms_per_item": {k: round(v * 1e3, 3) for k, v in self.stage_time_s.items()},
             "drops": dict(self.drops),
             "overflows": self.overflows,
+            "late_frames": self.late_frames,
             "interrupted": self.interrupted,
         }
 
@@ -160,7 +162,8 @@ class PipelineStats:
         d = self.as_dict()
         return (f"{d['results']} results in {d['duration_s']} s ({d['fps']} per s), latency p95 "
                 f"{d['latency_ms_p95']} ms, {d['itds']} ITDs, drops {sum(d['drops'].values())}, "
-                f"overflows {d['overflows']}, bad frames {d['bad_frames']}")
+                f"audio overflows {d['overflows']}, late frames skipped {d['late_frames']}, bad frames "
+                f"{d['bad_frames']}")
 
 
 class _Stop(Exception):
@@ -228,7 +231,8 @@ class Pipeline:
                     log.warning("thread %s did not stop within %.1f s", t.name, self.config.join_timeout_s)
             self.stats.ended_s = time.perf_counter()
             self.stats.drops = {q.name: q.dropped for q in (self._q_frames, self._q_audio, self._q_fusion)}
-            self.stats.overflows = int(getattr(self.source, "overflows", 0))
+            self.stats.overflows = int(getattr(self.source, "overflows", 0))  # audio overflows of a live input
+            self.stats.late_frames = int(getattr(self.source, "frames_dropped", 0))  # skipped by a real-time source
         if self._errors:
             name, exc = self._errors[0]
             raise RuntimeError(f"the {name} thread failed: {exc}") from exc

@@ -1,0 +1,142 @@
+"""`avhear demo` (the simulated room in the operator console) and `avhear run` (any source)."""
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+from app.console import Console, ConsoleFrame
+from app.errors import UserError
+from app.live import LiveConfig
+from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.sources import open_source
+from app.viewer import ViewerTarget, display_available, open_recording_stream
+
+DEMO_RRD = Path("recordings/demo.rrd")
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS",
+                   help="stop after this much stream time (default: the whole source)")
+    p.add_argument("--motion", action="store_true", help="motion-guided inference (HM3D points, Algorithm 1)")
+    p.add_argument("--itd-method", default="gcc-phat-robust",
+                   help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
+                        "correlogram-robust")
+    p.add_argument("--save", type=Path, default=None, metavar="FILE.rrd", help="save the console's data to this file")
+    p.add_argument("--connect", nargs="?", const="", default=None, metavar="URL",
+                   help="send to a running Rerun viewer (default the local one)")
+    p.add_argument("--headless", action="store_true", help="no viewer and no file: only the summary")
+    p.add_argument("--stats-json", type=Path, default=None, metavar="FILE",
+                   help="write the run's figures (fps, latency_ms_p95, drops, overflows) to this file at exit")
+    p.add_argument("--fast", action="store_true", help="as fast as possible instead of in real time")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    demo = sub.add_parser("demo", help="the whole system on the built-in simulated room, in the Rerun console",
+                          description="Runs the simulated room (three people counting in turns, scenario S2 by "
+                          "default) through the real pipeline and shows it in the Rerun viewer; without a display "
+                          f"it saves {DEMO_RRD} and says how to open it.")
+    demo.add_argument("--scenario", default="S2", help="S1..S5 or calibration (default S2)")
+    demo.add_argument("--seed", type=int, default=0)
+    _common(demo)
+    demo.set_defaults(func=run_demo, duration=20.0)
+    run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER or live")
+    run.add_argument("--source", default="sim:S2", help="sim:S1..S5|calibration, replay:FOLDER or live")
+    run.add_argument("--seed", type=int, default=0, help="seed of a simulated source")
+    run.add_argument("--rig", default=None, help="rig YAML of a live source (stereo + microphones)")
+    run.add_argument("--cameras", nargs="+", default=["0", "1"],
+                     help="live: two camera indices/paths, or one with --side-by-side")
+    run.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
+    run.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
+    run.add_argument("--audio-channels", type=int, default=2, help="live: channels of the input stream")
+    run.add_argument("--mic-channels", type=int, nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"),
+                     help="live: the left and right microphone channels (0-based)")
+    _common(run)
+    run.set_defaults(func=run_source)
+
+
+def _device(text: str) -> int | str:
+    return int(text) if text.isdigit() else text
+
+
+def run_demo(args: argparse.Namespace) -> int:
+    target = _target(args, demo=True)
+    return _run(f"sim:{args.scenario}", args, target)
+
+
+def run_source(args: argparse.Namespace) -> int:
+    live = None
+    if args.source == "live":
+        cams = [_device(c) for c in args.cameras]
+        try:
+            live = LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
+                              side_by_side=args.side_by_side, audio_device=_device(args.audio_device)
+                              if args.audio_device else None, n_channels=args.audio_channels,
+                              channels=tuple(args.mic_channels))
+        except ValueError as exc:
+            raise UserError(str(exc)) from exc
+    return _run(args.source, args, _target(args, demo=False), live=live)
+
+
+def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
+    if args.headless:
+        return ViewerTarget()
+    if args.save is not None:
+        return ViewerTarget(save=args.save)
+    if args.connect is not None:
+        return ViewerTarget(connect=args.connect)
+    if display_available():
+        return ViewerTarget(spawn=True)
+    return ViewerTarget(save=DEMO_RRD if demo else Path("recordings/run.rrd"))
+
+
+def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None = None) -> int:
+    print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
+    source = open_source(spec, realtime=not args.fast, duration_s=args.duration, seed=getattr(args, "seed", 0),
+                         rig_path=getattr(args, "rig", None), live=live,
+                         progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)
+    rec = open_recording_stream(target)
+    console = Console(source.rig, source.mics, recording=rec) if rec is not None else None
+    pipeline: Pipeline | None = None
+
+    def on_result(result: FusionResult) -> None:
+        if console is None:
+            return
+        assert pipeline is not None
+        diagnostics = {"latency_ms/fusion": result.latency_s * 1e3,
+                       "queue_depth/fusion": float(len(pipeline._q_fusion))}
+        if result.boxes is not None:
+            frame = ConsoleFrame.from_face_guided(result.stamp_s, result.index, result.image, result.boxes,
+                                                  result.xyz, result.itds_s, result.output, diagnostics=diagnostics)
+        else:
+            frame = ConsoleFrame.from_motion_guided(result.stamp_s, result.index, result.image, result.xyz,
+                                                    result.itds_s, result.output, diagnostics=diagnostics)
+        console.log(frame)
+
+    pipeline = Pipeline(source, config, on_result)
+    previous = signal.getsignal(signal.SIGTERM)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda *_: pipeline.stop())
+    print(f"avhear: running {spec} ({config.inference}-guided) ... Ctrl-C stops", file=sys.stderr, flush=True)
+    try:
+        # a simulated source is as long as asked; a live one runs for --duration of wall time
+        stats = pipeline.run(duration_s=args.duration if live is not None else None)
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, previous)
+        if rec is not None:
+            rec.flush()
+            rec.disconnect()
+    summary: dict[str, Any] = stats.as_dict()
+    print(f"avhear: {stats.summary()}")
+    if args.stats_json is not None:
+        args.stats_json.parent.mkdir(parents=True, exist_ok=True)
+        args.stats_json.write_text(json.dumps(summary, indent=2))
+    if target.save is not None:
+        print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
+    return 0

@@ -1,0 +1,83 @@
+"""Sources for the pipeline: the simulated room, a recording folder, or live devices, chosen by name."""
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+from app.config import load_rig
+from app.errors import UserError
+from app.events import AudioBlock, StereoFrame
+from app.live import LiveConfig, LiveSource
+from app.recording import open_recording
+from app.simsource import SimSource, StreamSource
+from avcore.geometry import MicPair
+from avcore.scenario import PRESETS
+
+__all__ = ["StreamAdapter", "open_source"]
+
+
+class StreamAdapter:
+    """A :class:`~app.simsource.StreamSource` (the simulator or a recording) as a pipeline source.
+
+    realtime : deliver at capture pace on ``time.monotonic()`` (a live-like demo), or as fast as possible (then
+    the pipeline applies back-pressure and loses nothing). Both threads share one start time, so frames and audio
+    are on one clock.
+    """
+
+    def __init__(self, stream: StreamSource, *, realtime: bool, channels: tuple[int, int] = (0, 1)) -> None:
+        if stream.stereo is None:
+            raise UserError("the source has no stereo calibration: add a 'stereo' section to its rig.yaml")
+        self.stream = stream
+        self.rig = stream.stereo
+        self.mics = stream.mics if stream.mics is not None else MicPair()
+        self.samplerate_hz = float(stream.samplerate_hz)
+        self.channels = channels
+        self.realtime = realtime
+        self._start_s = time.monotonic() + 0.2 if realtime else None
+
+    @property
+    def frames_dropped(self) -> int:
+        """Frames the source skipped because they were late (real-time delivery)."""
+        return int(self.stream.stats.frames_dropped)
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
+        for frame in self.stream.frames(realtime=self.realtime, start_s=self._start_s):
+            if stop.is_set():
+                return
+            yield frame
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
+        for block in self.stream.audio_blocks(realtime=self.realtime, start_s=self._start_s):
+            if stop.is_set():
+                return
+            yield block
+
+
+def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, seed: int = 0,
+                rig_path: str | None = None, live: LiveConfig | None = None,
+                progress=None) -> StreamAdapter | LiveSource:  # noqa: ANN001
+    """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER`` or ``live`` (with ``rig_path`` and ``live``)."""
+    kind, _, arg = spec.partition(":")
+    if kind == "sim":
+        preset = arg or "S2"
+        if preset not in PRESETS:
+            raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
+        return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, progress=progress),
+                             realtime=realtime)
+    if kind == "replay":
+        if not arg:
+            raise UserError("give the recording folder: --source replay:recordings/NAME")
+        rec = open_recording(arg)
+        return StreamAdapter(rec, realtime=realtime, channels=(rec.channels["left"], rec.channels["right"]))
+    if kind == "live":
+        if rig_path is None:
+            raise UserError("a live run needs the rig calibration: --rig rig.yaml (avhear calibrate stereo makes one)")
+        rig = load_rig(Path(rig_path))
+        if rig.stereo is None:
+            raise UserError(f"{rig_path} has no 'stereo' section: run avhear calibrate stereo first")
+        if rig.microphones is None:
+            raise UserError(f"{rig_path} has no 'microphones' section: add the measured microphone positions")
+        return LiveSource(live or LiveConfig(), rig.stereo, rig.microphones)
+    raise UserError(f"unknown source {spec!r}: use sim:S2, replay:FOLDER or live")
