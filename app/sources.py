@@ -1,6 +1,7 @@
 """Sources for the pipeline: the simulated room, a recording folder, or live devices, chosen by name."""
 from __future__ import annotations
 
+import importlib
 import threading
 import time
 from collections.abc import Iterator
@@ -61,6 +62,10 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
     """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER`` or ``live`` (with ``rig_path`` and ``live``)."""
     kind, _, arg = spec.partition(":")
     if kind == "sim":
+        try:
+            importlib.import_module("pyroomacoustics")
+        except ImportError as exc:
+            raise UserError("the simulated room needs pyroomacoustics: pip install -e '.[sim]'") from exc
         preset = arg or "S2"
         if preset not in PRESETS:
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
