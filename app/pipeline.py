@@ -34,6 +34,7 @@ from avcore.itd import ItdStream
 from avcore.motion import harris_motion_points
 from avcore.stereo import StereoRig
 from avcore.sync import TimeFrame
+from avcore.tracking import NearestTracker
 
 log = logging.getLogger(__name__)
 
@@ -100,6 +101,7 @@ class FusionResult:
     image : the left image (h, w[, 3]) uint8. boxes : (N, 4) face boxes in pixels (None for motion-guided).
     xyz : (N, 3) metres, the faces (face-guided) or the HM3D points (motion-guided). itds_s : (K,) the ITDs of its
     time frame. output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp.
+    person_ids : (N,) stable ids of the people of ``output`` (avcore.tracking), the same person keeping its id.
     """
 
     stamp_s: float
@@ -110,6 +112,7 @@ class FusionResult:
     itds_s: np.ndarray
     output: Any
     latency_s: float
+    person_ids: np.ndarray
 
 
 @dataclass
@@ -361,6 +364,7 @@ class Pipeline:
         mics = self.source.mics
         sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
         hearing = FaceGuidedHearing(mics) if c.inference == "face" else MotionGuidedHearing(mics)
+        tracker = NearestTracker()
         while True:
             if self._stop.is_set():
                 raise _Stop
@@ -368,7 +372,7 @@ class Pipeline:
             if message is None:
                 if self._done["vision"].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
                     for vision, itds in sync.flush():  # the source is over: the last frames get the ITDs there are
-                        self._fuse(hearing, vision, itds)
+                        self._fuse(hearing, tracker, vision, itds)
                     return
                 continue
             kind, stamp, item = message
@@ -379,15 +383,17 @@ class Pipeline:
             else:  # the audio clock moved on without ITDs (silence): frames before it are complete
                 completed = sync.advance(stamp)
             for vision, itds in completed:
-                self._fuse(hearing, vision, itds)
+                self._fuse(hearing, tracker, vision, itds)
 
-    def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, vision: tuple, itds: list[float]) -> None:
+    def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, tracker: NearestTracker, vision: tuple,
+              itds: list[float]) -> None:
         t0 = time.perf_counter()
         stamp, frame, boxes, xyz = vision
         a = np.asarray(itds, dtype=np.float64)
         output = hearing.step(xyz, a)
+        ids = tracker.update(xyz if boxes is not None else output.positions)
         latency = self.clock() - stamp
-        result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, latency)
+        result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, latency, ids)
         self.stats.latencies_s.append(latency)
         if len(self.stats.latencies_s) > 100_000:
             del self.stats.latencies_s[:50_000]

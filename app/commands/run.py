@@ -112,10 +112,12 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                        "queue_depth/fusion": float(len(pipeline._q_fusion))}
         if result.boxes is not None:
             frame = ConsoleFrame.from_face_guided(result.stamp_s, result.index, result.image, result.boxes,
-                                                  result.xyz, result.itds_s, result.output, diagnostics=diagnostics)
+                                                  result.xyz, result.itds_s, result.output,
+                                                  person_ids=result.person_ids, diagnostics=diagnostics)
         else:
             frame = ConsoleFrame.from_motion_guided(result.stamp_s, result.index, result.image, result.xyz,
-                                                    result.itds_s, result.output, diagnostics=diagnostics)
+                                                    result.itds_s, result.output, person_ids=result.person_ids,
+                                                    diagnostics=diagnostics)
         console.log(frame)
 
     pipeline = Pipeline(source, config, on_result)

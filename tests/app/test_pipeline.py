@@ -136,3 +136,15 @@ def test_motion_guided_variant_runs() -> None:
     assert len(results) >= 2
     assert all(r.boxes is None and r.xyz.ndim == 2 and r.xyz.shape[1] == 3 for r in results)
     assert any(r.output.n >= 1 for r in results)
+
+
+def test_person_ids_are_stable() -> None:
+    results, _ = _run(FakeSource(duration_s=1.0))
+    by_id: dict[int, list[np.ndarray]] = {}
+    for r in results:
+        assert r.person_ids.shape == (r.xyz.shape[0],)
+        for pid, p in zip(r.person_ids, r.xyz):
+            by_id.setdefault(int(pid), []).append(p)
+    assert len(by_id) == 3  # three still people, three ids for the whole run
+    for positions in by_id.values():
+        assert np.ptp(np.asarray(positions), axis=0).max() < 0.1
