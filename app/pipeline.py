@@ -100,7 +100,8 @@ class FusionResult:
     stamp_s : capture time of the vision result (a frame, or an interval's centre). index : its frame number.
     image : the left image (h, w[, 3]) uint8. boxes : (N, 4) face boxes in pixels (None for motion-guided).
     xyz : (N, 3) metres, the faces (face-guided) or the HM3D points (motion-guided). itds_s : (K,) the ITDs of its
-    time frame. output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp.
+    time frame. output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp (nan
+    for a source replayed as fast as possible).
     person_ids : (N,) stable ids of the people of ``output`` (avcore.tracking), the same person keeping its id.
     """
 
@@ -392,9 +393,11 @@ class Pipeline:
         a = np.asarray(itds, dtype=np.float64)
         output = hearing.step(xyz, a)
         ids = tracker.update(xyz if boxes is not None else output.positions)
-        latency = self.clock() - stamp
+        # a replay as fast as possible runs ahead of its stamps: latency is only defined in real time
+        latency = self.clock() - stamp if not self._backpressure else float("nan")
         result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, latency, ids)
-        self.stats.latencies_s.append(latency)
+        if latency == latency:
+            self.stats.latencies_s.append(latency)
         if len(self.stats.latencies_s) > 100_000:
             del self.stats.latencies_s[:50_000]
         if self.on_result is not None:

@@ -108,8 +108,9 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         if console is None:
             return
         assert pipeline is not None
-        diagnostics = {"latency_ms/fusion": result.latency_s * 1e3,
-                       "queue_depth/fusion": float(len(pipeline._q_fusion))}
+        diagnostics = {"queue_depth/fusion": float(len(pipeline._q_fusion))}
+        if result.latency_s == result.latency_s:
+            diagnostics["latency_ms/fusion"] = result.latency_s * 1e3
         if result.boxes is not None:
             frame = ConsoleFrame.from_face_guided(result.stamp_s, result.index, result.image, result.boxes,
                                                   result.xyz, result.itds_s, result.output,
