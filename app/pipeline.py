@@ -202,6 +202,10 @@ class Pipeline:
 
     # -- control ---------------------------------------------------------------------------------------------
 
+    def queue_depths(self) -> dict[str, int]:
+        """Items waiting in each queue now (for the diagnostics pane)."""
+        return {q.name: len(q) for q in (self._q_frames, self._q_audio, self._q_fusion)}
+
     def stop(self) -> None:
         """Ask every thread to finish (safe from a signal handler)."""
         self._stop.set()

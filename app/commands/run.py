@@ -108,7 +108,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         if console is None:
             return
         assert pipeline is not None
-        diagnostics = {"queue_depth/fusion": float(len(pipeline._q_fusion))}
+        diagnostics = {f"queue_depth/{name}": float(n) for name, n in pipeline.queue_depths().items()}
         if result.latency_s == result.latency_s:
             diagnostics["latency_ms/fusion"] = result.latency_s * 1e3
         if result.boxes is not None:
