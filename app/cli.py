@@ -18,6 +18,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.calibrate",
     "app.commands.simulate",
     "app.commands.run",
+    "app.commands.record",
 )
 
 

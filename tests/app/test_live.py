@@ -6,7 +6,6 @@ import threading
 import types
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
@@ -19,20 +18,9 @@ from avcore.stereo import StereoRig
 RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
 
 
-def _video(path: Path, n: int, width: int, shade: int) -> Path:
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (width, 48))
-    assert writer.isOpened()
-    for i in range(n):
-        img = np.full((48, width, 3), shade, np.uint8)
-        cv2.putText(img, str(i), (5, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (255, 255, 255), 2)
-        writer.write(img)
-    writer.release()
-    return path
-
-
-def test_two_cameras_then_unplugged(tmp_path: Path) -> None:
-    left = _video(tmp_path / "l.avi", 8, 64, 40)
-    right = _video(tmp_path / "r.avi", 8, 64, 200)
+def test_two_cameras_then_unplugged(tmp_path: Path, make_video) -> None:  # noqa: ANN001
+    left = make_video(tmp_path / "l.avi", 8, 64, 40)
+    right = make_video(tmp_path / "r.avi", 8, 64, 200)
     src = LiveSource(LiveConfig(left=str(left), right=str(right), max_failed_reads=3), RIG, MicPair())
     frames = []
     with pytest.raises(DeviceError, match="stopped delivering frames"):
@@ -45,8 +33,8 @@ def test_two_cameras_then_unplugged(tmp_path: Path) -> None:
     assert all(b.stamp_s >= a.stamp_s for a, b in zip(frames, frames[1:]))
 
 
-def test_side_by_side_camera(tmp_path: Path) -> None:
-    video = _video(tmp_path / "sbs.avi", 4, 128, 90)
+def test_side_by_side_camera(tmp_path: Path, make_video) -> None:  # noqa: ANN001
+    video = make_video(tmp_path / "sbs.avi", 4, 128, 90)
     src = LiveSource(LiveConfig(left=str(video), right=None, side_by_side=True, max_failed_reads=2), RIG,
                      MicPair())
     frames = []
@@ -69,41 +57,7 @@ def test_bad_config() -> None:
         LiveConfig(channels=(0, 0))
 
 
-class _FakeStream:
-    """Stands in for sounddevice.InputStream: calls the callback from its own thread, like PortAudio."""
-
-    def __init__(self, *, callback, channels, samplerate, blocksize, **kwargs) -> None:  # noqa: ANN001
-        self.callback, self.channels, self.blocksize, self.samplerate = callback, channels, blocksize, samplerate
-        self.active = False
-        self._stop = threading.Event()
-
-    def __enter__(self) -> _FakeStream:
-        self.active = True
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join(1)
-        self.active = False
-
-    def _run(self) -> None:
-        t = 0.0
-        for k in range(20):
-            if self._stop.is_set():
-                return
-            data = np.full((self.blocksize, self.channels), k, np.float32)
-            info = types.SimpleNamespace(currentTime=t, inputBufferAdcTime=t)
-            status = types.SimpleNamespace(input_overflow=(k == 5))
-            self.callback(data, self.blocksize, info, status)
-            t += self.blocksize / self.samplerate
-            self._stop.wait(0.001)
-
-
-def test_audio_callback_path(monkeypatch: pytest.MonkeyPatch) -> None:
-    fake = types.SimpleNamespace(InputStream=_FakeStream)
-    monkeypatch.setattr(app.live, "load_sounddevice", lambda: fake)
+def test_audio_callback_path(fake_sounddevice) -> None:  # noqa: ANN001
     src = LiveSource(LiveConfig(n_channels=4, channels=(1, 3), block_frames=256), RIG, MicPair())
     stop = threading.Event()
     blocks = []

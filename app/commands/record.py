@@ -1,0 +1,69 @@
+"""`avhear record`: live cameras and microphones to a raw recording folder."""
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from app.config import load_rig
+from app.errors import UserError
+from app.live import LiveConfig, LiveSource
+from app.recorder import record
+from app.recording import RecordingWriter
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("record", help="record live cameras and microphones to a raw recording folder",
+                       description="Capture two cameras (or one side-by-side camera) and a multichannel "
+                       "microphone into the raw recording format (recordings/FORMAT.md), replayable with "
+                       "avhear run --source replay:FOLDER. Ctrl-C stops and keeps everything captured.")
+    p.add_argument("-o", "--output", type=Path, required=True, help="the recording folder to write")
+    p.add_argument("--rig", required=True, help="rig YAML (stereo + microphones), from avhear calibrate stereo")
+    p.add_argument("--cameras", nargs="+", default=["0", "1"], help="two camera indices/paths, or one with "
+                   "--side-by-side")
+    p.add_argument("--side-by-side", action="store_true")
+    p.add_argument("--fps", type=float, default=30.0)
+    p.add_argument("--audio-device", default=None, help="sounddevice input (index or name)")
+    p.add_argument("--audio-channels", type=int, default=2, help="channels of the input stream (all are kept)")
+    p.add_argument("--mic-channels", type=int, nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"))
+    p.add_argument("--samplerate", type=int, default=16000)
+    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="stop after this long")
+    p.add_argument("--video", choices=("avi", "png"), default="avi", help="MJPG video or PNG image sequences")
+    p.add_argument("--force", action="store_true", help="replace a recording already in the folder")
+    p.set_defaults(func=run)
+
+
+def _device(text: str) -> int | str:
+    return int(text) if text.isdigit() else text
+
+
+def run(args: argparse.Namespace) -> int:
+    rig = load_rig(Path(args.rig))
+    if rig.stereo is None or rig.microphones is None:
+        raise UserError(f"{args.rig} needs both a 'stereo' and a 'microphones' section")
+    cams = [_device(c) for c in args.cameras]
+    try:
+        config = LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
+                            side_by_side=args.side_by_side, fps=args.fps,
+                            audio_device=_device(args.audio_device) if args.audio_device else None,
+                            samplerate_hz=args.samplerate, n_channels=args.audio_channels,
+                            channels=tuple(args.mic_channels))
+    except ValueError as exc:
+        raise UserError(str(exc)) from exc
+    source = LiveSource(config, rig.stereo, rig.microphones)
+    writer = RecordingWriter(args.output, rig=rig, fps=args.fps, samplerate_hz=args.samplerate,
+                             n_channels=args.audio_channels, video=args.video, overwrite=args.force,
+                             channels={"left": args.mic_channels[0], "right": args.mic_channels[1]},
+                             meta={"kind": "live", "cameras": [str(c) for c in cams]})
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    print(f"avhear: recording to {args.output} ... Ctrl-C stops", file=sys.stderr, flush=True)
+    stats = record(source, writer, duration_s=args.duration, stop=stop)
+    print(f"avhear: {stats.frames} frames and {stats.audio_blocks} audio blocks in {stats.duration_s:.1f} s "
+          f"written to {args.output} (audio overflows {source.overflows})")
+    for error in stats.errors:
+        print(f"avhear: the recording ended early: {error}", file=sys.stderr)
+    return 0 if stats.frames else 2

@@ -1,0 +1,73 @@
+"""Devices for the app's tests: video files as cameras, and a stand-in for sounddevice's PortAudio stream."""
+from __future__ import annotations
+
+import threading
+import types
+from collections.abc import Callable
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+import app.live
+
+
+def write_video(path: Path, n: int, width: int, shade: int, height: int = 48) -> Path:
+    """An MJPG video of ``n`` frames (a flat ``shade`` with the frame number written on it)."""
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10.0, (width, height))
+    assert writer.isOpened()
+    for i in range(n):
+        img = np.full((height, width, 3), shade, np.uint8)
+        cv2.putText(img, str(i), (5, 30), cv2.FONT_HERSHEY_SIMPLEX, 0.8, (255, 255, 255), 2)
+        writer.write(img)
+    writer.release()
+    return path
+
+
+@pytest.fixture
+def make_video() -> Callable[..., Path]:
+    return write_video
+
+
+class FakeInputStream:
+    """Stands in for sounddevice.InputStream: calls the callback from its own thread, like PortAudio, with block
+    k filled with the value k; block 5 reports an input overflow."""
+
+    n_blocks = 20
+
+    def __init__(self, *, callback, channels, samplerate, blocksize, **kwargs) -> None:  # noqa: ANN001
+        self.callback, self.channels, self.blocksize, self.samplerate = callback, channels, blocksize, samplerate
+        self.active = False
+        self._stop = threading.Event()
+
+    def __enter__(self) -> FakeInputStream:
+        self.active = True
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join(1)
+        self.active = False
+
+    def _run(self) -> None:
+        t = 0.0
+        for k in range(self.n_blocks):
+            if self._stop.is_set():
+                return
+            data = np.full((self.blocksize, self.channels), k, np.float32)
+            info = types.SimpleNamespace(currentTime=t, inputBufferAdcTime=t)
+            status = types.SimpleNamespace(input_overflow=(k == 5))
+            self.callback(data, self.blocksize, info, status)
+            t += self.blocksize / self.samplerate
+            self._stop.wait(0.001)
+        self.active = False
+
+
+@pytest.fixture
+def fake_sounddevice(monkeypatch: pytest.MonkeyPatch) -> types.SimpleNamespace:
+    fake = types.SimpleNamespace(InputStream=FakeInputStream)
+    monkeypatch.setattr(app.live, "load_sounddevice", lambda: fake)
+    return fake
