@@ -1,16 +1,28 @@
-"""Where the Rerun data goes: the native viewer, a running viewer, an .rrd file, or nowhere."""
+"""Where the Rerun data goes: the native viewer, a running viewer, the web viewer, an .rrd file, or nowhere.
+
+The web viewer (``--serve``) is hosted by the ``rerun`` command-line server that ships with rerun-sdk, started with
+``--bind``: the Python SDK's own ``serve_grpc``/``serve_web_viewer`` listen on every interface (0.0.0.0) with no
+way to narrow it, and avhear's servers bind to 127.0.0.1 unless the user asks otherwise.
+"""
 from __future__ import annotations
 
 import os
 import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import rerun as rr
 
+from app.errors import UserError
 from layouts.blueprint import APPLICATION_ID, default_blueprint
 
-__all__ = ["ViewerTarget", "display_available", "open_recording_stream"]
+__all__ = ["ViewerSession", "ViewerTarget", "display_available"]
 
 
 def display_available() -> bool:
@@ -21,25 +33,107 @@ def display_available() -> bool:
 
 @dataclass(frozen=True)
 class ViewerTarget:
-    """save : an .rrd path; connect : a viewer URL ("" for the default local viewer); spawn : open the native viewer;
+    """save : an .rrd path; connect : a viewer URL ("" for the default local viewer); spawn : open the native
+    viewer; serve : host the web viewer on ``bind`` (``grpc_port`` for the data, ``web_port`` for the page);
     none of them: log nothing (headless)."""
 
     save: Path | None = None
     connect: str | None = None
     spawn: bool = False
+    serve: bool = False
+    bind: str = "127.0.0.1"
+    grpc_port: int = 9876
+    web_port: int = 9090
+
+    @property
+    def logs(self) -> bool:
+        return self.save is not None or self.connect is not None or self.spawn or self.serve
 
 
-def open_recording_stream(target: ViewerTarget) -> rr.RecordingStream | None:
-    """A recording stream with the default blueprint, sent to ``target``; None when nothing is to be logged."""
-    if target.save is None and target.connect is None and not target.spawn:
-        return None
-    rec = rr.RecordingStream(APPLICATION_ID)
-    blueprint = default_blueprint()
-    if target.save is not None:
-        target.save.parent.mkdir(parents=True, exist_ok=True)
-        rec.save(str(target.save), default_blueprint=blueprint)
-    elif target.connect is not None:
-        rec.connect_grpc(target.connect or None, default_blueprint=blueprint)
-    else:
-        rec.spawn(default_blueprint=blueprint)
-    return rec
+def _wait_for_port(host: str, port: int, timeout_s: float) -> bool:
+    deadline = time.monotonic() + timeout_s
+    target = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+    while time.monotonic() < deadline:
+        with socket.socket(socket.AF_INET6 if ":" in target else socket.AF_INET) as s:
+            s.settimeout(0.2)
+            if s.connect_ex((target, port)) == 0:
+                return True
+        time.sleep(0.1)
+    return False
+
+
+class ViewerSession:
+    """Opens the recording stream for a :class:`ViewerTarget` (with the default blueprint) and, for ``serve``, the
+    web-viewer server; :meth:`close` flushes the data and, for ``serve``, keeps serving until Ctrl-C."""
+
+    def __init__(self, target: ViewerTarget) -> None:
+        self.target = target
+        self.server: subprocess.Popen | None = None
+        self.recording: rr.RecordingStream | None = None
+        if not target.logs:
+            return
+        rec = rr.RecordingStream(APPLICATION_ID)
+        blueprint = default_blueprint()
+        if target.save is not None:
+            target.save.parent.mkdir(parents=True, exist_ok=True)
+            rec.save(str(target.save), default_blueprint=blueprint)
+        elif target.connect is not None:
+            rec.connect_grpc(target.connect or None, default_blueprint=blueprint)
+        elif target.serve:
+            rec.connect_grpc(self._start_server(), default_blueprint=blueprint)
+        else:
+            rec.spawn(default_blueprint=blueprint)
+        self.recording = rec
+
+    @property
+    def web_url(self) -> str:
+        t = self.target
+        return f"http://{t.bind}:{t.web_port}/?url=rerun%2Bhttp%3A%2F%2F{t.bind}%3A{t.grpc_port}%2Fproxy"
+
+    def _start_server(self) -> str:
+        exe = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
+        if not Path(exe).exists():
+            raise UserError("the 'rerun' command of rerun-sdk is not on PATH: reinstall with pip install rerun-sdk")
+        t = self.target
+        self._server_log = tempfile.TemporaryFile(mode="w+")
+        self.server = subprocess.Popen(
+            [exe, "--serve-web", "--bind", t.bind, "--port", str(t.grpc_port), "--web-viewer-port", str(t.web_port)],
+            stdout=subprocess.DEVNULL, stderr=self._server_log, start_new_session=True)
+        if not (_wait_for_port(t.bind, t.grpc_port, 10.0) and _wait_for_port(t.bind, t.web_port, 10.0)):
+            err = self._stop_server()
+            raise UserError(f"the web viewer did not start on {t.bind} ports {t.grpc_port}/{t.web_port} "
+                            f"(in use? choose others with --grpc-port/--web-port): {err[-300:]}")
+        return f"rerun+http://{t.bind}:{t.grpc_port}/proxy"
+
+    def _stop_server(self) -> str:
+        """Stop the server (Ctrl-C first, as a user would, then harder); returns what it printed."""
+        if self.server is None:
+            return ""
+        for stop in (lambda p: p.send_signal(signal.SIGINT), subprocess.Popen.terminate, subprocess.Popen.kill):
+            stop(self.server)
+            try:
+                self.server.wait(timeout=3)
+                break
+            except subprocess.TimeoutExpired:
+                continue
+        self.server = None
+        self._server_log.seek(0)
+        text = self._server_log.read()
+        self._server_log.close()
+        return text
+
+    def close(self, *, keep_serving: bool = True) -> None:
+        """Flush and disconnect; with a web viewer, serve until Ctrl-C (unless ``keep_serving`` is False)."""
+        if self.recording is not None:
+            self.recording.flush()
+            if self.server is not None and keep_serving:
+                print(f"avhear: the web viewer is at {self.web_url} ... Ctrl-C stops it", file=sys.stderr,
+                      flush=True)
+                try:
+                    while self.server.poll() is None:
+                        time.sleep(0.5)
+                except KeyboardInterrupt:
+                    pass
+            self.recording.disconnect()
+            self.recording = None
+        self._stop_server()

@@ -14,7 +14,7 @@ from app.errors import UserError
 from app.live import LiveConfig
 from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from app.sources import open_source
-from app.viewer import ViewerTarget, display_available, open_recording_stream
+from app.viewer import ViewerSession, ViewerTarget, display_available
 
 DEMO_RRD = Path("recordings/demo.rrd")
 
@@ -29,6 +29,11 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--save", type=Path, default=None, metavar="FILE.rrd", help="save the console's data to this file")
     p.add_argument("--connect", nargs="?", const="", default=None, metavar="URL",
                    help="send to a running Rerun viewer (default the local one)")
+    p.add_argument("--serve", action="store_true",
+                   help="host the web viewer (bound to 127.0.0.1 unless --bind says otherwise)")
+    p.add_argument("--bind", default="127.0.0.1", help="address the web viewer's servers listen on")
+    p.add_argument("--grpc-port", type=int, default=9876, help="port of the data server of --serve")
+    p.add_argument("--web-port", type=int, default=9090, help="port of the web page of --serve")
     p.add_argument("--headless", action="store_true", help="no viewer and no file: only the summary")
     p.add_argument("--stats-json", type=Path, default=None, metavar="FILE",
                    help="write the run's figures (fps, latency_ms_p95, drops, overflows) to this file at exit")
@@ -89,6 +94,8 @@ def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
         return ViewerTarget(save=args.save)
     if args.connect is not None:
         return ViewerTarget(connect=args.connect)
+    if args.serve:
+        return ViewerTarget(serve=True, bind=args.bind, grpc_port=args.grpc_port, web_port=args.web_port)
     if display_available():
         return ViewerTarget(spawn=True)
     return ViewerTarget(save=DEMO_RRD if demo else Path("recordings/run.rrd"))
@@ -100,7 +107,8 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                          rig_path=getattr(args, "rig", None), live=live,
                          progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
     config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)
-    rec = open_recording_stream(target)
+    session = ViewerSession(target)
+    rec = session.recording
     console = Console(source.rig, source.mics, recording=rec) if rec is not None else None
     pipeline: Pipeline | None = None
 
@@ -129,12 +137,12 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
     try:
         # a simulated source is as long as asked; a live one runs for --duration of wall time
         stats = pipeline.run(duration_s=args.duration if live is not None else None)
+    except BaseException:
+        session.close(keep_serving=False)
+        raise
     finally:
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
-        if rec is not None:
-            rec.flush()
-            rec.disconnect()
     summary: dict[str, Any] = stats.as_dict()
     print(f"avhear: {stats.summary()}")
     if args.stats_json is not None:
@@ -142,4 +150,6 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         args.stats_json.write_text(json.dumps(summary, indent=2))
     if target.save is not None:
         print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
+    # an interactive user keeps the web viewer until Ctrl-C; a script or CI run ends here
+    session.close(keep_serving=sys.stdin is not None and sys.stdin.isatty())
     return 0

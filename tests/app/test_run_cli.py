@@ -52,3 +52,30 @@ def test_run_bad_sources(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> 
     assert "--rig" in capsys.readouterr().err
     assert main(["run", "--source", f"replay:{tmp_path / 'nothing'}", "--headless"]) == 2
     assert main(["run", "--source", "tape", "--headless"]) == 2
+
+
+def test_serve_binds_to_localhost(capsys: pytest.CaptureFixture[str]) -> None:
+    """--serve hosts the web viewer with the rerun server bound to 127.0.0.1 (checked while it runs)."""
+    import socket
+
+    import rerun as rr
+
+    from app.viewer import ViewerSession, ViewerTarget
+
+    with socket.socket() as a, socket.socket() as b:  # two free ports
+        a.bind(("127.0.0.1", 0))
+        b.bind(("127.0.0.1", 0))
+        grpc_port, web_port = a.getsockname()[1], b.getsockname()[1]
+    session = ViewerSession(ViewerTarget(serve=True, grpc_port=grpc_port, web_port=web_port))
+    try:
+        assert session.server is not None and session.server.poll() is None
+        listening = Path("/proc/net/tcp").read_text() if Path("/proc/net/tcp").exists() else ""
+        for port in (grpc_port, web_port):
+            entries = [line.split()[1] for line in listening.splitlines()[1:] if line.split()[3] == "0A"]
+            mine = [e for e in entries if int(e.split(":")[1], 16) == port]
+            assert mine and all(e.split(":")[0] == "0100007F" for e in mine), (port, mine)  # 127.0.0.1 only
+        assert f"127.0.0.1:{web_port}" in session.web_url
+        session.recording.log("probe", rr.TextLog("hello"))  # type: ignore[union-attr]
+    finally:
+        session.close(keep_serving=False)
+    assert session.server is None
