@@ -1,8 +1,9 @@
 """`avhear calibrate`: calibration of the sensors (paper section 5.3).
 
-``avhear calibrate stereo`` calibrates the stereo rig from chessboard picture pairs and writes the rig YAML. The
-audio-visual calibration (c1, c0) is to be added beside it as ``avhear calibrate av``: each kind is one
-sub-command with its own ``add_*_parser`` below.
+``avhear calibrate stereo`` calibrates the stereo rig from chessboard picture pairs and writes the rig YAML.
+``avhear calibrate av RECORDING --rig rig.yaml -o rig.yaml`` fits the affine audio-visual correction c1, c0 of
+eq. (itd_up) on a recording of a person carrying a white-noise loudspeaker in a zig-zag (the work is in
+:mod:`app.av_calibration`). Each kind is one sub-command with its own ``add_*_parser`` below.
 """
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ import argparse
 import glob
 import logging
 import re
+import time
 from pathlib import Path
 
 import cv2
@@ -17,6 +19,7 @@ import numpy as np
 
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
+from avcore.itd import METHODS as ITD_METHODS
 from avcore.stereo import calibrate_stereo, find_chessboard
 
 log = logging.getLogger(__name__)
@@ -26,12 +29,13 @@ MIN_VIEWS = 3
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
-        "calibrate", help="calibrate the sensors (stereo cameras; later audio-visual)",
+        "calibrate", help="calibrate the sensors (stereo cameras, audio-visual correction)",
         description="Calibrate the sensors of the rig and write the rig YAML file.",
     )
     kinds = parser.add_subparsers(dest="kind", metavar="KIND")
     kinds.required = True
     add_stereo_parser(kinds)
+    add_av_parser(kinds)
 
 
 def add_stereo_parser(kinds: argparse._SubParsersAction) -> None:
@@ -200,3 +204,125 @@ def run_stereo(args: argparse.Namespace) -> int:
         raise UserError(f"{corners_path}: cannot write the corners picture; choose another --corners-image")
     print(f"wrote {corners_path} (detected corners in the left pictures: check them by eye)")
     return 0
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# avhear calibrate av
+
+
+def add_av_parser(kinds: argparse._SubParsersAction) -> None:
+    p = kinds.add_parser(
+        "av", help="audio-visual correction c1, c0 from a recording (white-noise loudspeaker in a zig-zag)",
+        description=(
+            "Audio-visual calibration (paper section 5.3). RECORDING shows one person holding a loudspeaker that "
+            "plays white noise just below the face, walking a zig-zag across the whole field of view (about one "
+            "minute; `avhear simulate calibration` makes one). Each frame with exactly one face gives an F3D "
+            "position, each audio window an ITD; the ITDs are paired with the face of their instant and c1, c0 of "
+            "eq. (itd_up) are fitted so that c1 * A(face) + c0 follows the ITDs. The hand-measured microphone "
+            "positions come from --rig; the faces are located with the recording's own stereo calibration. "
+            "Writes the output rig (the stereo section of --rig, or of the recording, kept), the paper's "
+            "calibration figure as a PNG and an .rrd next to it, and prints the fit."
+        ),
+    )
+    p.add_argument("recording", type=Path, metavar="RECORDING", help="recording folder (recordings/FORMAT.md)")
+    p.add_argument("--rig", required=True, type=Path,
+                   help="rig YAML with the hand-measured microphone positions ('microphones' section)")
+    p.add_argument("-o", "--output", required=True, type=Path,
+                   help="rig YAML to write (may be the same file as --rig): its c1, c0 are replaced")
+    p.add_argument("--method", choices=("robust", "lstsq"), default="robust",
+                   help="robust (default: Tukey-biweight line from a least-median start, insensitive to "
+                        "reverberation outliers) or lstsq (the paper's plain least squares)")
+    p.add_argument("--refine-positions", action="store_true",
+                   help="also move the microphone positions (prior: 2 cm around --rig) to remove the parallax error "
+                        "that c1, c0 cannot absorb; needs the full one-minute sequence; a refinement that moves a "
+                        "microphone more than 5 cm is rejected and only c1, c0 are written")
+    p.add_argument("--itd-method", default="gcc-phat-robust", choices=sorted(ITD_METHODS),
+                   help="ITD extractor (default gcc-phat-robust, as `avhear run`)")
+    p.add_argument("--energy-threshold", type=_positive_float, default=1e-3,
+                   help="audio windows with less mean power yield no ITD (paper's E_A, default 0.001)")
+    p.add_argument("--pair-window", type=_positive_float, default=None, metavar="S",
+                   help="an ITD is paired with a face at most S seconds away (default: half the frame interval)")
+    p.add_argument("--figure", type=Path, default=None,
+                   help="calibration figure PNG (default: next to the output, *_av_calibration.png; the .rrd "
+                        "goes beside it)")
+    p.add_argument("--no-rrd", action="store_true", help="do not write the Rerun .rrd of the figure")
+    p.set_defaults(func=run_av)
+
+
+def run_av(args: argparse.Namespace) -> int:
+    from app.av_calibration import calibrate_recording, log_calibration_rrd, save_calibration_figure
+    from app.recording import open_recording
+
+    rig = load_rig(args.rig)
+    if rig.microphones is None:
+        raise UserError(f"{args.rig}: has no 'microphones' section; measure the two microphone positions by hand "
+                        "(metres, scene frame: origin midway between the cameras, x right, y down, z forward) and "
+                        "add them, e.g.\nmicrophones:\n  left_m: [-0.06, 0.0, 0.0]\n  right_m: [0.06, 0.0, 0.0]")
+    if not args.recording.exists():
+        raise UserError(f"{args.recording}: no such recording folder; record the calibration sequence (a person "
+                        "carrying a loudspeaker playing white noise in a zig-zag across the view), or simulate one "
+                        f"with `avhear simulate calibration -o {args.recording}`")
+    recording = open_recording(args.recording)
+    mics = rig.microphones
+    n_frames = len(recording.frame_stamps_s)
+    print(f"calibrating {args.recording}: {n_frames} frames, {recording.n_samples / recording.samplerate_hz:.1f} s "
+          f"of audio; microphones from {args.rig} ({mics.distance_m * 100:.1f} cm apart)", flush=True)
+    last = [time.perf_counter()]
+
+    def progress(done: int, total: int) -> None:
+        now = time.perf_counter()
+        if now - last[0] >= 2.0 or done == total:
+            last[0] = now
+            print(f"  faces: frame {done}/{total}", flush=True)
+
+    try:
+        result = calibrate_recording(recording, mics, method=args.method, refine_positions=args.refine_positions,
+                                     itd_method=args.itd_method, energy_threshold=args.energy_threshold,
+                                     max_gap_s=args.pair_window, progress=progress)
+    finally:
+        recording.close()
+    faces, rep = result.faces, result.report
+    n_none = int((faces.n_faces == 0).sum())
+    n_many = int((faces.n_faces > 1).sum())
+    n_bad = int((faces.n_faces < 0).sum())
+    print(f"faces   {int(faces.single.sum())} of {faces.n_faces.size} frames with exactly one face "
+          f"({n_none} with none, {n_many} with several{f', {n_bad} unreadable' if n_bad else ''})")
+    print(f"ITDs    {len(result.itds)} windows passed the energy gate ({result.itd_method}, W 150 ms, hop 20 ms)")
+    print(f"pairs   {len(result.pairs)} face/ITD pairs")
+    print(f"fit     {rep.method}: c1 = {rep.c1:.4f}   c0 = {rep.c0 * 1e6:+.2f} us   "
+          f"inliers {int(rep.inliers.sum())}/{rep.n_pairs} ({100 * rep.inlier_share:.1f} %)")
+    print(f"median |ITD residual| over the inliers: before {rep.median_abs_before_s * 1e6:.1f} us, "
+          f"after {rep.median_abs_after_s * 1e6:.1f} us")
+    if result.rejected_shift_m is not None:
+        print(f"refinement rejected: it moved a microphone by {100 * result.rejected_shift_m:.1f} cm, far more than a "
+              "hand measurement is off (1-2 cm), so the data cannot pin the positions down (too short a sequence, or "
+              "ITDs that reverberation or a head make differ from free field); the measured positions are kept and "
+              "only c1, c0 are fitted (printed above)")
+    elif args.refine_positions:
+        shift = rep.position_shift_m * 100
+        print(f"microphones moved by {np.linalg.norm(shift[0]):.2f} cm (left) and {np.linalg.norm(shift[1]):.2f} "
+              f"cm (right): left {_xyz(rep.mics.left)} m, right {_xyz(rep.mics.right)} m")
+    if rep.c1 < 0.5 or rep.c1 > 1.5:
+        print(f"warning: c1 = {rep.c1:.3f} is far from 1; check the microphone positions in {args.rig} and the "
+              "speed of sound")
+
+    stereo = rig.stereo if rig.stereo is not None else recording.stereo
+    header = (f"avhear rig calibration: audio-visual c1, c0 ({rep.method}) from {args.recording}, "
+              f"{rep.n_pairs} face/ITD pairs, median |ITD residual| {rep.median_abs_before_s * 1e6:.1f} -> "
+              f"{rep.median_abs_after_s * 1e6:.1f} us"
+              + ("; microphone positions refined" if args.refine_positions and result.rejected_shift_m is None
+                 else ""))
+    save_rig(args.output, RigConfig(stereo=stereo, microphones=rep.mics), header=header)
+    print(f"\nwrote {args.output}")
+    figure = args.figure or args.output.with_name(args.output.stem + "_av_calibration.png")
+    save_calibration_figure(result, figure)
+    print(f"wrote {figure} (extracted ITDs red, faces before blue, after green)")
+    if not args.no_rrd:
+        rrd = figure.with_suffix(".rrd")
+        log_calibration_rrd(result, rrd, figure_png=figure)
+        print(f"wrote {rrd} (open with `rerun {rrd}`)")
+    return 0
+
+
+def _xyz(p: tuple[float, float, float]) -> str:
+    return "(" + ", ".join(f"{v:+.4f}" for v in p) + ")"

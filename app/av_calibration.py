@@ -1,0 +1,431 @@
+"""Audio-visual calibration of a recording (paper section 5.3): faces and ITDs paired, c1 and c0 fitted, the figure.
+
+``avhear calibrate av RECORDING --rig rig.yaml -o rig.yaml`` (``app/commands/calibrate.py``) runs the steps below on a
+recording of the section 5.3 protocol -- a person holding a loudspeaker that plays white noise just below the face,
+walking a zig-zag across the whole field of view:
+
+1. :func:`locate_recording_faces`: F3D (section 5.2) on every stereo frame; only frames with exactly one face count
+   (with two faces, or none, we cannot tell whose position the ITD belongs to).
+2. :func:`extract_recording_itds`: the ITDs (section 5.1) of the whole WAV, stamped on the recording's clock.
+3. :func:`pair_faces_with_itds`: each ITD (the centre of its window) with the face at that instant, interpolated
+   between the two single-face frames around it (or the nearest one), within ``max_gap_s``.
+4. :func:`avcore.calibration.fit_av_calibration_report`: c1 and c0 of eq. (itd_up), robust by default, the paper's
+   least squares with ``method="lstsq"``.
+5. :func:`draw_calibration_figure` and :func:`log_calibration_rrd`: the paper's figure "calibration" -- extracted ITDs
+   (red circles), the faces projected with eq. (itd) before the correction (blue) and with eq. (final_av_mapping)
+   after it (green), over time -- as a PNG drawn with OpenCV and as time series in a Rerun ``.rrd``.
+
+Everything here is batch processing of a finished recording; nothing runs in real time.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from app.errors import UserError
+from app.recording import Recording
+from avcore.calibration import CalibrationReport, fit_av_calibration_report
+from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
+from avcore.geometry import MicPair
+from avcore.itd import ItdTrack, extract_itds
+
+__all__ = [
+    "CalibrationPairs",
+    "CalibrationResult",
+    "FaceTrack",
+    "MAX_REFINE_SHIFT_M",
+    "MIN_PAIRS",
+    "calibrate_recording",
+    "draw_calibration_figure",
+    "extract_recording_itds",
+    "locate_recording_faces",
+    "log_calibration_rrd",
+    "pair_faces_with_itds",
+    "save_calibration_figure",
+]
+
+log = logging.getLogger(__name__)
+
+# Fewer pairs than this cannot support a robust line fit worth writing into a rig file (a one-minute sequence gives
+# thousands).
+MIN_PAIRS = 20
+# A hand measurement is off by 1-2 cm (issue 5); a refinement that moves a microphone further than this is fitting
+# something else (reverberation compressing the ITDs, a head between the microphones) and is not written.
+MAX_REFINE_SHIFT_M = 0.05
+
+
+@dataclass(frozen=True)
+class FaceTrack:
+    """F3D faces of every frame of a recording.
+
+    stamps_s : (F,) float, seconds on the recording's clock (the left image's capture time);
+    n_faces : (F,) int, faces located in 3D in each frame (-1: the frame could not be processed);
+    points_xyz : (F, 3) float, metres, scene frame: the face of frames with exactly one face, NaN otherwise.
+    """
+
+    stamps_s: np.ndarray
+    n_faces: np.ndarray
+    points_xyz: np.ndarray
+
+    @property
+    def single(self) -> np.ndarray:
+        """(F,) bool: frames with exactly one face."""
+        return self.n_faces == 1
+
+
+@dataclass(frozen=True)
+class CalibrationPairs:
+    """Face/ITD pairs of the same instants.
+
+    times_s : (N,) float, seconds, the ITD window centres on the recording's clock;
+    faces_xyz : (N, 3) float, metres, the face at that instant; itds_s : (N,) float, seconds.
+    """
+
+    times_s: np.ndarray
+    faces_xyz: np.ndarray
+    itds_s: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.itds_s.shape[0])
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """Everything the command prints, writes and draws.
+
+    measured : the input microphones (hand-measured positions and their current correction);
+    faces, itds, pairs : the intermediate data; report : the fit (``report.mics`` is the calibrated pair);
+    itd_method : the extractor used; timings_s : seconds spent per step;
+    rejected_shift_m : when ``refine_positions`` was asked but moved a microphone by more than
+    ``MAX_REFINE_SHIFT_M``, that largest shift (metres), and ``report`` is the fit without the refinement; else None.
+
+    There is no comparison with a simulation's ground-truth ITDs on purpose: those are the free-field ITDs of
+    eq. (itd), while the fusion compares mapped faces with *measured* ITDs, which reverberation pulls towards zero
+    (c1 < 1). The residuals against the measured ITDs are the figure of merit.
+    """
+
+    measured: MicPair
+    faces: FaceTrack
+    itds: ItdTrack
+    pairs: CalibrationPairs
+    report: CalibrationReport
+    itd_method: str
+    timings_s: dict[str, float] = field(default_factory=dict)
+    rejected_shift_m: float | None = None
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the steps
+
+
+def locate_recording_faces(recording: Recording, *, detector: FaceDetector | None = None,
+                           progress: Callable[[int, int], None] | None = None) -> FaceTrack:
+    """F3D (section 5.2) on every stereo frame of ``recording``, as the pipeline does it.
+
+    A frame that cannot be processed (wrong size, corrupt) is counted with ``n_faces = -1`` and skipped.
+    ``progress(done, total)`` is called after each frame.
+    """
+    detector = detector if detector is not None else TrackingFaceDetector()
+    total = len(recording.frame_stamps_s)
+    stamps = np.empty(total)
+    counts = np.full(total, -1, dtype=int)
+    points = np.full((total, 3), np.nan)
+    k = 0
+    for k, frame in enumerate(recording.frames(realtime=False)):
+        stamps[k] = frame.stamp_s
+        try:
+            faces = locate_faces(frame.left, frame.right, recording.stereo, detector=detector)
+        except ValueError as exc:
+            log.warning("frame %d skipped: %s", frame.index, exc)
+        else:
+            counts[k] = len(faces)
+            if len(faces) == 1:
+                points[k] = faces.points[0]
+        if progress is not None:
+            progress(k + 1, total)
+    n = min(total, k + 1) if total else 0
+    return FaceTrack(stamps[:n], counts[:n], points[:n])
+
+
+def extract_recording_itds(recording: Recording, mics: MicPair, *, method: str = "gcc-phat-robust",
+                           window_s: float = 0.15, hop_s: float = 0.02, energy_threshold: float = 1e-3) -> ItdTrack:
+    """The ITDs (section 5.1) of the recording's left and right channels, window centres on the recording's clock.
+
+    Same extractor settings as the pipeline (``app.pipeline``): lags within 1.2 times the largest ITD the
+    microphones allow, and for the ``*-robust`` methods their distance and the speed of sound.
+    """
+    left, right = recording.channels["left"], recording.channels["right"]
+    blocks = [np.asarray(b.samples, dtype=np.float64) for b in recording.audio_blocks(realtime=False)]
+    if not blocks:
+        return ItdTrack.empty()
+    samples = np.concatenate(blocks, axis=0)
+    samples = np.nan_to_num(samples, nan=0.0, posinf=0.0, neginf=0.0)
+    extra = ({"mic_distance_m": mics.distance_m, "speed_of_sound": mics.speed_of_sound}
+             if method.endswith("-robust") else {})
+    if samples.shape[0] < int(round(window_s * recording.samplerate_hz)):
+        return ItdTrack.empty()
+    track = extract_itds(samples[:, left], samples[:, right], recording.samplerate_hz, method=method,
+                         window_s=window_s, hop_s=hop_s, energy_threshold=energy_threshold,
+                         max_itd_s=1.2 * mics.max_itd_s, **extra)
+    return ItdTrack(track.times_s + recording.audio_start_s, track.itds_s, track.confidence, track.energy)
+
+
+def pair_faces_with_itds(faces: FaceTrack, itds: ItdTrack, *, max_gap_s: float | None = None) -> CalibrationPairs:
+    """Each ITD with the face at the centre of its window (the ``TimeFrame`` idea of DESIGN.md, in batch).
+
+    When the frames just before and just after the ITD's instant both hold exactly one face and lie within
+    ``2 * max_gap_s`` of each other, the face is interpolated linearly between them (a walking person moves a few
+    centimetres per frame, several microseconds of ITD); otherwise the nearest frame is used when it holds exactly
+    one face and lies within ``max_gap_s``. ITDs with no such frame are left out.
+
+    max_gap_s : seconds; default half the median frame interval (every ITD finds its frame in a steady stream).
+    """
+    stamps = faces.stamps_s
+    if len(itds) == 0 or stamps.size == 0:
+        return CalibrationPairs(np.zeros(0), np.zeros((0, 3)), np.zeros(0))
+    if max_gap_s is None:
+        max_gap_s = 0.5 * float(np.median(np.diff(stamps))) if stamps.size > 1 else 0.02
+    if not (np.isfinite(max_gap_s) and max_gap_s > 0):
+        raise ValueError(f"max_gap_s must be a positive number of seconds, got {max_gap_s!r}")
+    t = itds.times_s
+    after = np.searchsorted(stamps, t, side="left")  # first frame at or after t
+    before = after - 1
+    n = stamps.size
+    b = np.clip(before, 0, n - 1)
+    a = np.clip(after, 0, n - 1)
+    has_b = (before >= 0) & faces.single[b]
+    has_a = (after < n) & faces.single[a]
+    gap_b = np.where(before >= 0, t - stamps[b], np.inf)
+    gap_a = np.where(after < n, stamps[a] - t, np.inf)
+
+    interp = has_b & has_a & (stamps[a] > stamps[b]) & (stamps[a] - stamps[b] <= 2 * max_gap_s)
+    span = np.where(interp, stamps[a] - stamps[b], 1.0)
+    w = np.where(interp, gap_b / span, 0.0)[:, None]
+    xyz = np.where(interp[:, None], (1 - w) * faces.points_xyz[b] + w * faces.points_xyz[a], np.nan)
+
+    use_b = ~interp & has_b & (gap_b <= max_gap_s) & ~(has_a & (gap_a < gap_b) & (gap_a <= max_gap_s))
+    use_a = ~interp & ~use_b & has_a & (gap_a <= max_gap_s)
+    xyz[use_b] = faces.points_xyz[b[use_b]]
+    xyz[use_a] = faces.points_xyz[a[use_a]]
+    ok = interp | use_b | use_a
+    return CalibrationPairs(t[ok].copy(), xyz[ok], itds.itds_s[ok].copy())
+
+
+def _too_few_pairs_message(faces: FaceTrack, itds: ItdTrack, pairs: CalibrationPairs, folder: Path) -> str:
+    n_frames = faces.n_faces.size
+    n_single = int(faces.single.sum())
+    where = (f"{folder}: only {len(pairs)} face/ITD pairs ({n_frames} frames, {n_single} with exactly one face; "
+             f"{len(itds)} ITDs); the fit needs at least {MIN_PAIRS}, and a one-minute sequence gives thousands. ")
+    if n_single == 0:
+        many = int((faces.n_faces > 1).sum())
+        return where + ("No frame shows exactly one face" + (f" ({many} show several)" if many else "") +
+                        ": record one person, alone in the view, facing the cameras (section 5.3), and check that "
+                        "the recording's rig.yaml holds the stereo calibration of these cameras")
+    if len(itds) == 0:
+        return where + ("No audio window passed the energy gate: the loudspeaker must play white noise loudly "
+                        "during the whole sequence; check the WAV's left/right channels (recording.json) or lower "
+                        "--energy-threshold")
+    return where + ("The faces and the ITDs do not overlap in time: check the audio clock (audio_start_s in "
+                    "recording.json) and record longer")
+
+
+def calibrate_recording(recording: Recording, mics: MicPair, *, method: str = "robust",
+                        refine_positions: bool = False, itd_method: str = "gcc-phat-robust",
+                        window_s: float = 0.15, hop_s: float = 0.02, energy_threshold: float = 1e-3,
+                        max_gap_s: float | None = None, detector: FaceDetector | None = None,
+                        progress: Callable[[int, int], None] | None = None) -> CalibrationResult:
+    """Section 5.3 on one recording: F3D faces, ITDs, pairs, and the fit of c1, c0 (eq. itd_up).
+
+    mics : the hand-measured microphones (from the rig file); their c1, c0 are the "before" mapping.
+    method, refine_positions : see :func:`avcore.calibration.fit_av_calibration_report`.
+
+    Raises
+    ------
+    UserError
+        Too few pairs (no face, no ITD, no overlap), or data the fit refuses (faces at one azimuth, channels
+        swapped), with what to do.
+    """
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    faces = locate_recording_faces(recording, detector=detector, progress=progress)
+    timings["faces"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    itds = extract_recording_itds(recording, mics, method=itd_method, window_s=window_s, hop_s=hop_s,
+                                  energy_threshold=energy_threshold)
+    timings["itds"] = time.perf_counter() - t0
+    pairs = pair_faces_with_itds(faces, itds, max_gap_s=max_gap_s)
+    if len(pairs) < MIN_PAIRS:
+        raise UserError(_too_few_pairs_message(faces, itds, pairs, recording.folder))
+    t0 = time.perf_counter()
+    rejected = None
+    try:
+        report = fit_av_calibration_report(pairs.faces_xyz, pairs.itds_s, mics, method=method,
+                                           refine_positions=refine_positions)
+        shift = float(np.linalg.norm(report.position_shift_m, axis=1).max())
+        if refine_positions and shift > MAX_REFINE_SHIFT_M:
+            log.info("the position refinement moved a microphone by %.1f cm; kept the measured positions",
+                     100 * shift)
+            rejected = shift
+            report = fit_av_calibration_report(pairs.faces_xyz, pairs.itds_s, mics, method=method)
+    except ValueError as exc:
+        raise UserError(f"{recording.folder}: the calibration fit failed: {exc}") from None
+    timings["fit"] = time.perf_counter() - t0
+    return CalibrationResult(mics, faces, itds, pairs, report, itd_method, timings, rejected)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the figure (paper figure "calibration"), drawn with OpenCV: no plotting library at run time
+
+RED = (40, 40, 214)       # BGR
+PALE_RED = (170, 170, 235)
+BLUE = (180, 119, 31)
+GREEN = (44, 160, 44)
+GREY = (110, 110, 110)
+BLACK = (0, 0, 0)
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+
+
+def _nice_ticks(lo: float, hi: float, target: int = 8) -> np.ndarray:
+    span = max(hi - lo, 1e-12)
+    raw = span / target
+    mag = 10 ** np.floor(np.log10(raw))
+    step = next(m * mag for m in (1, 2, 5, 10) if m * mag >= raw)
+    return np.arange(np.ceil(lo / step) * step, hi + 0.5 * step, step)
+
+
+def draw_calibration_figure(result: CalibrationResult, *, size: tuple[int, int] = (1400, 640)) -> np.ndarray:
+    """The paper's figure "calibration" as a BGR image: ITD (microseconds) against time (seconds).
+
+    Red circles: the extracted ITDs of the paired windows (pale red: the ones the robust fit left out as outliers;
+    grey: ITDs of windows with no single face to pair with);
+    blue: the single faces projected with the input mapping (eq. itd with the hand-measured microphones); green: the
+    same faces projected with the fitted mapping (eq. final_av_mapping).
+    """
+    width, height = size
+    left_m, right_m, top_m, bottom_m = 90, 30, 60, 60
+    img = np.full((height, width, 3), 255, np.uint8)
+    faces = result.faces
+    single = faces.single
+    t_face = faces.stamps_s[single]
+    before = result.measured.itd(faces.points_xyz[single]) * 1e6
+    after = result.report.mics.itd(faces.points_xyz[single]) * 1e6
+    t_itd = result.pairs.times_s
+    itd = result.pairs.itds_s * 1e6
+    inl = result.report.inliers
+
+    t_all = np.concatenate([t_face, result.itds.times_s])
+    t_lo, t_hi = (float(t_all.min()), float(t_all.max())) if t_all.size else (0.0, 1.0)
+    if t_hi <= t_lo:
+        t_hi = t_lo + 1.0
+    extent = [np.abs(a).max() for a in (before, after, itd) if a.size]
+    limit = 1.15 * max(extent) if extent and max(extent) > 0 else result.measured.max_itd_s * 1e6
+    y_lo, y_hi = -limit, limit
+    pw, ph = width - left_m - right_m, height - top_m - bottom_m
+
+    def px(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+        u = left_m + (np.asarray(t) - t_lo) / (t_hi - t_lo) * pw
+        v = top_m + (y_hi - np.clip(np.asarray(y), y_lo, y_hi)) / (y_hi - y_lo) * ph
+        return np.stack([u, v], axis=-1).round().astype(np.int32)
+
+    for tick in _nice_ticks(y_lo, y_hi):
+        (u0, v), (u1, _) = px(np.array([t_lo, t_hi]), np.array([tick, tick]))
+        cv2.line(img, (int(u0), int(v)), (int(u1), int(v)), (235, 235, 235) if tick else (190, 190, 190), 1)
+        cv2.putText(img, f"{tick:g}", (8, int(v) + 5), FONT, 0.45, BLACK, 1, cv2.LINE_AA)
+    for tick in _nice_ticks(t_lo, t_hi, 12):
+        (u, v0), (_, v1) = px(np.array([tick, tick]), np.array([y_lo, y_hi]))
+        cv2.line(img, (int(u), int(v0)), (int(u), int(v1)), (235, 235, 235), 1)
+        cv2.putText(img, f"{tick:g}", (int(u) - 10, height - bottom_m + 20), FONT, 0.45, BLACK, 1, cv2.LINE_AA)
+    cv2.rectangle(img, (left_m, top_m), (left_m + pw, top_m + ph), BLACK, 1)
+    cv2.putText(img, "time (s)", (left_m + pw // 2 - 30, height - 12), FONT, 0.55, BLACK, 1, cv2.LINE_AA)
+    cv2.putText(img, "ITD (us)", (8, top_m - 12), FONT, 0.55, BLACK, 1, cv2.LINE_AA)
+
+    unpaired = ~np.isin(result.itds.times_s, t_itd)
+    for u, v in px(result.itds.times_s[unpaired], result.itds.itds_s[unpaired] * 1e6):
+        cv2.circle(img, (int(u), int(v)), 3, GREY, 1, cv2.LINE_AA)
+    for (u, v), good in zip(px(t_itd, itd), inl):
+        cv2.circle(img, (int(u), int(v)), 4, RED if good else PALE_RED, 1, cv2.LINE_AA)
+    for series, colour in ((before, BLUE), (after, GREEN)):
+        pts = px(t_face, series)
+        # a line through consecutive single-face frames; a gap of more than 0.2 s breaks it
+        breaks = np.flatnonzero(np.diff(t_face) > 0.2) + 1
+        for piece in np.split(pts, breaks):
+            if len(piece) > 1:
+                cv2.polylines(img, [piece.reshape(-1, 1, 2)], False, colour, 2, cv2.LINE_AA)
+            elif len(piece) == 1:
+                cv2.circle(img, tuple(int(c) for c in piece[0]), 2, colour, -1)
+
+    rep = result.report
+    title = (f"audio-visual calibration (section 5.3): c1 = {rep.c1:.4f}, c0 = {rep.c0 * 1e6:+.1f} us, "
+             f"median |ITD residual| {rep.median_abs_before_s * 1e6:.1f} -> {rep.median_abs_after_s * 1e6:.1f} us")
+    cv2.putText(img, title, (left_m, 24), FONT, 0.6, BLACK, 1, cv2.LINE_AA)
+    legend = (("extracted ITDs", RED), ("outliers (robust fit)", PALE_RED), ("not paired", GREY),
+              ("faces, eq. itd (before)", BLUE),
+              ("faces, eq. final_av_mapping (after)", GREEN))
+    x = left_m
+    for text, colour in legend:
+        if colour is PALE_RED and rep.method != "robust":
+            continue
+        if colour in (RED, PALE_RED, GREY):
+            cv2.circle(img, (x + 8, 44), 4, colour, 1, cv2.LINE_AA)
+        else:
+            cv2.line(img, (x, 44), (x + 18, 44), colour, 2, cv2.LINE_AA)
+        cv2.putText(img, text, (x + 24, 49), FONT, 0.5, BLACK, 1, cv2.LINE_AA)
+        x += 34 + cv2.getTextSize(text, FONT, 0.5, 1)[0][0]
+    return img
+
+
+def save_calibration_figure(result: CalibrationResult, path: Path) -> None:
+    """Write :func:`draw_calibration_figure` as a PNG."""
+    if not cv2.imwrite(str(path), draw_calibration_figure(result)):
+        raise UserError(f"{path}: cannot write the calibration figure; choose another --figure")
+
+
+def log_calibration_rrd(result: CalibrationResult, path: Path, *, figure_png: Path | None = None) -> None:
+    """The figure's three series as Rerun time series (timeline ``time``, seconds) in an ``.rrd`` file.
+
+    Entities: ``calibration/itd/extracted`` (red points), ``calibration/itd/outliers`` (pale red points, robust fit
+    only), ``calibration/itd/faces_before`` (blue) and ``calibration/itd/faces_after`` (green), in microseconds;
+    the PNG (if given) as ``calibration/figure``.
+    """
+    import rerun as rr
+    import rerun.blueprint as rrb
+
+    rec = rr.RecordingStream("avhear_av_calibration")
+    blueprint = rrb.Blueprint(rrb.Vertical(
+        rrb.TimeSeriesView(origin="calibration/itd", name="ITD (us) over time"),
+        rrb.Spatial2DView(origin="calibration/figure", name="figure"),
+    ))
+    rec.save(str(path), default_blueprint=blueprint)
+    faces = result.faces
+    single = faces.single
+    rep = result.report
+
+    def points(entity: str, name: str, colour: tuple[int, int, int], t: np.ndarray, y_us: np.ndarray,
+               lines: bool = False) -> None:
+        style = (rr.SeriesLines(names=name, colors=[colour]) if lines
+                 else rr.SeriesPoints(names=name, colors=[colour], markers="circle", marker_sizes=3.0))
+        rec.log(entity, style, static=True)
+        if t.size:
+            rec.send_columns(entity, indexes=[rr.TimeColumn("time", duration=np.asarray(t, dtype=np.float64))],
+                             columns=rr.Scalars.columns(scalars=np.asarray(y_us, dtype=np.float64)))
+
+    rgb = lambda bgr: (bgr[2], bgr[1], bgr[0])  # noqa: E731
+    t_itd, itd = result.pairs.times_s, result.pairs.itds_s * 1e6
+    points("calibration/itd/extracted", "extracted ITDs", rgb(RED), t_itd[rep.inliers], itd[rep.inliers])
+    if rep.method == "robust":
+        points("calibration/itd/outliers", "outlier ITDs", rgb(PALE_RED), t_itd[~rep.inliers], itd[~rep.inliers])
+    t_face = faces.stamps_s[single]
+    points("calibration/itd/faces_before", "faces, eq. itd (before)", rgb(BLUE), t_face,
+           result.measured.itd(faces.points_xyz[single]) * 1e6, lines=True)
+    points("calibration/itd/faces_after", "faces, eq. final_av_mapping (after)", rgb(GREEN), t_face,
+           rep.mics.itd(faces.points_xyz[single]) * 1e6, lines=True)
+    if figure_png is not None:
+        rec.log("calibration/figure", rr.EncodedImage(path=figure_png), static=True)
+    rec.flush()
+    rec.disconnect()
