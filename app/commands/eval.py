@@ -1,12 +1,30 @@
-"""`avhear eval ...`: accuracy evaluations that print the paper's tables beside ours."""
+"""`avhear eval ...`: accuracy evaluations that print the paper's tables beside ours.
+
+``synthetic``: Algorithm 1 on the synthetic sequences of section 7.1 (tables 1 and 2). ``scenarios``: the simulated
+room's scenarios S1-S5 through the real pipeline, the table of section 7.3 (see :mod:`app.scenario_eval`).
+"""
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 
 from app.errors import UserError
+from app.pipeline import PipelineConfig
+from app.scenario_eval import (
+    INTERVAL_S,
+    ITD_TOLERANCE_S,
+    PAPER_PERCENT,
+    PAPER_SCENARIOS,
+    SCENARIOS,
+    CalibrationFit,
+    ScenarioScore,
+    calibrate_on_preset,
+    evaluate_scenario,
+)
+from avcore.itd import METHODS
 from avcore.synthetic import SEQUENCES
 from avcore.synthetic_eval import (
     FACE_VARIANTS,
@@ -42,6 +60,31 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="also run Algorithm 2 (faces given) with its variants on the same sequences (table 3)")
     syn.add_argument("--json", action="store_true", help="print the results as JSON instead of tables")
     syn.set_defaults(func=run_synthetic)
+    sce = kinds.add_parser(
+        "scenarios",
+        help="the simulated room's scenarios S1-S5 through the real pipeline (section 7.3's table)",
+        description="Simulate the scenarios S1-S5 of the paper's section 7.3, run each through the real pipeline "
+        "(face detection and F3D on the rendered frames, ITD extraction on the simulated audio, face-guided "
+        "fusion, or motion-guided with --motion) and print the FP, FN and TP of the speaking states beside the "
+        f"paper's table. One count is one visible person during {INTERVAL_S} s. Also per scenario: the share of "
+        "frames with every visible face found, the median F3D error and the ITD accuracy.",
+    )
+    sce.add_argument("--scenario", nargs="+", choices=SCENARIOS, default=list(SCENARIOS), metavar="NAME",
+                     help=f"scenarios to run (default: all of {', '.join(SCENARIOS)})")
+    sce.add_argument("--seed", nargs="+", type=int, default=[0], metavar="N",
+                     help="seeds of the simulated scenarios; counts are summed over them (default: 0)")
+    sce.add_argument("--duration", type=float, default=None, metavar="SECONDS",
+                     help="seconds of each scenario (default: the preset's, 20 s; 25 s for S5)")
+    sce.add_argument("--motion", action="store_true",
+                     help="motion-guided inference (HM3D points, Algorithm 1) instead of face-guided (Algorithm 2)")
+    sce.add_argument("--itd-method", default="gcc-phat-robust",
+                     help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
+                          "correlogram-robust")
+    sce.add_argument("--calibrate", action="store_true",
+                     help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
+                          "(40 s), as a user would, and fuse with it")
+    sce.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
+    sce.set_defaults(func=run_scenarios)
 
 
 def _progress(message: str) -> None:
@@ -96,8 +139,8 @@ def format_tables(scores: list[SequenceScore], seeds: list[int]) -> str:
     """Tables 1 and 2 of section 7.1; our counts are per sequence (averaged over the seeds)."""
     n = len(seeds)
     lines = [
-        f"Table 1 - visual evaluation (section 7.1). Counts per 136-interval sequence, averaged over seeds "
-        f"{', '.join(map(str, seeds))}; TP % = TP / (TP + FN).",
+        (f"Table 1 - visual evaluation (section 7.1). Counts per 136-interval sequence, averaged over seeds "
+         f"{', '.join(map(str, seeds))}; TP % = TP / (TP + FN)."),
         f"{'Seq.':8s} {'method':22s} {'FP':>7s} {'FN':>16s} {'TP':>16s} {'ALE [m]':>8s}",
     ]
     for name in dict.fromkeys(s.sequence for s in scores):
@@ -149,3 +192,185 @@ def format_face_table(scores: list[SequenceScore], seeds: list[int]) -> str:
                          f"{t.audio_fp / n:7.1f} {t.audio_fn / n:6.1f} {_pct(t.audio_fn, speak):>9s} "
                          f"{t.audio_tp / n:6.1f} {_pct(t.audio_tp, speak):>9s}")
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# avhear eval scenarios (section 7.3)
+
+
+def run_scenarios(args: argparse.Namespace) -> int:
+    if any(s < 0 for s in args.seed):
+        raise UserError(f"--seed takes non-negative integers, got {args.seed}")
+    if args.duration is not None and not (2.0 <= args.duration <= 3600.0):
+        raise UserError(f"--duration must be between 2 and 3600 seconds, got {args.duration}")
+    try:
+        config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)
+    except ValueError as exc:
+        raise UserError(str(exc)) from exc
+    if args.itd_method not in METHODS:
+        raise UserError(f"unknown --itd-method {args.itd_method!r}; choose one of {', '.join(sorted(METHODS))}")
+    start = time.perf_counter()
+    calibration: CalibrationFit | None = None
+    if args.calibrate:
+        _progress("calibration preset (section 5.3): fitting c1, c0 ...")
+        calibration = calibrate_on_preset(seed=args.seed[0], config=config)
+        c = calibration.as_dict()
+        _progress(f"c1 = {c['c1']:.4f}, c0 = {c['c0_us']:+.1f} us, median |residual| "
+                  f"{c['median_abs_residual_before_us']:.1f} -> {c['median_abs_residual_after_us']:.1f} us")
+    scores: list[ScenarioScore] = []
+    for name in args.scenario:
+        merged: ScenarioScore | None = None
+        for seed in args.seed:
+            _progress(f"{name} seed {seed}: simulating and running the {config.inference}-guided pipeline ...")
+            t0 = time.perf_counter()
+            score = evaluate_scenario(name, seed, duration_s=args.duration, config=config,
+                                      mics=calibration.mics if calibration else None)
+            c = score.counts
+            _progress(f"{name} seed {seed}: TP {c.tp}, FN {c.fn}, FP {c.fp} ({time.perf_counter() - t0:.0f} s)")
+            if merged is None:
+                merged = score
+            else:
+                merged.merge(score)
+        assert merged is not None
+        scores.append(merged)
+    if args.json:
+        out = {
+            "protocol": {"interval_s": INTERVAL_S, "itd_tolerance_us": ITD_TOLERANCE_S * 1e6,
+                         "count": "one visible person during one interval", "tau_loc_m": 0.35},
+            "inference": config.inference,
+            "itd_method": config.itd_method,
+            "seeds": list(args.seed),
+            "calibration": calibration.as_dict() if calibration else None,
+            "results": [s.as_dict() for s in scores],
+            "targets": _targets(scores),
+            "paper": {s.scenario: PAPER_SCENARIOS[s.scenario] for s in scores},
+        }
+        print(json.dumps(out, indent=2))
+    else:
+        print(format_scenario_table(scores, config, calibration))
+        print(f"\n({time.perf_counter() - start:.1f} s)")
+    return 0
+
+
+def _fp_share(fp: float, speaking: float) -> float:
+    """FP per speaking count, FP / (TP + FN): comparable between the paper's counts and ours, whose units differ."""
+    return fp / speaking if speaking else math.nan
+
+
+def _rounded(x: float) -> float | None:
+    return None if math.isnan(x) else round(x, 4)
+
+
+def _target_row(tp: int, fn: int, fp: int, scenario: str) -> dict[str, object]:
+    p = PAPER_SCENARIOS[scenario]
+    ours, paper = _fp_share(fp, tp + fn), _fp_share(p["fp"], p["tp"] + p["fn"])
+    return {
+        "tp_rate": _rounded(tp / (tp + fn)) if tp + fn else None,
+        "tp_at_least_95": bool(tp + fn and tp / (tp + fn) >= 0.95),
+        "fp_per_speaking_count": _rounded(ours),
+        "paper_fp_per_speaking_count": _rounded(paper),
+        "fp_at_most_half_paper": bool(not math.isnan(ours) and ours <= paper / 2),
+    }
+
+
+def _targets(scores: list[ScenarioScore]) -> dict[str, object]:
+    """Issue 5's targets: TP >= 95 % and FP at most half the paper's (per speaking count) on every scenario, per
+    interval and per spoken number; in S4 the unseen talker turns silent visible people into speakers no more often
+    than S2's silent people are turned (per interval)."""
+    out: dict[str, object] = {
+        "per_interval": {s.scenario: _target_row(s.counts.tp, s.counts.fn, s.counts.fp, s.scenario) for s in scores},
+        "per_spoken_number": {s.scenario: _target_row(s.utterances.tp, s.utterances.fn, s.utterances.fp, s.scenario)
+                              for s in scores},
+    }
+    by = {s.scenario: s for s in scores}
+    if "S4" in by and "S2" in by:
+        s4, s2 = by["S4"].counts.unseen_fp_rate, by["S2"].counts.fp_rate
+        out["s4_unseen_fp_rate"] = _rounded(s4)
+        out["s2_fp_rate"] = _rounded(s2)
+        out["s4_not_worse_than_s2"] = bool(not math.isnan(s4) and not math.isnan(s2) and s4 <= s2)
+    return out
+
+
+def _paper_row(name: str) -> str:
+    p = PAPER_SCENARIOS[name]
+    fn_pct, tp_pct = PAPER_PERCENT[name]
+    return (f"{name:6s} {'paper (NAO, published)':24s} {p['fp']:5d} {p['fn']:4d} {f'({fn_pct:4.1f}%)':>8s} "
+            f"{p['tp']:5d} {f'({tp_pct:4.1f}%)':>8s}  {p['fp'] / (p['tp'] + p['fn']):6.3f}")
+
+
+def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
+                          calibration: CalibrationFit | None) -> str:
+    """The table of section 7.3 with the paper's rows beside ours (per 0.4 s interval, then per spoken number), the
+    per-scenario front-end figures, and the issue's targets."""
+    n_seeds = len(scores[0].seeds) if scores else 0
+    label = f"avhear {config.inference}-guided"
+    correction = (f"fitted on the calibration preset, c1 = {calibration.mics.c1:.4f}, "
+                  f"c0 = {calibration.mics.c0 * 1e6:+.1f} us" if calibration else "none (c1 = 1, c0 = 0)")
+    head = f"{'Scen.':6s} {'method':24s} {'FP':>5s} {'FN':>13s} {'TP':>14s}  {'FP/spk':>6s}"
+    lines = [
+        (f"Speaking states per scenario (section 7.3), summed over {n_seeds} seed(s); TP % = TP / (TP + FN); "
+         "FP/spk = FP / (TP + FN)."),
+        "The paper's counts come from hand-annotated recordings on NAO (its caption: 'the total number of counts').",
+        f"ITD: {config.itd_method}; AV correction: {correction}.",
+        "",
+        f"Per interval: one count = one visible person during {INTERVAL_S} s (majority of its frames).",
+        f"{head}  {'FN face missed':>14s} {'FN overlap':>10s}  {'FP by own speech':>16s}  {'silent->spk':>11s}",
+    ]
+    for s in scores:
+        c = s.counts
+        n = c.tp + c.fn
+        silent = c.fp - c.fp_false_face + c.tn
+        lines += [_paper_row(s.scenario),
+                  (f"{'':6s} {label:24s} {c.fp:5d} {c.fn:4d} {_pct(c.fn, n):>8s} {c.tp:5d} {_pct(c.tp, n):>8s}  "
+                   f"{_fp_share(c.fp, n):6.3f}  {c.fn_missed_face:14d} {c.fn_overlap:10d}  "
+                   f"{c.fp_next_to_own_speech:16d}  {_pct(c.fp - c.fp_false_face, silent):>11s}")]
+    lines += [
+        "",
+        ("Per spoken number: TP = a number judged spoken by its visible speaker, FN = not; FP = a stretch judged "
+         "speaking that overlaps none of the person's numbers."),
+        f"{head}  {'FN face missed':>14s}",
+    ]
+    for s in scores:
+        u = s.utterances
+        n = u.tp + u.fn
+        lines += [_paper_row(s.scenario),
+                  (f"{'':6s} {label:24s} {u.fp:5d} {u.fn:4d} {_pct(u.fn, n):>8s} {u.tp:5d} {_pct(u.tp, n):>8s}  "
+                   f"{_fp_share(u.fp, n):6.3f}  {u.fn_missed_face:14d}")]
+    lines += [
+        "",
+        ("Front end per scenario, per fused frame: faces = frames with every visible face found; recall = visible "
+         f"faces found; ITD = ITDs within {ITD_TOLERANCE_S * 1e6:.0f} us of the talker's true ITD (windows with one "
+         "talker); bias = median extracted - true; pull = median pull towards 0 of talkers off to the side "
+         "(|ITD| >= 50 us)."),
+        (f"{'Scen.':6s} {'frames':>7s} {'faces':>7s} {'recall':>7s} {'F3D med [m]':>12s} {'ITD windows':>12s} "
+         f"{'ITD +-40us':>10s} {'bias [us]':>10s} {'pull [us]':>10s}"),
+    ]
+    for s in scores:
+        lines.append(f"{s.scenario:6s} {s.n_frames:7d} {_pct1(s.all_found_share):>7s} {_pct1(s.face_recall):>7s} "
+                     f"{_num(s.f3d_median_m, '.3f'):>12s} {len(s.itd_errors_s):12d} {_pct1(s.itd_accuracy):>10s} "
+                     f"{_num(s.itd_bias_s * 1e6, '+.1f'):>10s} {_num(s.itd_pull_s * 1e6, '+.1f'):>10s}")
+    t = _targets(scores)
+    lines += ["", ("Targets (issue 5): TP >= 95 %; FP/spk at most half the paper's; S4's unseen talker no worse "
+              "than S2.")]
+    for view in ("per_interval", "per_spoken_number"):
+        rows = t[view]
+        assert isinstance(rows, dict)
+        for name, r in rows.items():
+            tp = r["tp_rate"]
+            lines.append(f"  {view.replace('_', ' '):17s} {name}: TP {'-' if tp is None else f'{100 * tp:5.1f} %'} "
+                         f"[{'met' if r['tp_at_least_95'] else 'NOT met'}], FP/spk {r['fp_per_speaking_count']} vs "
+                         f"paper {r['paper_fp_per_speaking_count']} "
+                         f"[{'met' if r['fp_at_most_half_paper'] else 'NOT met'}]")
+    if "s4_unseen_fp_rate" in t:
+        lines.append(f"  S4: silent visible people judged speaking while the unseen person talks: "
+                     f"{t['s4_unseen_fp_rate']} of their intervals, vs S2's silent people: {t['s2_fp_rate']} "
+                     f"[{'met' if t['s4_not_worse_than_s2'] else 'NOT met'}]")
+    return "\n".join(lines)
+
+
+def _pct1(x: float) -> str:
+    return "-" if math.isnan(x) else f"{100 * x:.1f}%"
+
+
+def _num(x: float, fmt: str) -> str:
+    return "-" if math.isnan(x) else format(x, fmt)

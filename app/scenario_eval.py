@@ -1,0 +1,514 @@
+"""The scenario evaluation of the paper's section 7.3 ("Results on NAO") on the simulated room.
+
+Each scenario S1-S5 (:mod:`avcore.scenario`) is simulated and replayed as fast as possible (nothing lost) through
+the real :class:`~app.pipeline.Pipeline`: face detection and F3D on the rendered stereo frames (section 5.2), ITD
+extraction on the simulated microphone signals (section 4), and face-guided fusion (Algorithm 2, section 5.4) or,
+when asked, motion-guided fusion (Algorithm 1). The fused results are scored against the simulator's truth.
+
+Speaking states, the table of section 7.3 (FP, FN, TP)
+    The paper annotated its recordings by hand and does not define its unit. Here one count is one *visible
+    person during one interval of 0.4 s* (the Delta t of section 7): interval ``k`` holds the fused frames stamped in
+    ``[0.4 k, 0.4 (k + 1))`` (for the motion-guided variant, the one result of that interval).
+
+    - Truth: a person is *visible* in the interval when ``FrameTruth.visible`` holds in most of its frames, and
+      *speaking* when ``FrameTruth.speaking`` holds in most of them (speech only: the hand claps of S5 are
+      ``sounding`` but not speaking). People outside the field of view are not counted (no face-guided system can
+      report them), but their speech reaches the microphones.
+    - Detection: in every frame, the detected faces are associated with the people by 3D position with the protocol
+      of section 7 (:func:`avcore.evaluation.match_clusters`, tau_loc = 0.35 m). A person found in at least one frame
+      of the interval is *detected speaking* when the associated face was judged speaking in most of the frames
+      where it was found; a person found in none is *missed* (which counts as judged silent).
+    - TP: speaking, detected speaking. FN: speaking, detected silent (``fn_missed_face`` of them because the face
+      was not found at all). FP: silent, detected speaking, plus one per interval in which, in most frames, a
+      detection associated with nobody was judged speaking (``fp_false_face``). TN: silent, detected silent.
+      TP % = TP / (TP + FN), as in the paper's table.
+
+Per spoken number (a second view)
+    The table's caption calls its total "the total number of counts", which reads as one count per number spoken
+    (S1: 149 + 23 = 172 numbers). So the same results are also counted per spoken number of a visible person
+    (:class:`UtteranceCounts`): TP when the person was judged speaking in at least half of the results during the
+    number in which the face was found, FN otherwise; FP for each stretch of consecutive results judging a found
+    person speaking that overlaps none of that person's numbers (a hand clap, another person's speech). The speaking
+    state's lag behind the speech (the ITD window and the fusion's time frame) costs nothing here, unlike per
+    interval.
+
+Per scenario also (per fused frame): the share of frames in which every visible face was found, the median F3D
+error of the found faces (metres), and the ITD accuracy: the share of the extracted ITDs within 40 us of the true
+ITD of the talker, over the windows (W = 150 ms) during which exactly one person makes a sound and that sound is
+speech, with the median bias (extracted minus true) and the median pull towards zero of the talkers off to the
+side (``-(extracted - true) * sign(true)`` over |true ITD| >= 50 us; reverberation makes it positive; the bias
+alone hides it, as talkers left and right cancel). The true ITD is eq. (itd) of the mouth, mapped with the same
+affine correction (eq. itd_up) as the fusion; the extraction is :func:`avcore.itd.extract_itds` with the
+pipeline's settings on the same samples.
+
+Audio-visual calibration (section 5.3): with ``calibration`` the fusion uses ``c1``, ``c0`` fitted on the
+``calibration`` preset (a loudspeaker of white noise carried over the field of view), exactly as a user of the rig
+would calibrate it (:func:`calibrate_on_preset`). The simulator's microphones are at their nominal positions, so
+the correction only absorbs what the room and the extractor do to the ITDs (reverberation pulls them towards zero).
+"""
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.sources import StreamAdapter, open_source
+from avcore.calibration import fit_av_calibration_report
+from avcore.evaluation import TAU_LOC_M, match_clusters
+from avcore.geometry import MicPair
+from avcore.itd import extract_itds
+from avcore.scenario import Scenario
+
+log = logging.getLogger(__name__)
+
+__all__ = [
+    "INTERVAL_S",
+    "ITD_TOLERANCE_S",
+    "PAPER_PERCENT",
+    "PAPER_SCENARIOS",
+    "SCENARIOS",
+    "CalibrationFit",
+    "FusedFrame",
+    "ScenarioScore",
+    "SpeakingCounts",
+    "UtteranceCounts",
+    "calibrate_on_preset",
+    "evaluate_scenario",
+    "score_run",
+]
+
+SCENARIOS: tuple[str, ...] = ("S1", "S2", "S3", "S4", "S5")
+INTERVAL_S = 0.4
+"""One count of the speaking-state table: a person during 0.4 s (the Delta t of section 7)."""
+ITD_TOLERANCE_S = 40e-6
+"""An extracted ITD is accurate when within 40 us of the talker's true ITD."""
+LATERAL_ITD_S = 50e-6
+"""Talkers whose true ITD is at least this far from zero count for the pull towards zero."""
+
+PAPER_PERCENT: dict[str, tuple[float, float]] = {
+    # the table's own FN % and TP % (its S2 row rounds 31 / 207 to 14.9 %)
+    "S1": (13.4, 86.6), "S2": (14.9, 85.1), "S3": (11.3, 88.7), "S4": (6.7, 93.3), "S5": (19.0, 81.0),
+}
+PAPER_SCENARIOS: dict[str, dict[str, int]] = {
+    # section 7.3, table "scenarios": FP, FN, TP of the speaking states on NAO (hand-annotated recordings)
+    "S1": {"fp": 13, "fn": 23, "tp": 149},
+    "S2": {"fp": 22, "fn": 31, "tp": 176},
+    "S3": {"fp": 19, "fn": 20, "tp": 157},
+    "S4": {"fp": 37, "fn": 12, "tp": 166},
+    "S5": {"fp": 53, "fn": 32, "tp": 136},
+}
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class SpeakingCounts:
+    """Speaking-state counts of section 7.3 (see the module docstring for what one count is)."""
+
+    tp: int = 0
+    fn: int = 0
+    fp: int = 0
+    tn: int = 0
+    fn_missed_face: int = 0
+    fp_false_face: int = 0
+    # FP in an interval next to one where the same person speaks: the speech smeared over the pause by the ITD
+    # window (W = 150 ms) and the fusion's time frame (+- 0.2 s, section 6)
+    fp_next_to_own_speech: int = 0
+    # FN in an interval where someone else speaks too (overlapping speech, S5)
+    fn_overlap: int = 0
+    # silent visible people during intervals in which an unseen person speaks (S4), and how many were judged speaking
+    silent_while_unseen_talks: int = 0
+    fp_while_unseen_talks: int = 0
+
+    def add(self, other: SpeakingCounts) -> None:
+        for name in self.__dataclass_fields__:
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+
+    @property
+    def tp_rate(self) -> float:
+        """TP / (TP + FN), the paper's TP %."""
+        n = self.tp + self.fn
+        return self.tp / n if n else math.nan
+
+    @property
+    def fp_rate(self) -> float:
+        """FP among the silent visible person-intervals that were associated with a person: FP / (FP + TN)."""
+        n = self.fp - self.fp_false_face + self.tn
+        return (self.fp - self.fp_false_face) / n if n else math.nan
+
+    @property
+    def unseen_fp_rate(self) -> float:
+        """Share of silent visible people judged speaking while a person outside the view speaks."""
+        n = self.silent_while_unseen_talks
+        return self.fp_while_unseen_talks / n if n else math.nan
+
+    def as_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {name: getattr(self, name) for name in self.__dataclass_fields__}
+        d.update(tp_rate=_clean(self.tp_rate), fp_rate=_clean(self.fp_rate), unseen_fp_rate=_clean(self.unseen_fp_rate))
+        return d
+
+
+@dataclass
+class UtteranceCounts:
+    """Speaking states counted per spoken number (the paper's caption calls its total "the number of counts").
+
+    tp / fn : spoken numbers of visible people judged speaking / silent (in at least / fewer than half of the
+    results during the number in which the face was found; ``fn_missed_face``: found in none). fp : stretches of
+    consecutive results in which a found person was judged speaking that overlap none of that person's numbers.
+    """
+
+    tp: int = 0
+    fn: int = 0
+    fn_missed_face: int = 0
+    fp: int = 0
+
+    def add(self, other: UtteranceCounts) -> None:
+        for name in self.__dataclass_fields__:
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+
+    @property
+    def tp_rate(self) -> float:
+        n = self.tp + self.fn
+        return self.tp / n if n else math.nan
+
+    def as_dict(self) -> dict[str, Any]:
+        d: dict[str, Any] = {name: getattr(self, name) for name in self.__dataclass_fields__}
+        d["tp_rate"] = _clean(self.tp_rate)
+        return d
+
+
+@dataclass
+class ScenarioScore:
+    """The figures of one scenario (summed or pooled over its seeds)."""
+
+    scenario: str
+    inference: str
+    seeds: list[int]
+    duration_s: float
+    counts: SpeakingCounts = field(default_factory=SpeakingCounts)
+    utterances: UtteranceCounts = field(default_factory=UtteranceCounts)
+    n_intervals: int = 0
+    n_frames: int = 0
+    frames_all_found: int = 0
+    visible_faces: int = 0
+    faces_found: int = 0
+    f3d_errors_m: list[float] = field(default_factory=list, repr=False)
+    itd_errors_s: list[float] = field(default_factory=list, repr=False)
+    itd_true_s: list[float] = field(default_factory=list, repr=False)
+    n_itds: int = 0
+    speech: str = ""
+    faces: str = ""
+
+    @property
+    def all_found_share(self) -> float:
+        return self.frames_all_found / self.n_frames if self.n_frames else math.nan
+
+    @property
+    def face_recall(self) -> float:
+        return self.faces_found / self.visible_faces if self.visible_faces else math.nan
+
+    @property
+    def f3d_median_m(self) -> float:
+        return float(np.median(self.f3d_errors_m)) if self.f3d_errors_m else math.nan
+
+    @property
+    def itd_accuracy(self) -> float:
+        e = np.abs(self.itd_errors_s)
+        return float(np.mean(e <= ITD_TOLERANCE_S)) if e.size else math.nan
+
+    @property
+    def itd_bias_s(self) -> float:
+        return float(np.median(self.itd_errors_s)) if self.itd_errors_s else math.nan
+
+    @property
+    def itd_pull_s(self) -> float:
+        """Median pull of the ITDs towards zero for talkers off to the side (|true| >= 50 us), seconds."""
+        true = np.asarray(self.itd_true_s)
+        side = np.abs(true) >= LATERAL_ITD_S
+        pull = -np.asarray(self.itd_errors_s)[side] * np.sign(true[side])
+        return float(np.median(pull)) if pull.size else math.nan
+
+    def merge(self, other: ScenarioScore) -> None:
+        """Add the figures of another seed of the same scenario."""
+        self.seeds += other.seeds
+        self.duration_s += other.duration_s
+        self.counts.add(other.counts)
+        self.utterances.add(other.utterances)
+        for name in ("n_intervals", "n_frames", "frames_all_found", "visible_faces", "faces_found", "n_itds"):
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+        self.f3d_errors_m += other.f3d_errors_m
+        self.itd_errors_s += other.itd_errors_s
+        self.itd_true_s += other.itd_true_s
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "scenario": self.scenario,
+            "inference": self.inference,
+            "seeds": list(self.seeds),
+            "duration_s": self.duration_s,
+            "n_intervals": self.n_intervals,
+            "speaking": self.counts.as_dict(),
+            "speaking_per_utterance": self.utterances.as_dict(),
+            "n_frames": self.n_frames,
+            "frames_all_faces_found": _clean(self.all_found_share),
+            "face_recall": _clean(self.face_recall),
+            "f3d_median_error_m": _clean(self.f3d_median_m),
+            "itd_windows_one_talker": len(self.itd_errors_s),
+            "itd_accuracy_40us": _clean(self.itd_accuracy),
+            "itd_median_bias_us": _clean(self.itd_bias_s * 1e6),
+            "itd_median_pull_to_zero_us": _clean(self.itd_pull_s * 1e6),
+            "itds_extracted": self.n_itds,
+            "speech_clips": self.speech,
+            "face_images": self.faces,
+        }
+
+
+def _clean(x: float) -> float | None:
+    return None if math.isnan(x) else round(float(x), 6)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# running
+
+
+@dataclass(frozen=True)
+class FusedFrame:
+    """What the scoring keeps of a :class:`FusionResult`: its stamp, positions (N, 3) m and speaking states (N,)."""
+
+    stamp_s: float
+    xyz: np.ndarray
+    speaking: np.ndarray
+
+
+@dataclass(frozen=True)
+class CalibrationFit:
+    """c1, c0 fitted on the ``calibration`` preset (section 5.3) and the residuals before and after."""
+
+    mics: MicPair
+    n_pairs: int
+    inlier_share: float
+    median_abs_before_s: float
+    median_abs_after_s: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"c1": round(self.mics.c1, 6), "c0_us": round(self.mics.c0 * 1e6, 3), "pairs": self.n_pairs,
+                "inlier_share": round(self.inlier_share, 4),
+                "median_abs_residual_before_us": round(self.median_abs_before_s * 1e6, 2),
+                "median_abs_residual_after_us": round(self.median_abs_after_s * 1e6, 2)}
+
+
+def _open(name: str, seed: int, duration_s: float | None, progress: Progress | None) -> StreamAdapter:
+    source = open_source(f"sim:{name}", realtime=False, duration_s=duration_s, seed=seed, progress=progress)
+    assert isinstance(source, StreamAdapter)
+    return source
+
+
+def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, config: PipelineConfig | None = None,
+                        progress: Progress | None = None) -> CalibrationFit:
+    """Fit the affine correction c1, c0 (eq. itd_up) as a user would: run the ``calibration`` preset through the
+    pipeline (F3D faces, ITDs of each frame's time window), pair the one face of each frame with each of its ITDs,
+    and fit robustly (:func:`avcore.calibration.fit_av_calibration_report`)."""
+    cfg = replace(config or PipelineConfig(), inference="face")
+    source = _open("calibration", seed, duration_s, progress)
+    faces: list[np.ndarray] = []
+    itds: list[float] = []
+
+    def keep(result: FusionResult) -> None:
+        if result.xyz.shape[0] == 1:
+            for itd in result.itds_s:
+                faces.append(result.xyz[0])
+                itds.append(float(itd))
+
+    Pipeline(source, cfg, keep).run()
+    if len(itds) < 10:
+        raise RuntimeError(f"the calibration run gave only {len(itds)} face-ITD pairs; cannot fit c1, c0")
+    report = fit_av_calibration_report(np.asarray(faces), np.asarray(itds), source.mics)
+    return CalibrationFit(report.mics, report.n_pairs, report.inlier_share, report.median_abs_before_s,
+                          report.median_abs_after_s)
+
+
+def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = None,
+                      config: PipelineConfig | None = None, mics: MicPair | None = None,
+                      progress: Progress | None = None) -> ScenarioScore:
+    """Simulate scenario ``name`` (S1-S5) with ``seed``, run it through the pipeline and score it (section 7.3).
+
+    duration_s : seconds of scenario (default the preset's, 20-25 s). config : the pipeline's settings (default
+    face-guided, the paper's on NAO). mics : the microphone pair with an audio-visual correction (e.g.
+    :func:`calibrate_on_preset`); default the simulator's nominal pair with c1 = 1, c0 = 0.
+    """
+    if name not in SCENARIOS:
+        raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}, got {name!r}")
+    cfg = config or PipelineConfig()
+    source = _open(name, seed, duration_s, progress)
+    if mics is not None:
+        source.mics = mics
+    fused: list[FusedFrame] = []
+
+    def keep(result: FusionResult) -> None:
+        # face-guided: the speaking state of each F3D face; motion-guided: of each AV cluster (its mean position,
+        # eq. hat_svect), not of the HM3D points in result.xyz
+        xyz = result.output.positions if cfg.inference == "motion" else result.xyz
+        fused.append(FusedFrame(float(result.stamp_s), np.asarray(xyz, dtype=np.float64).reshape(-1, 3),
+                                np.asarray(result.output.speaking, dtype=bool).reshape(-1)))
+
+    stats = Pipeline(source, cfg, keep).run()
+    log.info("%s seed %d: %s", name, seed, stats.summary())
+    stream = source.stream
+    scenario: Scenario = stream.scenario  # type: ignore[attr-defined]
+    audio = np.concatenate([b.samples for b in stream.audio_blocks()], axis=0).astype(np.float64)
+    score = score_run(scenario, fused, audio, float(stream.samplerate_hz), source.mics, cfg,
+                      frame_stamps_s=np.asarray(stream.frame_stamps_s))
+    score.seeds = [seed]
+    meta = getattr(stream, "meta", {})
+    score.speech, score.faces = str(meta.get("speech", "")), str(meta.get("faces", ""))
+    return score
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# scoring
+
+
+def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
+              config: PipelineConfig, *, frame_stamps_s: np.ndarray) -> ScenarioScore:
+    """Score the fused results of one run of ``scenario`` (see the module docstring for the protocol).
+
+    fused : the results in any order (stamps in seconds from the scenario's start). audio : (n, 2) the microphone
+    signals (left, right), full scale 1. frame_stamps_s : (F,) the stamps of the camera frames, seconds.
+    """
+    motion = config.inference == "motion"
+    n_people = len(scenario.actors)
+    score = ScenarioScore(scenario.name, config.inference, [scenario.seed], float(scenario.duration_s))
+    n_intervals = math.ceil(scenario.duration_s / INTERVAL_S - 1e-9)
+    score.n_intervals = n_intervals
+
+    # the truth of every camera frame, gathered per interval
+    truths = [scenario.truth(float(t)) for t in frame_stamps_s]
+    frame_interval = np.minimum((np.asarray(frame_stamps_s) / INTERVAL_S + 1e-9).astype(int), n_intervals - 1)
+    vis_votes = np.zeros((n_intervals, n_people))
+    speak_votes = np.zeros((n_intervals, n_people))
+    frames_per = np.zeros(n_intervals)
+    for k, tr in zip(frame_interval, truths):
+        vis_votes[k] += tr.visible
+        speak_votes[k] += tr.speaking
+        frames_per[k] += 1
+    half = frames_per[:, None] / 2
+    visible = vis_votes > half
+    speaking = speak_votes > half
+    unseen_talks = np.any(speaking & ~visible, axis=1)
+
+    # detections per interval: per person, frames found and frames judged speaking; false faces judged speaking
+    found = np.zeros((n_intervals, n_people))
+    judged = np.zeros((n_intervals, n_people))
+    false_speaking = np.zeros(n_intervals)
+    results_per = np.zeros(n_intervals)
+    ordered = sorted(fused, key=lambda f: f.stamp_s)
+    states = np.full((len(ordered), n_people), -1)  # per result and person: -1 not found, 0 silent, 1 speaking
+    for j, r in enumerate(ordered):
+        k = min(int(r.stamp_s / INTERVAL_S + 1e-9), n_intervals - 1)
+        tr = scenario.truth(r.stamp_s)
+        match = match_clusters(r.xyz, tr.positions_m, tau_loc=TAU_LOC_M)
+        results_per[k] += 1
+        matched = set()
+        for g, d in match.pairs:
+            found[k, g] += 1
+            judged[k, g] += bool(r.speaking[d])
+            states[j, g] = int(bool(r.speaking[d]))
+            matched.add(d)
+        false_speaking[k] += bool(any(r.speaking[d] for d in range(r.xyz.shape[0]) if d not in matched))
+        if not motion:  # per-frame visual figures (the F3D faces)
+            vis = np.flatnonzero(tr.visible)
+            hit = {g for g, _ in match.pairs}
+            score.n_frames += 1
+            score.visible_faces += int(vis.size)
+            score.faces_found += sum(int(g in hit) for g in vis)
+            score.frames_all_found += int(all(g in hit for g in vis))
+            score.f3d_errors_m += [float(e) for (g, _), e in zip(match.pairs, match.errors_m) if tr.visible[g]]
+
+    c = score.counts
+    for k in range(n_intervals):
+        for i in range(n_people):
+            if not visible[k, i]:
+                continue
+            is_found = bool(found[k, i] > 0)
+            said = bool(is_found and judged[k, i] > found[k, i] / 2)
+            if speaking[k, i]:
+                c.tp += said
+                c.fn += not said
+                c.fn_missed_face += not is_found
+                c.fn_overlap += (not said) and int(speaking[k].sum()) > 1
+            else:
+                c.fp += said
+                c.tn += not said
+                c.fp_next_to_own_speech += said and bool(speaking[max(k - 1, 0):k + 2, i].any())
+                if unseen_talks[k]:
+                    c.silent_while_unseen_talks += 1
+                    c.fp_while_unseen_talks += said
+        if results_per[k] and false_speaking[k] > results_per[k] / 2:
+            c.fp += 1
+            c.fp_false_face += 1
+
+    frame_period_s = float(np.median(np.diff(frame_stamps_s))) if len(frame_stamps_s) > 1 else 1 / 30
+    half_span = INTERVAL_S / 2 if motion else frame_period_s / 2  # the time one result stands for
+    score.utterances = _utterance_counts(scenario, np.array([r.stamp_s for r in ordered]), states, half_span)
+    score.itd_errors_s, score.itd_true_s, score.n_itds = _itd_errors(scenario, audio, samplerate_hz, mics, config)
+    return score
+
+
+def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarray,
+                      half_span_s: float) -> UtteranceCounts:
+    """Count per spoken number (see :class:`UtteranceCounts`). stamps_s : (R,) result stamps; states : (R, N) -1 not
+    found, 0 judged silent, 1 judged speaking; each result covers +- ``half_span_s`` around its stamp."""
+    out = UtteranceCounts()
+    speech = [e for e in scenario.events if e.kind == "speech"]
+    for e in speech:
+        if not scenario.visible(0.5 * (e.start_s + e.end_s))[e.actor]:
+            continue
+        during = (stamps_s + half_span_s > e.start_s) & (stamps_s - half_span_s < e.end_s)
+        st = states[during, e.actor]
+        st = st[st >= 0]
+        if st.size and np.sum(st == 1) >= st.size / 2:
+            out.tp += 1
+        else:
+            out.fn += 1
+            out.fn_missed_face += int(st.size == 0)
+    for i in range(states.shape[1]):
+        own = [(e.start_s, e.end_s) for e in speech if e.actor == i]
+        found = np.flatnonzero(states[:, i] >= 0)
+        run: list[int] = []
+        for j in list(found) + [-1]:  # -1 closes the last run
+            if j >= 0 and states[j, i] == 1:
+                run.append(j)
+                continue
+            if run:
+                a, b = stamps_s[run[0]] - half_span_s, stamps_s[run[-1]] + half_span_s
+                out.fp += int(not any(s < b and t > a for s, t in own))
+                run = []
+    return out
+
+
+def _itd_errors(scenario: Scenario, audio: np.ndarray, samplerate_hz: float, mics: MicPair,
+                config: PipelineConfig) -> tuple[list[float], list[float], int]:
+    """Extracted minus true ITD and the true ITD (seconds) of every window in which exactly one person sounds, and it
+    is speech; and the number of ITDs extracted in all. Same extractor and settings as the pipeline's ITD worker."""
+    extra = ({"mic_distance_m": mics.distance_m, "speed_of_sound": mics.speed_of_sound}
+             if config.itd_method.endswith("-robust") else {})
+    track = extract_itds(audio[:, 0], audio[:, 1], samplerate_hz, method=config.itd_method,
+                         window_s=config.window_s, hop_s=config.hop_s, energy_threshold=config.energy_threshold,
+                         max_itd_s=1.2 * mics.max_itd_s, **extra)
+    errors: list[float] = []
+    trues: list[float] = []
+    half = config.window_s / 2
+    for t, itd in zip(track.times_s, track.itds_s):
+        events = [e for e in scenario.events if e.start_s < t + half and e.end_s > t - half]
+        if len({e.actor for e in events}) != 1 or any(e.kind != "speech" for e in events):
+            continue
+        true = scenario.truth(float(t)).itds_s[events[0].actor]  # eq. (itd), identity correction
+        mapped = mics.c1 * float(true) + mics.c0
+        errors.append(float(itd) - mapped)
+        trues.append(mapped)
+    return errors, trues, len(track.itds_s)

@@ -1,0 +1,164 @@
+"""`avhear eval scenarios` (issue 5, section 4): the scenarios of section 7.3 through the real pipeline, scored.
+
+The protocol is checked on its own (perfect and wrong detections built from the truth, no simulation), then short
+S1 and S2 runs go through the whole command, and a short calibration preset through the c1, c0 fit.
+"""
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from app.pipeline import PipelineConfig
+from app.scenario_eval import (
+    INTERVAL_S,
+    PAPER_SCENARIOS,
+    FusedFrame,
+    ScenarioScore,
+    calibrate_on_preset,
+    score_run,
+)
+from avcore.scenario import FrameTruth, Scenario, make_scenario
+
+FPS = 30.0
+
+
+def _scenario(name: str, duration_s: float = 8.0) -> Scenario:
+    return make_scenario(name, clip_durations_s=[[0.5] * 10] * 3, duration_s=duration_s, seed=3)
+
+
+def _frames(scenario: Scenario, judge: Callable[[FrameTruth], np.ndarray]) -> tuple[list[FusedFrame], np.ndarray]:
+    """One fused result per camera frame: the visible people at their true positions, speaking as ``judge`` says."""
+    stamps = np.arange(int(scenario.duration_s * FPS)) / FPS
+    fused = []
+    for t in stamps:
+        tr = scenario.truth(float(t))
+        vis = tr.visible
+        fused.append(FusedFrame(float(t), tr.positions_m[vis] + 0.01, judge(tr)[vis]))
+    return fused, stamps
+
+
+def _score(scenario: Scenario, fused: list[FusedFrame], stamps: np.ndarray) -> ScenarioScore:
+    silence = np.zeros((int(scenario.duration_s * 16000), 2))
+    return score_run(scenario, fused, silence, 16000.0, scenario.mics, PipelineConfig(), frame_stamps_s=stamps)
+
+
+def _truth_counts(scenario: Scenario, stamps: np.ndarray) -> tuple[int, int]:
+    """(speaking, silent) visible person-intervals by the majority rule, counted independently of score_run."""
+    k = (stamps / INTERVAL_S + 1e-9).astype(int)
+    speaking = silent = 0
+    for interval in np.unique(k):
+        truths = [scenario.truth(float(t)) for t in stamps[k == interval]]
+        vis = np.mean([tr.visible for tr in truths], axis=0) > 0.5
+        spk = np.mean([tr.speaking for tr in truths], axis=0) > 0.5
+        speaking += int(np.sum(vis & spk))
+        silent += int(np.sum(vis & ~spk))
+    return speaking, silent
+
+
+def test_perfect_detections_score_every_speaking_count_as_tp() -> None:
+    scenario = _scenario("S2")
+    fused, stamps = _frames(scenario, lambda tr: tr.speaking)
+    score = _score(scenario, fused, stamps)
+    c = score.counts
+    speaking, silent = _truth_counts(scenario, stamps)
+    assert speaking > 0 and silent > 0
+    assert (c.tp, c.fn, c.fp, c.tn) == (speaking, 0, 0, silent)
+    assert score.n_intervals == 20 and score.n_frames == len(stamps)
+    numbers = [e for e in scenario.events if e.kind == "speech"]
+    u = score.utterances
+    assert (u.tp, u.fn, u.fp) == (len(numbers), 0, 0)
+    assert score.all_found_share == 1.0
+    assert score.f3d_median_m == pytest.approx(0.01 * np.sqrt(3))
+    assert score.itd_errors_s == [] and score.n_itds == 0  # silence: no ITD passes the energy gate
+
+
+def test_wrong_states_and_missed_faces_are_counted() -> None:
+    scenario = _scenario("S2")
+    fused, stamps = _frames(scenario, lambda tr: ~tr.speaking)  # everything inverted
+    c = _score(scenario, fused, stamps).counts
+    speaking, silent = _truth_counts(scenario, stamps)
+    assert (c.tp, c.fn, c.fp, c.tn) == (0, speaking, silent, 0)
+    assert c.fn_missed_face == 0 and c.fp_false_face == 0
+    u = _score(scenario, fused, stamps).utterances
+    assert u.tp == 0 and u.fn == sum(e.kind == "speech" for e in scenario.events) and u.fp > 0
+    # nobody detected at all: every speaking count is a missed face, and there is nothing to call a false positive
+    empty = [FusedFrame(f.stamp_s, np.zeros((0, 3)), np.zeros(0, bool)) for f in fused]
+    c = _score(scenario, empty, stamps).counts
+    assert (c.tp, c.fn, c.fn_missed_face, c.fp, c.tn) == (0, speaking, speaking, 0, silent)
+    # a face where nobody is, always speaking: one false-face FP per interval
+    ghost = [FusedFrame(f.stamp_s, np.vstack([f.xyz, [[0.0, 0.5, 4.0]]]), np.append(f.speaking, True))
+             for f in _frames(scenario, lambda tr: tr.speaking)[0]]
+    c = _score(scenario, ghost, stamps).counts
+    assert c.fp == c.fp_false_face == 20 and c.tp == speaking
+
+
+def test_s4_counts_the_unseen_talker_apart() -> None:
+    scenario = _scenario("S4", duration_s=10.0)
+    assert not scenario.truth(1.0).visible[0]  # person0 sits outside the field of view
+    fused, stamps = _frames(scenario, lambda tr: np.ones_like(tr.speaking))  # every visible person "speaks"
+    c = _score(scenario, fused, stamps).counts
+    assert c.silent_while_unseen_talks > 0
+    assert c.fp_while_unseen_talks == c.silent_while_unseen_talks  # all of them were turned into speakers
+    assert c.unseen_fp_rate == 1.0
+
+
+def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "scenarios", "--scenario", "S2", "--duration", "4", "--json"]) == 0
+    captured = capsys.readouterr()
+    out = json.loads(captured.out)
+    assert out["protocol"]["interval_s"] == INTERVAL_S and out["inference"] == "face" and out["seeds"] == [0]
+    (row,) = out["results"]
+    assert row["scenario"] == "S2" and row["n_intervals"] == 10 and row["n_frames"] == 120
+    s = row["speaking"]
+    # three seated people, all visible: every person-interval is one of TP, FN, FP, TN
+    assert s["tp"] + s["fn"] + s["fp"] + s["tn"] == 3 * 10
+    assert s["tp"] + s["fn"] > 0 and s["fn_missed_face"] <= s["fn"] and s["fp_false_face"] == 0
+    u = row["speaking_per_utterance"]
+    assert u["tp"] + u["fn"] >= 4  # three people counting in turns say several numbers in 4 s
+    assert 0.0 <= row["frames_all_faces_found"] <= 1.0 and row["f3d_median_error_m"] < 0.1
+    assert row["itd_windows_one_talker"] > 0 and 0.0 <= row["itd_accuracy_40us"] <= 1.0
+    assert out["paper"]["S2"] == PAPER_SCENARIOS["S2"] == {"fp": 22, "fn": 31, "tp": 176}
+    assert "tp_at_least_95" in out["targets"]["per_interval"]["S2"]
+    assert "tp_at_least_95" in out["targets"]["per_spoken_number"]["S2"]
+    assert "S2 seed 0" in captured.err  # progress on stderr, the JSON alone on stdout
+
+
+def test_eval_scenarios_table(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3"]) == 0
+    out = capsys.readouterr().out
+    assert "section 7.3" in out and "paper (NAO, published)" in out and "avhear face-guided" in out
+    assert "149  (86.6%)" in out  # the paper's S1 row
+    assert "Per spoken number" in out and "Front end per scenario" in out and "Targets (issue 5)" in out
+
+
+def test_eval_scenarios_motion_guided(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3", "--motion", "--json"]) == 0
+    (row,) = json.loads(capsys.readouterr().out)["results"]
+    s = row["speaking"]
+    assert row["inference"] == "motion" and row["n_intervals"] == 8
+    # one person, visible in every interval: each interval is one of TP, FN, FP, TN (plus any false cluster)
+    assert s["tp"] + s["fn"] + s["fp"] - s["fp_false_face"] + s["tn"] == 8
+    assert row["n_frames"] == 0 and row["f3d_median_error_m"] is None  # no F3D faces in the motion-guided variant
+
+
+def test_calibration_on_the_preset_shrinks_the_residuals() -> None:
+    fit = calibrate_on_preset(duration_s=6.0)  # a short zig-zag; the command uses the preset's 40 s
+    assert fit.n_pairs > 100 and 0.4 < fit.mics.c1 < 1.2
+    assert fit.median_abs_after_s < fit.median_abs_before_s
+    assert set(fit.as_dict()) >= {"c1", "c0_us", "median_abs_residual_after_us"}
+
+
+def test_eval_scenarios_bad_arguments(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "scenarios", "--seed", "-1"]) == 2
+    assert "non-negative" in capsys.readouterr().err
+    assert main(["eval", "scenarios", "--duration", "0.5"]) == 2
+    assert "--duration" in capsys.readouterr().err
+    assert main(["eval", "scenarios", "--itd-method", "nope"]) == 2
+    assert "unknown --itd-method" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["eval", "scenarios", "--scenario", "S9"])
+    assert "invalid choice" in capsys.readouterr().err
