@@ -6,6 +6,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -39,6 +40,11 @@ def null_sink(tmp_path_factory: pytest.TempPathFactory) -> Iterator[str]:
         subprocess.run(cmd, env=env, check=True, capture_output=True, timeout=10)
     old = os.environ.get("XDG_RUNTIME_DIR")
     os.environ["XDG_RUNTIME_DIR"] = str(runtime)
+    if "sounddevice" in sys.modules:
+        # PortAudio lists devices once, when initialised: an earlier test may have done it before this daemon ran
+        sd = sys.modules["sounddevice"]
+        sd._terminate()
+        sd._initialize()
     try:
         yield "pulse"
     finally:
