@@ -181,6 +181,10 @@ class StreamSource:
             self.stats.blocks = 0
         clock0 = time.monotonic()
         base = (clock0 if realtime else self.start_s) if start_s is None else float(start_s)
+        if realtime:
+            # deliver each item when its stamp comes on the monotonic clock: threads that share start_s are paced
+            # together, and a stamp is the time of capture as a device would give it
+            clock0 = base
         shift = base - self.start_s  # added to the source's own stamps
         period = 1.0 / self.fps
         fs = self.samplerate_hz

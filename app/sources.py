@@ -36,7 +36,17 @@ class StreamAdapter:
         self.samplerate_hz = float(stream.samplerate_hz)
         self.channels = channels
         self.realtime = realtime
-        self._start_s = time.monotonic() + 0.2 if realtime else None
+        self._start_s: float | None = None
+        self._lock = threading.Lock()
+
+    def _start(self) -> float | None:
+        """The stream's start on the monotonic clock, set by whichever thread starts first (real time only)."""
+        if not self.realtime:
+            return None
+        with self._lock:
+            if self._start_s is None:
+                self._start_s = time.monotonic()
+            return self._start_s
 
     @property
     def frames_dropped(self) -> int:
@@ -44,13 +54,13 @@ class StreamAdapter:
         return int(self.stream.stats.frames_dropped)
 
     def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
-        for frame in self.stream.frames(realtime=self.realtime, start_s=self._start_s):
+        for frame in self.stream.frames(realtime=self.realtime, start_s=self._start()):
             if stop.is_set():
                 return
             yield frame
 
     def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
-        for block in self.stream.audio_blocks(realtime=self.realtime, start_s=self._start_s):
+        for block in self.stream.audio_blocks(realtime=self.realtime, start_s=self._start()):
             if stop.is_set():
                 return
             yield block
