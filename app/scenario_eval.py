@@ -106,8 +106,25 @@ PAPER_SCENARIOS: dict[str, dict[str, int]] = {
 Progress = Callable[[str], None]
 
 
+class _Counts:
+    """Integer counters that add up field by field, and the paper's TP % = TP / (TP + FN)."""
+
+    tp: int
+    fn: int
+
+    def add(self, other: _Counts) -> None:
+        for name in self.__dataclass_fields__:  # type: ignore[attr-defined]
+            setattr(self, name, getattr(self, name) + getattr(other, name))
+
+    @property
+    def tp_rate(self) -> float:
+        """TP / (TP + FN), the paper's TP %."""
+        n = self.tp + self.fn
+        return self.tp / n if n else math.nan
+
+
 @dataclass
-class SpeakingCounts:
+class SpeakingCounts(_Counts):
     """Speaking-state counts of section 7.3 (see the module docstring for what one count is)."""
 
     tp: int = 0
@@ -124,16 +141,6 @@ class SpeakingCounts:
     # silent visible people during intervals in which an unseen person speaks (S4), and how many were judged speaking
     silent_while_unseen_talks: int = 0
     fp_while_unseen_talks: int = 0
-
-    def add(self, other: SpeakingCounts) -> None:
-        for name in self.__dataclass_fields__:
-            setattr(self, name, getattr(self, name) + getattr(other, name))
-
-    @property
-    def tp_rate(self) -> float:
-        """TP / (TP + FN), the paper's TP %."""
-        n = self.tp + self.fn
-        return self.tp / n if n else math.nan
 
     @property
     def fp_rate(self) -> float:
@@ -154,7 +161,7 @@ class SpeakingCounts:
 
 
 @dataclass
-class UtteranceCounts:
+class UtteranceCounts(_Counts):
     """Speaking states counted per spoken number (the paper's caption calls its total "the number of counts").
 
     tp / fn : spoken numbers of visible people judged speaking / silent (in at least / fewer than half of the
@@ -166,15 +173,6 @@ class UtteranceCounts:
     fn: int = 0
     fn_missed_face: int = 0
     fp: int = 0
-
-    def add(self, other: UtteranceCounts) -> None:
-        for name in self.__dataclass_fields__:
-            setattr(self, name, getattr(self, name) + getattr(other, name))
-
-    @property
-    def tp_rate(self) -> float:
-        n = self.tp + self.fn
-        return self.tp / n if n else math.nan
 
     def as_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {name: getattr(self, name) for name in self.__dataclass_fields__}

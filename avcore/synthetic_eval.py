@@ -67,6 +67,12 @@ class SequenceScore:
         return {"sequence": self.sequence, "variant": self.variant, "seeds": list(self.seeds), **self.totals.as_dict()}
 
 
+def _start(name: str, mics: MicPair | None, seeds: Iterable[int]) -> tuple[MicPair, EvalTotals, tuple[int, ...]]:
+    if name not in SEQUENCES:
+        raise ValueError(f"unknown sequence {name!r}; choose one of {', '.join(SEQUENCES)}")
+    return (mics if mics is not None else MicPair()), EvalTotals(), tuple(int(s) for s in seeds)
+
+
 def evaluate_sequence(
     name: str,
     seeds: Iterable[int],
@@ -81,11 +87,7 @@ def evaluate_sequence(
 
     The method keeps its model across the intervals of a sequence and starts afresh for each seed.
     """
-    if name not in SEQUENCES:
-        raise ValueError(f"unknown sequence {name!r}; choose one of {', '.join(SEQUENCES)}")
-    mics = mics if mics is not None else MicPair()
-    totals = EvalTotals()
-    seeds = tuple(int(s) for s in seeds)
+    mics, totals, seeds = _start(name, mics, seeds)
     for seed in seeds:
         hearing = MotionGuidedHearing(mics, params)
         for interval in generate_sequence(name, seed=seed, mics=mics, config=config):
@@ -117,11 +119,7 @@ def evaluate_face_guided(
 ) -> SequenceScore:
     """Algorithm 2 on the same sequences: the faces are the visible people (plus F3D-like noise of
     ``face_noise_m`` per axis), the ITDs those of the interval; scored on the speaking states only."""
-    if name not in SEQUENCES:
-        raise ValueError(f"unknown sequence {name!r}; choose one of {', '.join(SEQUENCES)}")
-    mics = mics if mics is not None else MicPair()
-    totals = EvalTotals()
-    seeds = tuple(int(s) for s in seeds)
+    mics, totals, seeds = _start(name, mics, seeds)
     for seed in seeds:
         rng = np.random.default_rng([seed, 7])
         hearing = FaceGuidedHearing(mics, params)
