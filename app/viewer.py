@@ -22,13 +22,22 @@ import rerun as rr
 from app.errors import UserError
 from layouts.blueprint import APPLICATION_ID, default_blueprint
 
-__all__ = ["ViewerSession", "ViewerTarget", "display_available"]
+__all__ = ["ViewerSession", "ViewerTarget", "display_available", "rerun_executable"]
+
+
+def rerun_executable() -> str | None:
+    """The ``rerun`` command of rerun-sdk: on PATH, or beside this Python (a virtual environment not activated)."""
+    found = shutil.which("rerun")
+    if found:
+        return found
+    beside = Path(sys.executable).with_name("rerun")
+    return str(beside) if beside.exists() else None
 
 
 def display_available() -> bool:
     """Whether a native viewer window can open here (a display and the viewer binary)."""
     has_display = bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) or os.name == "nt"
-    return has_display and shutil.which("rerun") is not None
+    return has_display and rerun_executable() is not None
 
 
 @dataclass(frozen=True)
@@ -91,8 +100,8 @@ class ViewerSession:
         return f"http://{t.bind}:{t.web_port}/?url=rerun%2Bhttp%3A%2F%2F{t.bind}%3A{t.grpc_port}%2Fproxy"
 
     def _start_server(self) -> str:
-        exe = shutil.which("rerun") or str(Path(sys.executable).with_name("rerun"))
-        if not Path(exe).exists():
+        exe = rerun_executable()
+        if exe is None:
             raise UserError("the 'rerun' command of rerun-sdk is not on PATH: reinstall with pip install rerun-sdk")
         t = self.target
         self._server_log = tempfile.TemporaryFile(mode="w+")
