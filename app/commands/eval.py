@@ -166,12 +166,16 @@ def format_tables(scores: list[SequenceScore], seeds: list[int]) -> str:
         for s in scores:
             if s.sequence != name:
                 continue
-            t = s.totals
-            speak = t.audio_tp + t.audio_fn
-            lines.append(f"{'':8s} {VARIANT_LABELS.get(s.variant, s.variant):22s} {t.audio_fp / n:7.1f} "
-                         f"{t.audio_fn / n:6.1f} {_pct(t.audio_fn, speak):>9s} {t.audio_tp / n:6.1f} "
-                         f"{_pct(t.audio_tp, speak):>9s}")
+            lines.append(_audio_row("", VARIANT_LABELS.get(s.variant, s.variant), s, n))
     return "\n".join(lines)
+
+
+def _audio_row(first: str, label: str, score: SequenceScore, n: int) -> str:
+    """One row of speaking-state counts per sequence (FP, FN with %, TP with %)."""
+    t = score.totals
+    speak = t.audio_tp + t.audio_fn
+    return (f"{first:8s} {label:22s} {t.audio_fp / n:7.1f} {t.audio_fn / n:6.1f} {_pct(t.audio_fn, speak):>9s} "
+            f"{t.audio_tp / n:6.1f} {_pct(t.audio_tp, speak):>9s}")
 
 
 def format_face_table(scores: list[SequenceScore], seeds: list[int]) -> str:
@@ -186,11 +190,7 @@ def format_face_table(scores: list[SequenceScore], seeds: list[int]) -> str:
         for s in scores:
             if s.sequence != name:
                 continue
-            t = s.totals
-            speak = t.audio_tp + t.audio_fn
-            lines.append(f"{name if s is scores[0] or s.variant == 'paper' else '':8s} {s.variant:22s} "
-                         f"{t.audio_fp / n:7.1f} {t.audio_fn / n:6.1f} {_pct(t.audio_fn, speak):>9s} "
-                         f"{t.audio_tp / n:6.1f} {_pct(t.audio_tp, speak):>9s}")
+            lines.append(_audio_row(name if s is scores[0] or s.variant == "paper" else "", s.variant, s, n))
     return "\n".join(lines)
 
 
