@@ -148,6 +148,7 @@ class PipelineStats:
             "fps": round(self.results / self.duration_s, 2),
             "frames": self.frames,
             "bad_frames": self.bad_frames,
+            "vision_results": self.vision_results,
             "results": self.results,
             "itds": self.itds,
             "audio_blocks": self.audio_blocks,

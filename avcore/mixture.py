@@ -45,7 +45,6 @@ __all__ = [
     "davies_bouldin",
     "fit_em",
     "fit_fusion_em",
-    "add_at_residual_peak",
     "initial_models",
     "ridgeline_merge",
     "split_at_mean",
@@ -453,8 +452,13 @@ class _ResidualGrid:
         self.smooth = np.convolve(counts, k / k.sum(), mode="same")  # counts per grid step
 
     def add_component(self, model: Mixture1D, density_on_grid: np.ndarray | None = None) -> Mixture1D | None:
-        """``model`` plus a component at the largest excess (``density_on_grid``: the model's density on
-        ``self.grid`` if the caller has it)."""
+        """``model`` plus a component where the data most exceed what it explains, or None if nowhere.
+
+        The excess is the smoothed data histogram minus the model's expected counts; the new component sits at
+        its largest value with variance ``sd_s^2`` and the excess's share of the data as weight (taken from the
+        other classes in proportion). ``density_on_grid``: the model's density on ``self.grid``, if the caller
+        has it.
+        """
         if self.total <= 0:
             return None
         dens = model._density(self.grid) if density_on_grid is None else density_on_grid
@@ -467,16 +471,6 @@ class _ResidualGrid:
         weights = np.concatenate([model.weights[:-1] * (1.0 - weight), [weight], [model.weights[-1] * (1.0 - weight)]])
         return Mixture1D._trusted(weights, np.append(model.means, self.grid[i]), np.append(model.variances, self.sd_s**2),
                          model.support)
-
-
-def add_at_residual_peak(model: Mixture1D, data: BinnedSamples, sd_s: float = 15e-6) -> Mixture1D | None:
-    """A model with one more component, placed where the data most exceed what ``model`` explains.
-
-    The data histogram (2 us bins, smoothed with a Gaussian of ``sd_s``) minus the model's expected counts; the
-    new component sits at the largest excess with variance ``sd_s^2`` and the excess's share of the data as weight
-    (taken from the other classes in proportion). None when the data hold no excess.
-    """
-    return _ResidualGrid(data, model.support, sd_s).add_component(model)
 
 
 def initial_models(
@@ -497,7 +491,7 @@ def initial_models(
     ``grow_at_residual`` (avhear, beyond the paper): splitting only finds a newcomer next to a known cluster;
     someone who enters far from everybody else is never found, and the model stays stuck at N_prev. So each
     added component is either the split or a new component at the largest unexplained excess of the data
-    (:func:`add_at_residual_peak`), whichever explains ``data`` better.
+    (``_ResidualGrid.add_component``), whichever explains ``data`` better.
     """
     if n_max < 0:
         raise ValueError(f"n_max must be >= 0, got {n_max}")
