@@ -1,6 +1,8 @@
 """Tests of avcore.faces: detection and F3D on rendered stereo scenes (paper section 5.2)."""
 from __future__ import annotations
 
+import itertools
+
 import cv2
 import numpy as np
 import pytest
@@ -104,27 +106,63 @@ def test_bad_inputs_are_rejected():
         YuNetFaceDetector(model="/nonexistent/yunet.onnx")
 
 
-def test_tracking_detector_follows_moving_faces_between_full_scans():
+def test_tracking_detector_follows_moving_faces_and_spreads_the_full_scan():
     scene = default_scene(None, moving=True, seed=2)
-    calls = []
     base = HaarFaceDetector()
-    original = base.detect
+    calls: dict[str, list] = {"detect": [], "scan": [], "search_near": []}
+    for name in calls:
+        original = getattr(base, name)
 
-    def spy(image, **kwargs):
-        calls.append("region" in kwargs)
-        return original(image, **kwargs)
+        def spy(*args, _name=name, _original=original, **kwargs):
+            calls[_name].append(args[-1] if _name == "scan" else None)
+            return _original(*args, **kwargs)
 
-    base.detect = spy  # type: ignore[method-assign]
-    tracker = TrackingFaceDetector(base, full_every=5)
-    for i in range(7):
+        setattr(base, name, spy)
+    tracker = TrackingFaceDetector(base)
+    whole = base.scan_jobs((640, 480))
+    pieces = base.scan_jobs((640, 480), max_job_px=tracker.scan_px_per_frame)
+    per_frame = []
+    n_frames = 12
+    for i in range(n_frames):
         frame = scene.render(i / 15)
+        before = len(calls["scan"])
         loc = locate_faces(frame.left, frame.right, scene.rig, detector=tracker)
+        per_frame.append(calls["scan"][before:])
         err = _errors(loc, frame.faces)
         assert np.all(err < 0.05), (i, err)
-    # full scans at frames 0 and 5 only; the five other frames searched one region per previous box (three
-    # faces, and a spurious box of the full scan, if any, until it is lost)
-    assert calls.count(False) == 2
-    assert 5 * 3 <= calls.count(True) <= 5 * 4
+    # the first frame: one whole scan, octave by octave; then a slice of the banded scan per frame, within the
+    # budget but for its last job, every piece once per cycle
+    assert len(calls["detect"]) == 1 and per_frame[0] == whole
+    assert 1 < tracker.frames_per_scan < len(pieces)
+    for jobs in per_frame[1:]:
+        assert jobs and sum(j.pixels for j in jobs[:-1]) < tracker.scan_px_per_frame
+    flat = [j for jobs in per_frame[1:] for j in jobs]
+    assert len(flat) > len(pieces) and flat[:len(pieces)] == pieces
+    assert flat[len(pieces):] == pieces[:len(flat) - len(pieces)]  # the next cycle starts over
+    # every later frame searched one window per face of the frame before (three faces, plus a spurious box of
+    # a scan, if any, until it is lost)
+    assert 3 * (n_frames - 1) <= len(calls["search_near"]) <= 4 * (n_frames - 1)
     tracker.reset()
-    with pytest.raises(ValueError, match="full_every"):
-        TrackingFaceDetector(full_every=0)
+    tracker.detect(scene.render(1.0).left)
+    assert len(calls["detect"]) == 2  # a whole scan again after reset
+    with pytest.raises(ValueError, match="scan_px_per_frame"):
+        TrackingFaceDetector(scan_px_per_frame=0)
+
+
+def test_scan_jobs_cover_every_face_size_and_row():
+    det = HaarFaceDetector(scale=0.8)
+    whole = det.scan_jobs((640, 480))
+    assert [j.octave for j in whole] == list(range(len(whole)))
+    assert all(j.rows == (0, 480) for j in whole) and whole[-1].coarsest
+    pieces = det.scan_jobs((640, 480), max_job_px=40_000)
+    for octave in range(len(whole)):
+        bands = [j.rows for j in pieces if j.octave == octave]
+        assert bands[0][0] == 0 and bands[-1][1] == 480
+        reach = 0 if whole[octave].coarsest else int(np.ceil(2 * 24 / (0.8 / 2**octave)))
+        for (_, end), (start, _) in itertools.pairwise(bands):
+            assert end >= min(480, start + reach)  # a face whose top row is in a band lies wholly inside it
+    # octaves of 30-60, 60-120, 120-240 px: only those that hold a searched size
+    assert [j.octave for j in HaarFaceDetector(scale=0.8, min_size_px=70, max_size_px=100).scan_jobs((640, 480))] \
+        == [1]
+    assert [j.octave for j in HaarFaceDetector(scale=0.8, min_size_px=50, max_size_px=130).scan_jobs((640, 480))] \
+        == [0, 1, 2]
