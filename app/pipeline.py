@@ -29,7 +29,7 @@ from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.geometry import MicPair
-from avcore.inference import FaceGuidedHearing, MotionGuidedHearing
+from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import ItdStream
 from avcore.motion import harris_motion_points
 from avcore.stereo import StereoRig
@@ -69,6 +69,8 @@ class PipelineConfig:
         "gcc-phat-robust" by default (the most accurate in reverberant rooms, benchmarks/itd_accuracy.py), the
         paper's "correlogram" selectable. Lags are searched within 1.2 times the pair's free-field maximum.
     frame_window_s : face-guided: each vision result collects the ITDs within +- this of its stamp.
+    decision_window_s : face-guided: decide on the ITDs within +- this of the stamp only (EM still fits on the
+        whole time frame; :class:`avcore.inference.FaceGuidedParams`); None: on all of them, as the paper.
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
     *_queue : queue lengths (items); a full queue drops its oldest item.
     """
@@ -79,6 +81,7 @@ class PipelineConfig:
     hop_s: float = 0.02
     energy_threshold: float = 1e-3
     frame_window_s: float = 0.2
+    decision_window_s: float | None = None
     interval_s: float = 0.4
     frame_queue: int = 4
     audio_queue: int = 256
@@ -91,6 +94,8 @@ class PipelineConfig:
         for name in ("window_s", "hop_s", "frame_window_s", "interval_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
+        if self.decision_window_s is not None and not self.decision_window_s > 0:
+            raise ValueError(f"decision_window_s must be > 0 seconds or None, got {self.decision_window_s!r}")
 
 
 @dataclass(frozen=True)
@@ -369,7 +374,8 @@ class Pipeline:
         c = self.config
         mics = self.source.mics
         sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
-        hearing = FaceGuidedHearing(mics) if c.inference == "face" else MotionGuidedHearing(mics)
+        hearing = (FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=c.decision_window_s))
+                   if c.inference == "face" else MotionGuidedHearing(mics))
         tracker = NearestTracker()
         while True:
             if self._stop.is_set():
@@ -385,18 +391,22 @@ class Pipeline:
             if kind == "vision":
                 completed = sync.push_primary(stamp, item)
             elif kind == "itd":
-                completed = sync.push_secondary(stamp, item)
+                completed = sync.push_secondary(stamp, (stamp, item))
             else:  # the audio clock moved on without ITDs (silence): frames before it are complete
                 completed = sync.advance(stamp)
             for vision, itds in completed:
                 self._fuse(hearing, tracker, vision, itds)
 
     def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, tracker: NearestTracker, vision: tuple,
-              itds: list[float]) -> None:
+              itds: list[tuple[float, float]]) -> None:
         t0 = time.perf_counter()
         stamp, frame, boxes, xyz = vision
-        a = np.asarray(itds, dtype=np.float64)
-        output = hearing.step(xyz, a)
+        timed = np.asarray(itds, dtype=np.float64).reshape(-1, 2)  # (window centre, ITD)
+        a = timed[:, 1].copy()
+        if isinstance(hearing, FaceGuidedHearing):
+            output = hearing.step(xyz, a, timed[:, 0] - stamp)
+        else:
+            output = hearing.step(xyz, a)
         ids = tracker.update(xyz if boxes is not None else output.positions)
         # a replay as fast as possible runs ahead of its stamps: latency is only defined in real time
         latency = self.clock() - stamp if not self._backpressure else float("nan")

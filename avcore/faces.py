@@ -3,9 +3,10 @@
 The paper detects faces with a WaldBoost detector and matches each box centre into the right image before the
 stereo reconstruction. Here the default detector is OpenCV's boosted Haar cascade for frontal faces, shipped inside
 opencv-python-headless 4.x (nothing to download); :class:`YuNetFaceDetector` wraps ``cv2.FaceDetectorYN`` for users
-who supply a YuNet ONNX model. Detection runs on a down-scaled image for speed; boxes are reported in pixels of the
-full-resolution image. A full Haar scan of a VGA frame costs tens of milliseconds on one core; on video,
-:class:`TrackingFaceDetector` scans fully every few frames and searches only around the previous faces in between.
+who supply a YuNet ONNX model. Detection runs on down-scaled images, one per octave of face sizes; boxes are
+reported in pixels of the full-resolution image. A full Haar scan of a VGA frame costs about 35 ms on one core; on
+video, :class:`TrackingFaceDetector` searches around the previous faces and spreads the full scan over frames, so
+that no frame costs more than about 15 ms.
 
 Boxes are ``(x, y, w, h)`` float pixels: top-left corner and size (OpenCV's convention).
 """

@@ -47,6 +47,10 @@ class SpeakingTest:
     keeps the paper's threshold (off by default: measured in ``avhear eval synthetic``, it costs 2-20 points of
     audio TP on the Var sequences and removes no false positive). With ``shared_counts`` an ITD in the window
     counts with its posterior beta_kn, so that an ITD between two people is not counted twice.
+
+    ``decide(..., present=mask)`` decides on a subset of the ITDs that fitted the model: the face-guided fusion
+    fits on the ITDs of the whole time frame and decides on those near the frame's own instant
+    (``FaceGuidedParams.decision_window_s``).
     """
 
     outlier_aware: bool = True
@@ -58,12 +62,15 @@ class SpeakingTest:
     use_tau_a: bool = False
     shared_counts: bool = True
 
-    def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D
+    def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D, present: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, float]:
         """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
 
         beta : (K, N) the auditory posteriors of the N persons (eq. beta_kn, outlier column dropped).
+        present : (K,) bool, the ITDs the decision counts (K and tau_A are theirs); None: all.
         """
+        if present is not None:
+            beta, itds = beta[present], itds[present]
         beta_counts = beta.sum(axis=0)
         n, k = beta_counts.size, itds.size
         tau = speaking_threshold(k, n)

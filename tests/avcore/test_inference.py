@@ -156,3 +156,24 @@ def test_face_guided_degenerate_and_bad_inputs() -> None:
         fg.step(np.zeros(3), np.zeros(1))
     with pytest.raises(ValueError, match="NaN"):
         fg.step(PEOPLE, np.array([np.nan]))
+
+
+def test_face_guided_decides_on_the_itds_near_the_frame() -> None:
+    """The ITDs of the whole time frame fit the model; only those near the frame's instant decide (the talker
+    stopped 0.15 s before this frame: the paper's way still calls them speaking)."""
+    rng = np.random.default_rng(7)
+    assert FaceGuidedParams().decision_window_s is None  # the paper's way by default
+    fg = FaceGuidedHearing(MICS, FaceGuidedParams(decision_window_s=0.1))
+    itds = rng.normal(MICS.itd(PEOPLE[0]), 10e-6, 8)
+    before = np.linspace(-0.2, -0.15, itds.size)  # window centres relative to the frame's stamp
+    assert fg.step(PEOPLE, itds).speaking.tolist() == [True, False, False]  # no times: every ITD decides
+    late = fg.step(PEOPLE, itds, before)
+    assert late.speaking.tolist() == [False, False, False]
+    np.testing.assert_allclose(late.itd_counts, fg.step(PEOPLE, itds).itd_counts)  # the same fit
+    assert fg.step(PEOPLE, itds, before + 0.1).speaking.tolist() == [True, False, False]
+    paper = FaceGuidedHearing(MICS, FaceGuidedParams.paper())
+    assert paper.params.decision_window_s is None and paper.step(PEOPLE, itds, before).speaking[0]
+    with pytest.raises(ValueError, match="one time per ITD"):
+        fg.step(PEOPLE, itds, before[:3])
+    with pytest.raises(ValueError, match="decision_window_s"):
+        FaceGuidedParams(decision_window_s=0.0)
