@@ -6,7 +6,7 @@ variation between seeds (different faces, timelines and voices) is visible next 
 
     python benchmarks/scenarios.py                          # S1-S5, seeds 0 1 2, face-guided
     python benchmarks/scenarios.py --seeds 0 1 --motion     # the motion-guided variant
-    python benchmarks/scenarios.py --scenario S2 S4 --calibrate
+    python benchmarks/scenarios.py --scenario S2 S4 --no-calibrate   # with the nominal microphone pair
 """
 from __future__ import annotations
 
@@ -44,7 +44,8 @@ def main() -> int:
     parser.add_argument("--duration", type=float, default=None, help="seconds per scenario (default the preset's)")
     parser.add_argument("--motion", action="store_true", help="motion-guided (Algorithm 1) instead of face-guided")
     parser.add_argument("--itd-method", default="gcc-phat-robust")
-    parser.add_argument("--calibrate", action="store_true", help="fit c1, c0 on the calibration preset first")
+    parser.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
+                        help="fit c1, c0 on the calibration preset first (default), as avhear eval scenarios")
     parser.add_argument("--json", type=Path, default=None, help="also write every row to this file")
     args = parser.parse_args()
     config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)

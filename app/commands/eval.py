@@ -80,9 +80,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     sce.add_argument("--itd-method", default="gcc-phat-robust",
                      help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
                           "correlogram-robust")
-    sce.add_argument("--calibrate", action="store_true",
+    sce.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
                      help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
-                          "(40 s), as a user would, and fuse with it")
+                          "(40 s), as a user of the rig would, and fuse with it (default); --no-calibrate fuses "
+                          "with the nominal microphone pair (c1 = 1, c0 = 0)")
     sce.add_argument("--decision-window", type=float, default=None, metavar="SECONDS",
                      help="face-guided: decide speaking on the ITDs within +- this of each frame only (EM still "
                           "fits on the +-0.2 s time frame); default: on all of them, as the paper")

@@ -107,7 +107,7 @@ def test_s4_counts_the_unseen_talker_apart() -> None:
 
 
 def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["eval", "scenarios", "--scenario", "S2", "--duration", "4", "--json"]) == 0
+    assert main(["eval", "scenarios", "--scenario", "S2", "--duration", "4", "--no-calibrate", "--json"]) == 0
     captured = capsys.readouterr()
     out = json.loads(captured.out)
     assert out["protocol"]["interval_s"] == INTERVAL_S and out["inference"] == "face" and out["seeds"] == [0]
@@ -128,7 +128,7 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_eval_scenarios_table(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3"]) == 0
+    assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3", "--no-calibrate"]) == 0
     out = capsys.readouterr().out
     assert "section 7.3" in out and "paper (NAO, published)" in out and "avhear face-guided" in out
     assert "149  (86.6%)" in out  # the paper's S1 row
@@ -136,7 +136,7 @@ def test_eval_scenarios_table(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_eval_scenarios_motion_guided(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3", "--motion", "--json"]) == 0
+    assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3", "--no-calibrate", "--motion", "--json"]) == 0
     (row,) = json.loads(capsys.readouterr().out)["results"]
     s = row["speaking"]
     assert row["inference"] == "motion" and row["n_intervals"] == 8
