@@ -287,9 +287,20 @@ class StereoSceneRenderer:
         h, w = texture.shape[:2]
         src = np.float32([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
         dst = self._project(corners, side).astype(np.float32)
-        homography = cv2.getPerspectiveTransform(src, dst)
-        cv2.warpPerspective(texture, homography, (canvas.shape[1], canvas.shape[0]), dst=canvas,
-                            flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_TRANSPARENT)
+        # warp into the quad's bounding box only: warpPerspective visits every destination pixel, and a face
+        # covers a few percent of the frame
+        x0, y0 = np.floor(dst.min(axis=0)).astype(int) - 1
+        x1, y1 = np.ceil(dst.max(axis=0)).astype(int) + 2
+        x0, y0 = max(x0, 0), max(y0, 0)
+        x1, y1 = min(x1, canvas.shape[1]), min(y1, canvas.shape[0])
+        if x1 <= x0 or y1 <= y0:
+            return
+        homography = cv2.getPerspectiveTransform(src, dst - np.float32([x0, y0]))
+        roi = canvas[y0:y1, x0:x1]
+        warped = cv2.warpPerspective(texture, homography, (x1 - x0, y1 - y0), dst=roi, flags=cv2.INTER_LINEAR,
+                                     borderMode=cv2.BORDER_TRANSPARENT)
+        if warped is not roi and not np.shares_memory(warped, canvas):  # OpenCV could not write in place
+            roi[...] = warped
 
     def _room_quads(self) -> list[tuple[np.ndarray, np.ndarray]]:
         r = self.room
