@@ -37,7 +37,9 @@ ABLATIONS = [
     "gcc-phat-robust[coherence_power=0]",  # no coherence weighting
     "gcc-phat-robust[diffuse_power=0,diffuse_subtract=False]",  # no coherent-to-diffuse weighting
     "gcc-phat-robust[high_hz=5000]",  # the plain methods' band
-    "gcc-phat-robust[flatness_power=16]",  # the optional spectral-flatness cue switched on
+    "gcc-phat-robust[flatness_power=0]",  # no spectral-flatness frame weighting
+    "gcc-phat-robust[frame_snr_power=0]",  # no frame signal-to-noise weighting
+    "gcc-phat-robust[flatness_power=0,frame_snr_power=0]",  # neither frame cue (the method before them)
 ]
 
 

@@ -5,7 +5,8 @@ Methods, one module each, registered by name in ``METHODS``:
 - ``"correlogram"``: summary cross-correlogram over a gammatone filterbank (Christensen et al., 2007), the paper's.
 - ``"gcc-phat"``: generalised cross-correlation with the phase transform.
 - ``"correlogram-robust"``, ``"gcc-phat-robust"``: the same two, computed over short frames weighted by
-  signal-to-noise ratio, onsets (precedence), coherence and coherent-to-diffuse ratio; stateful (a noise floor),
+  signal-to-noise ratio, onsets (precedence), coherence and coherent-to-diffuse ratio (and, for
+  ``gcc-phat-robust``, whole frames by their signal-to-noise ratio and spectral flatness); stateful (a noise floor),
   so they run frame by frame (``avcore.itd.robust``). Much better in reverberant, noisy rooms: see
   ``benchmarks/itd_accuracy.py``.
 

@@ -42,8 +42,8 @@ class ItdTrack:
 
     @staticmethod
     def empty() -> ItdTrack:
-        z = np.zeros(0)
-        return ItdTrack(z, z.copy(), z.copy(), z.copy())
+        """The track of no window: one shared instance with read-only arrays (cheap to return per block)."""
+        return _EMPTY
 
     @staticmethod
     def concatenate(tracks: list[ItdTrack]) -> ItdTrack:
@@ -54,6 +54,15 @@ class ItdTrack:
             return tracks[0]
         return ItdTrack(*(np.concatenate([getattr(t, f) for t in tracks])
                           for f in ("times_s", "itds_s", "confidence", "energy")))
+
+
+def _empty_track() -> ItdTrack:
+    z = np.zeros(0)
+    z.flags.writeable = False  # shared by every empty result
+    return ItdTrack(z, z, z, z)
+
+
+_EMPTY = _empty_track()
 
 
 @dataclass(frozen=True)
@@ -129,19 +138,39 @@ def _mean_power(frames_l: np.ndarray, frames_r: np.ndarray) -> np.ndarray:
     return (np.einsum("ij,ij->i", frames_l, frames_l) + np.einsum("ij,ij->i", frames_r, frames_r)) / (2 * w)
 
 
+def _interleaved_power(windows: np.ndarray) -> np.ndarray:
+    """``(n,)`` mean power of ``(n, w, 2)`` (left, right) windows: :func:`_mean_power` in one pass."""
+    flat = windows.reshape(windows.shape[0], -1)
+    return np.einsum("ij,ij->i", flat, flat) / flat.shape[1]
+
+
 def _process_windows(impl: ItdMethod, framing: _Framing, frames_l: np.ndarray, frames_r: np.ndarray,
                      starts: np.ndarray) -> ItdTrack:
     """Energy gate, then the method, on ``(n, window_len)`` frames whose first samples are at ``starts``."""
     energy = _mean_power(frames_l, frames_r)
-    keep = energy >= framing.energy_threshold
-    if framing.energy_threshold == 0:
-        keep &= energy > 0
+    keep = _gate(framing, energy)
     if not np.any(keep):
         return ItdTrack.empty()
     itds, conf = impl.estimate(frames_l[keep], frames_r[keep])
-    times = (starts[keep] + 0.5 * framing.window_len) / framing.samplerate_hz
+    return _track(framing, starts[keep], itds, conf, energy[keep])
+
+
+def _gate(framing: _Framing, energy: np.ndarray) -> np.ndarray:
+    """The paper's activity test: which windows reach the energy threshold E_A (and are not silent)."""
+    keep = energy >= framing.energy_threshold
+    if framing.energy_threshold == 0:
+        keep &= energy > 0
+    return keep
+
+
+def _track(framing: _Framing, starts: np.ndarray, itds: np.ndarray, conf: np.ndarray,
+           energy: np.ndarray) -> ItdTrack:
+    """The windows starting at ``starts`` that gave an ITD with enough confidence."""
+    times = (starts + 0.5 * framing.window_len) / framing.samplerate_hz
     ok = np.isfinite(itds) & (conf >= framing.min_confidence)
-    return ItdTrack(times[ok], itds[ok], conf[ok], energy[keep][ok])
+    if ok.all():
+        return ItdTrack(times, itds, conf, energy)
+    return ItdTrack(times[ok], itds[ok], conf[ok], energy[ok])
 
 
 def extract_itds(left: Any, right: Any, samplerate: float, method: str = "correlogram", window_s: float = 0.15,
@@ -211,10 +240,15 @@ class ItdStream:
     batch form. The plain methods process each window on its own (the gammatone filterbank acts on the window's
     spectrum), so no filter state crosses windows; the robust methods carry their state (noise floor, previous
     frame, coherence averages) from frame to frame, and ``extract_itds`` runs them through this class. Either way
-    the numbers equal the batch form's on the same signal, whatever the block sizes.
+    the numbers equal the batch form's on the same signal, whatever the block sizes (to rounding: the FFTs and
+    matrix products may group their sums differently for different numbers of windows).
+
+    The windows a block completes go through the method together, both channels in one FFT call; with 10 ms blocks
+    that is one window every other block, so the per-call cost of the method (``ItdMethod._peak``) is kept low.
 
     ``times_s`` are seconds from the stream's first sample; add the stream's start time for the shared clock.
-    Memory is bounded: a ring buffer of one window plus 4096 samples, and the frame terms of one window.
+    Memory is bounded: a ring buffer of one window plus 4096 samples, room for the windows (and frames) that 4096
+    samples can complete, and the frame terms of one window.
     """
 
     def __init__(self, samplerate: float, method: str = "correlogram", window_s: float = 0.15, hop_s: float = 0.02,
@@ -222,8 +256,14 @@ class ItdStream:
                  **options: Any) -> None:
         self._impl, self._framing = make_method(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s,
                                                 min_confidence, **options)
-        self._piece = max(self._framing.hop_len, 4096)
-        self._buffer = RingBuffer(2, self._framing.window_len + self._piece)
+        w, hop = self._framing.window_len, self._framing.hop_len
+        self._piece = max(hop, 4096)
+        self._buffer = RingBuffer(2, w + self._piece)
+        self._block = np.empty((self._piece, 2))  # (left, right) pairs of one piece, interleaved for the buffer
+        # the windows (and frames) that one piece can complete are read into these, without allocating
+        self._windows = np.empty((self._piece // hop + 1, w, 2))
+        if self._impl.frame_based:
+            self._frames = np.empty((self._piece // self._impl.frame_hop + 1, self._impl.frame_len, 2))
         self._next_start = 0
         # frame methods: state carried from frame to frame, and the weighted terms of the frames still needed
         self._state = FrameState()
@@ -242,12 +282,21 @@ class ItdStream:
         if left_arr.shape != right_arr.shape:
             raise ValueError(f"left and right blocks must have the same length, got {left_arr.shape[0]} and "
                              f"{right_arr.shape[0]} samples")
-        tracks = []
+        n = left_arr.shape[0]
+        if n <= self._piece:  # the usual case: one audio callback's block
+            return self._append(left_arr, right_arr)
         # Pieces no longer than the spare capacity: no window is overwritten before it is read.
-        for i in range(0, left_arr.shape[0], self._piece):
-            self._buffer.append(np.stack([left_arr[i:i + self._piece], right_arr[i:i + self._piece]], axis=1))
-            tracks.append(self._drain())
-        return ItdTrack.concatenate(tracks)
+        return ItdTrack.concatenate([self._append(left_arr[i:i + self._piece], right_arr[i:i + self._piece])
+                                     for i in range(0, n, self._piece)])
+
+    def _append(self, left: np.ndarray, right: np.ndarray) -> ItdTrack:
+        block = self._block[:left.shape[0]]
+        block[:, 0] = left
+        block[:, 1] = right
+        self._buffer.append(block)
+        if self._impl.frame_based:
+            return self._drain_frames()
+        return self._drain()
 
     def push_stereo(self, block: Any) -> ItdTrack:
         """Append an ``(n, 2)`` block of (left, right) frames."""
@@ -257,16 +306,34 @@ class ItdStream:
         return self.push(arr[:, 0], arr[:, 1])
 
     def _drain(self) -> ItdTrack:
-        if self._impl.frame_based:
-            return self._drain_frames()
+        """Plain methods: the windows completed since the last call, all in one call to the method."""
         w, hop = self._framing.window_len, self._framing.hop_len
         available = self._buffer.total_written
-        if self._next_start + w > available:
+        first = self._next_start
+        if first + w > available:
             return ItdTrack.empty()
-        starts = np.arange(self._next_start, available - w + 1, hop)
-        frames = np.stack([self._buffer.read_ending_at(int(s) + w, w) for s in starts])  # (n, w, 2)
-        self._next_start = int(starts[-1]) + hop
-        return _process_windows(self._impl, self._framing, frames[:, :, 0], frames[:, :, 1], starts)
+        n = (available - w - first) // hop + 1
+        self._next_start = first + n * hop
+        windows = self._read(self._windows, first, n, hop)
+        energy = _interleaved_power(windows)
+        keep = _gate(self._framing, energy)
+        if keep.all():  # the usual case while someone speaks: no copy of the windows
+            itds, conf = self._impl.estimate_stereo(windows)
+            return _track(self._framing, first + hop * np.arange(n), itds, conf, energy)
+        if not keep.any():
+            return ItdTrack.empty()
+        starts = first + hop * np.flatnonzero(keep)
+        itds, conf = self._impl.estimate_stereo(windows[keep])
+        return _track(self._framing, starts, itds, conf, energy[keep])
+
+    def _read(self, scratch: np.ndarray, first: int, count: int, step: int) -> np.ndarray:
+        """``(count, length, 2)`` stretches of the buffer starting at ``first, first + step, ...``, read into
+        ``scratch`` (``(>= count, length, 2)``), which the result is a view of."""
+        length = scratch.shape[1]
+        out = scratch[:count]
+        for i in range(count):
+            self._buffer.read_ending_at(first + i * step + length, length, out=out[i])
+        return out
 
     def _drain_frames(self) -> ItdTrack:
         """Frame methods: analyse every new frame (updating the method's state), then finish complete windows."""
@@ -275,8 +342,7 @@ class ItdStream:
         available = self._buffer.total_written
         last = (available - fl) // fh  # index of the last complete frame
         if last >= self._next_frame:
-            idx = np.arange(self._next_frame, last + 1)
-            frames = np.stack([self._buffer.read_ending_at(int(j) * fh + fl, fl) for j in idx])  # (m, fl, 2)
+            frames = self._read(self._frames, self._next_frame * fh, last + 1 - self._next_frame, fh)
             terms = impl.frame_terms(frames[:, :, 0], frames[:, :, 1], self._state)
             for key, value in terms.items():
                 self._terms.setdefault(key, []).extend(value)
@@ -285,11 +351,8 @@ class ItdStream:
         if self._next_start + w > available:
             return ItdTrack.empty()
         starts = np.arange(self._next_start, available - w + 1, hop)
-        windows = np.stack([self._buffer.read_ending_at(int(s) + w, w) for s in starts])
-        energy = _mean_power(windows[:, :, 0], windows[:, :, 1])
-        keep = energy >= self._framing.energy_threshold
-        if self._framing.energy_threshold == 0:
-            keep &= energy > 0
+        energy = _interleaved_power(self._read(self._windows, self._next_start, starts.shape[0], hop))
+        keep = _gate(self._framing, energy)
         npw = impl.frames_per_window
         sums: dict[str, list[np.ndarray]] = {key: [] for key in self._terms}
         for s in starts[keep]:
@@ -305,6 +368,4 @@ class ItdStream:
         if not np.any(keep):
             return ItdTrack.empty()
         itds, conf = impl.estimate_windows({key: np.stack(v) for key, v in sums.items()})
-        times = (starts[keep] + 0.5 * w) / self._framing.samplerate_hz
-        ok = np.isfinite(itds) & (conf >= self._framing.min_confidence)
-        return ItdTrack(times[ok], itds[ok], conf[ok], energy[keep][ok])
+        return _track(self._framing, starts[keep], itds, conf, energy[keep])

@@ -200,6 +200,7 @@ def test_erb_spacing_and_gammatone_response():
     ({"onset_floor": 2.0}, "onset_floor"),
     ({"coherence_power": -1.0}, "coherence_power"),
     ({"flatness_power": -1.0}, "flatness_power"),
+    ({"frame_snr_power": -1.0}, "frame_snr_power"),
     ({"mic_distance_m": 0.0}, "mic_distance_m"),
     ({"low_hz": 5000.0, "high_hz": 100.0}, "low_hz"),
 ])
@@ -215,3 +216,55 @@ def test_robust_stream_with_odd_hop_uses_frames_on_the_hop_grid():
     track = extract_itds(left, right, fs, method="correlogram-robust", hop_s=0.0150625)  # 241 samples: odd
     np.testing.assert_allclose(track.itds_s * fs, 2.5, atol=0.1)
     np.testing.assert_allclose(np.diff(track.times_s), 241 / fs)
+
+
+@pytest.mark.parametrize("method", ["gcc-phat", "gcc-phat-robust", "correlogram"])
+def test_lag_search_by_matrix_product_equals_the_inverse_fft(method):
+    """Where few bins and lags are used, the integer lags come from one matrix product instead of an inverse FFT
+    of the padded spectrum; both must pick the same peak."""
+    fs = 16000
+    rng = np.random.default_rng(7)
+    left, right = rng.standard_normal((2, fs)) * 0.1  # independent channels: a peak anywhere, ties unlikely
+    left += np.roll(right, 3)
+    fast = ItdStream(fs, method=method)
+    slow = ItdStream(fs, method=method)
+    slow._impl._lag_table = None  # force the inverse-FFT search
+    a, b = fast.push(left, right), slow.push(left, right)
+    assert len(a) == len(b) > 0
+    np.testing.assert_allclose(a.itds_s, b.itds_s, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(a.confidence, b.confidence, rtol=0, atol=1e-9)
+
+
+def test_band_up_to_nyquist_and_empty_band():
+    fs = 16000
+    left, right = delayed_pair(2.0, fs, seconds=0.5)
+    track = extract_itds(left, right, fs, method="gcc-phat", high_hz=fs / 2)
+    np.testing.assert_allclose(track.itds_s * fs, 2.0, atol=0.1)
+    with pytest.raises(ValueError, match="no frequency bin"):
+        extract_itds(left, right, fs, method="gcc-phat", low_hz=9000.0, high_hz=9500.0)
+
+
+def test_frame_cues_favour_the_peaky_talker_over_flat_noise_bursts():
+    """A voiced talker (harmonic complex, ITD +3 samples) pauses every other 40 ms; in the pauses, loud bursts of
+    white noise come from the other side (-5 samples). The frame cues let the talker's frames dominate the windows
+    (here the spectral flatness: the bursts are too brief for the noise floor); without them the bursts win."""
+    fs = 16000
+    n = 2 * fs
+    rng = np.random.default_rng(11)
+    t = np.arange(n) / fs
+    f0 = 140 + 10 * np.sin(2 * np.pi * 0.5 * t)
+    phase = 2 * np.pi * np.cumsum(f0) / fs
+    voiced = sum(np.sin(h * phase) / h for h in range(1, 25))
+    on = (np.floor(t / 0.04) % 2 == 0).astype(float)
+    talker = 0.1 * voiced * on
+    bursts = 0.2 * rng.standard_normal(n) * (1 - on)
+    left = np.roll(talker, 3) + np.roll(bursts, -5)
+    right = talker + bursts
+    left += 0.003 * rng.standard_normal(n)
+    right += 0.003 * rng.standard_normal(n)
+    with_cues = extract_itds(left, right, fs, method="gcc-phat-robust")
+    without = extract_itds(left, right, fs, method="gcc-phat-robust", flatness_power=0, frame_snr_power=0)
+    near_with = np.mean(np.abs(with_cues.itds_s * fs - 3) < 0.5)
+    near_without = np.mean(np.abs(without.itds_s * fs - 3) < 0.5)
+    assert near_with > 0.8
+    assert near_with > near_without + 0.3
