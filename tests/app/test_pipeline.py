@@ -98,6 +98,23 @@ def test_face_guided_pipeline_finds_the_talker() -> None:
     assert stats["results"] == len(results) and stats["itds"] > 50 and stats["bad_frames"] == 0
 
 
+def test_decision_window_ends_the_speaking_state_at_the_frame() -> None:
+    """The talker stops at 1.0 s. The frame at 1.2 s still has ITDs of windows centred before 1.075 s in its
+    +-0.2 s time frame: the paper's way calls it speaking; deciding on +-0.1 s of it does not."""
+    states = {}
+    for window in (None, 0.1):
+        source = FakeSource()
+        source.audio_data[int(1.0 * FS):, [1, 3]] = 0.0
+        results, _ = _run(source, decision_window_s=window)
+        at = {round(r.stamp_s - source.t0, 1): r for r in results}
+        talker = int(np.argmin(np.linalg.norm(at[1.2].xyz - source.faces[TALKER], axis=1)))
+        states[window] = (bool(at[0.8].output.speaking[talker]), bool(at[1.2].output.speaking[talker]))
+    assert states[None] == (True, True)
+    assert states[0.1] == (True, False)
+    with pytest.raises(ValueError, match="decision_window_s"):
+        PipelineConfig(decision_window_s=-0.1)
+
+
 def test_bad_frames_and_nan_audio_are_counted_not_fatal() -> None:
     source = FakeSource(duration_s=1.0, bad_every=4, nan_block=3)
     results, pipe = _run(source)
