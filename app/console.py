@@ -3,7 +3,10 @@
 Every ``rr.*`` call of the application lives here (DESIGN.md); what is drawn is computed by the pure helpers of
 :mod:`app.console_geometry`. The default layout of these entities is :func:`layouts.blueprint.default_blueprint`.
 
-Entity paths (``<id>`` is a person id; static entities are logged once, when the console is created):
+Entity paths (static entities are logged once, when the console is created). The people of a frame are the
+instances of a few batched entities, one instance each, told apart by colour (:func:`~app.console_geometry.
+person_colors`, stable per person id) and label (``"<id>: <probability>"``); such an entity is cleared when its last
+person goes. ``<id>`` is a person id.
 
 ======================================  ==========================================================  ========
 path                                    what                                                        when
@@ -13,24 +16,30 @@ path                                    what                                    
 ``scene/robot/mics``                    the two microphones M_L, M_R (Points3D)                      static
 ``scene/cameras/{left,right}``          rectified cameras: Transform3D + Pinhole (frusta)            static
 ``scene/cameras/left/image``            the left image, JPEG (EncodedImage) or raw (Image)           frame
-``scene/cameras/left/faces/<id>``       pane 1: face box (Boxes2D) + speaking circle (Points2D)      frame
-``scene/heads/<id>``                    each head in 3D (Ellipsoids3D; solid when speaking)          frame
+``scene/cameras/left/faces``            pane 1: a box per face (Boxes2D) + speaking circles          frame
+                                        (Points2D)
+``scene/heads/{speaking,silent}``       the heads in 3D (Ellipsoids3D): solid for the speakers,      frame
+                                        wireframe for the others
 ``scene/hm3d_points``                   HM3D points of the interval (Points3D), when given           frame
 ``birdseye/robot``, ``birdseye/mics``   pane 2: the robot and its microphones, seen from above       static
 ``birdseye/fov``, ``birdseye/rings``    the cameras' fields of view; range rings every metre         static
-``birdseye/heads/<id>``                 each head: circle (Ellipses2D) + speaking disc (Points2D)    frame
+``birdseye/heads/circles``              a circle per head (Ellipses2D) + speaking discs (Points2D)   frame
 ``itd/axis``                            pane 3: the ITD axis (microseconds) and its ticks            static
 ``itd/histogram``                       the interval's ITD histogram, one step outline (LineStrips2D)  frame
 ``itd/outliers``                        the uniform outlier class' level (LineStrips2D)              frame
-``itd/faces/<id>``                      the person's fitted Gaussian (LineStrips2D) and its mapped
+``itd/faces/gaussians``                 each face's fitted Gaussian (LineStrips2D) and its mapped
                                         ITD c1 A(S) + c0 on the axis (Points2D)                      frame
 ``itd/bars``                            the same histogram as a BarChart (abscissa in microseconds,  frame
                                         sent with the first frame only: it never changes)
 ``people/<id>/speaking_probability``    speaking probability per person (Scalars)                   frame
-``counts/{people,speakers,itds}``       number of people, of speakers, of ITDs in the interval      frame
+``counts``                              number of people, of speakers, of ITDs in the interval:      frame
+                                        three series of one Scalars entity
 ``diagnostics/<key>``                   any diagnostics figure, e.g. ``fps/vision``, ``latency_ms/…``  frame
 ``events``                              people appearing and leaving (TextLog)                       frame
 ======================================  ==========================================================  ========
+
+The histogram (``itd/histogram``, ``itd/bars``) is logged only when it differs from the last one logged (silence
+gives the same empty histogram frame after frame); the latest logged one is what the viewer shows.
 
 Timelines: ``frame`` (sequence, the frame number) and ``capture_time`` (the capture stamp: a timestamp when the
 console knows the wall-clock time of the stamp clock's zero, else a duration since that zero).
@@ -48,6 +57,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+import pyarrow as pa
 import rerun as rr
 
 from app import console_geometry as geo
@@ -70,21 +80,63 @@ CAMERA_LEFT = "scene/cameras/left"
 CAMERA_RIGHT = "scene/cameras/right"
 IMAGE = f"{CAMERA_LEFT}/image"
 FACES = f"{CAMERA_LEFT}/faces"
-HEADS_3D = "scene/heads"
+HEADS_SPEAKING = "scene/heads/speaking"
+HEADS_SILENT = "scene/heads/silent"
 HM3D_POINTS = "scene/hm3d_points"
 BIRDSEYE = "birdseye"
-BIRDSEYE_HEADS = "birdseye/heads"
+BIRDSEYE_HEADS = "birdseye/heads/circles"
 ITD = "itd"
-ITD_FACES = "itd/faces"
+ITD_GAUSSIANS = "itd/faces/gaussians"
 ITD_BARS = "itd/bars"
 PEOPLE = "people"
 COUNTS = "counts"
+COUNT_SERIES = ("people", "speakers", "ITDs in the interval")  # the three series of ``counts``, in this order
 DIAGNOSTICS = "diagnostics"
 EVENTS = "events"
 
 _SOLID = rr.components.FillMode.Solid
 _WIREFRAME = rr.components.FillMode.MajorWireframe
 _KEY = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")
+
+
+# The two biggest per-frame arrays, the ITD pane's curves and the bar chart's counts, are handed to Rerun as Arrow
+# arrays of its own component types (which it takes as they are): its generic converters build them one strip, or
+# one tensor, at a time in Python, at ten times the cost.
+_STRIPS_2D = rr.components.LineStrip2DBatch._ARROW_DATATYPE
+
+
+def _strips_2d(strips: list[np.ndarray]) -> pa.Array:
+    """Polylines (P_i, 2) as one Arrow LineStrip2D batch (list of fixed-size [x, y] float32 lists)."""
+    offsets = np.zeros(len(strips) + 1, np.int32)
+    np.cumsum([len(s) for s in strips], out=offsets[1:])
+    flat = np.concatenate(strips).astype(np.float32).reshape(-1) if strips else np.zeros(0, np.float32)
+    points = pa.FixedSizeListArray.from_arrays(pa.array(flat), type=_STRIPS_2D.value_type)
+    return pa.ListArray.from_arrays(pa.array(offsets), points, type=_STRIPS_2D)
+
+
+class _CountsTensor:
+    """Histogram counts (B,) int64 as Rerun's TensorData Arrow array, reusing every part of a first conversion by
+    Rerun (shape, names, the tensor buffer's union layout) but the values."""
+
+    def __init__(self, first: np.ndarray) -> None:
+        self.first = rr.components.TensorDataBatch(np.asarray(first, np.int64)).as_arrow_array()
+        self._size = len(first)
+        union = self.first.field("buffer")
+        self._union_type = union.type
+        self._children = [union.field(i) for i in range(union.type.num_fields)]
+        self._slot = [union.type.field(i).name for i in range(union.type.num_fields)].index("I64")
+        self._union_buffers = union.buffers()[:3]  # no validity; type ids; value offsets
+
+    def __call__(self, counts: np.ndarray) -> pa.Array:
+        if counts.shape != (self._size,):
+            raise ValueError(f"counts must have shape ({self._size},), got {counts.shape}")
+        children = list(self._children)
+        values = pa.array(np.asarray(counts, np.int64))
+        children[self._slot] = pa.ListArray.from_arrays(pa.array(np.array([0, self._size], np.int32)), values,
+                                                        type=self._union_type.field(self._slot).type)
+        union = pa.Array.from_buffers(self._union_type, 1, self._union_buffers, children=children)
+        return pa.StructArray.from_arrays([self.first.field("shape"), self.first.field("names"), union],
+                                          fields=list(self.first.type))
 
 
 def _array(value: Any, name: str, shape_tail: tuple[int, ...], dtype: type = np.float64) -> np.ndarray:
@@ -281,8 +333,12 @@ class Console:
         self._edges_s = self.itd_pane.edges_s
         self._present: set[int] = set()
         self._styled: set[int] = set()
+        self._occupied: set[str] = set()  # batched per-person entities holding instances now
         self._had_points = False
-        self._bars_axis_logged = False
+        self._had_boxes = False
+        self._counts_tensor: _CountsTensor | None = None  # set with the first histogram
+        self._last_counts: np.ndarray | None = None  # the histogram logged last, and its ITDs off the axis
+        self._last_outside = 0
         self.frames_logged = 0
         self.log_static()
 
@@ -352,14 +408,18 @@ class Console:
                                                       colors=[(120, 120, 120)],
                                                       labels=[f"{f:g} of ITDs/bin" for f in fractions]),
                   static=True)
-        self._log(f"{COUNTS}/people", rr.SeriesLines(names="people", colors=[(40, 40, 40)]), static=True)
-        self._log(f"{COUNTS}/speakers", rr.SeriesLines(names="speakers", colors=[(214, 39, 40)]), static=True)
-        self._log(f"{COUNTS}/itds", rr.SeriesLines(names="ITDs in the interval", colors=[(31, 119, 180)]),
-                  static=True)
+        self._log(COUNTS, rr.SeriesLines(names=list(COUNT_SERIES), colors=[(40, 40, 40), (214, 39, 40),
+                                                                           (31, 119, 180)]), static=True)
 
     # ------------------------------------------------------------------ per frame
     def log(self, frame: ConsoleFrame) -> None:
-        """Log one fused result on the ``frame`` and ``capture_time`` timelines; clear people no longer present."""
+        """Log one fused result on the ``frame`` and ``capture_time`` timelines.
+
+        Every person of a frame is one instance of a few batched entities (a box, a circle, a head, a Gaussian),
+        told apart by its colour and label, so that a frame replaces the people of the last one (nobody stale
+        stays) and takes about a dozen ``rr.log`` calls whatever the number of people: Rerun's cost per call
+        (building Arrow arrays, queueing a row) is most of the console's time.
+        """
         if not isinstance(frame, ConsoleFrame):
             raise TypeError(f"frame must be a ConsoleFrame, got {type(frame).__name__}")
         if frame.image is not None and frame.image.shape[1::-1] != tuple(self.rig.image_size):
@@ -368,22 +428,31 @@ class Console:
         self._set_time(frame)
         ids = [int(i) for i in frame.person_ids]
         colors = geo.pack_rgba(geo.person_colors(frame.person_ids))
-        self._clear_departed(set(ids))
+        labels = [f"{pid}: {p:.2f}" for pid, p in zip(ids, frame.probability.tolist(), strict=True)]
+        discs = geo.pack_rgba(geo.speaking_rgba(frame.probability))
+        self._log_events(set(ids))
         if frame.image is not None and self.frames_logged % self.image_every == 0:
             self._log_image(frame.image)
-        self._log_faces(frame, ids, colors)
-        self._log_heads(frame, ids, colors)
+        self._log_faces(frame, colors, labels, discs)
+        self._log_heads(frame, colors, labels, discs)
         self._log_itd_space(frame, ids, colors)
         self._log_series(frame, ids, colors)
         self._log_points(frame.points_xyz)
         self.frames_logged += 1
 
-    def _clear_departed(self, now: set[int]) -> None:
+    def _log_people(self, path: str, n: int, *archetypes: Any) -> None:
+        """A batched entity with one instance per person: logged when someone is there, cleared once when the last
+        one goes (an empty frame after an empty frame logs nothing: the entity is already empty)."""
+        if n:
+            self._log(path, *archetypes)
+            self._occupied.add(path)
+        elif path in self._occupied:
+            self._log(path, rr.Clear(recursive=False))
+            self._occupied.discard(path)
+
+    def _log_events(self, now: set[int]) -> None:
         departed = sorted(self._present - now)
         arrived = sorted(now - self._present)
-        for pid in departed:
-            for root in (FACES, HEADS_3D, BIRDSEYE_HEADS, ITD_FACES):
-                self._log(f"{root}/{pid}", rr.Clear(recursive=True))
         if departed or arrived:
             parts = [f"person {p} appeared" for p in arrived] + [f"person {p} left" for p in departed]
             self._log(EVENTS, rr.TextLog("; ".join(parts), level=rr.TextLogLevel.INFO))
@@ -397,88 +466,95 @@ class Console:
         if not ok:  # never seen with uint8 images; keep the console alive and say so
             log.warning("JPEG encoding of a %s image failed; image not logged", image.shape)
             return
-        self._log(IMAGE, rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg"))
+        self._log(IMAGE, rr.EncodedImage(contents=buf.reshape(-1), media_type="image/jpeg"))
 
-    def _log_faces(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
+    def _log_faces(self, frame: ConsoleFrame, colors: np.ndarray, labels: list[str], discs: np.ndarray) -> None:
         """Pane 1: a box on each face and a solid circle whose darkness codes the speaking probability."""
         if frame.boxes is not None:
             centres, radii = geo.face_circles_px(frame.boxes)
         else:
             centres, radii = geo.head_circles_px(self.rig, frame.faces_xyz, self.head_radius_m)
-        discs = geo.pack_rgba(geo.speaking_rgba(frame.probability))
-        for n, pid in enumerate(ids):
-            label = f"{pid}: {frame.probability[n]:.2f}"
-            parts: list[Any] = [rr.Points2D([centres[n]], radii=[radii[n]], colors=discs[n:n + 1], draw_order=20.0)]
-            if frame.boxes is not None:
-                box = frame.boxes[n]
-                parts.append(rr.Boxes2D(mins=[box[:2]], sizes=[box[2:]], colors=colors[n:n + 1], labels=[label],
-                                        radii=[3.0 if frame.speaking[n] else 1.5], draw_order=15.0))
-            self._log(f"{FACES}/{pid}", *parts)
+        parts: list[Any] = [rr.Points2D(centres, radii=radii, colors=discs, draw_order=20.0)]
+        if frame.boxes is not None:
+            parts.append(rr.Boxes2D(mins=frame.boxes[:, :2], sizes=frame.boxes[:, 2:], colors=colors, labels=labels,
+                                    radii=np.where(frame.speaking, 3.0, 1.5), draw_order=15.0))
+        elif self._had_boxes:  # heads without boxes after faces with boxes: no stale box stays
+            parts.append(rr.Boxes2D.cleared())
+        self._had_boxes = frame.boxes is not None
+        self._log_people(FACES, frame.n_people, *parts)
 
-    def _log_heads(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
-        """Pane 2 (bird's-eye view: a circle per head) and the heads of the 3D view."""
+    def _log_heads(self, frame: ConsoleFrame, colors: np.ndarray, labels: list[str], discs: np.ndarray) -> None:
+        """Pane 2 (bird's-eye view: a circle per head) and the heads of the 3D view (solid when speaking)."""
         r = self.head_radius_m
+        n = frame.n_people
         flat = geo.birdseye(frame.faces_xyz)
-        discs = geo.pack_rgba(geo.speaking_rgba(frame.probability))
-        for n, pid in enumerate(ids):
-            label = f"{pid}: {frame.probability[n]:.2f}"
-            self._log(f"{BIRDSEYE_HEADS}/{pid}",
-                      rr.Ellipses2D(centers=[flat[n]], half_sizes=[(r, r)], colors=colors[n:n + 1], labels=[label],
-                                    line_radii=[0.02 if frame.speaking[n] else 0.01]),
-                      rr.Points2D([flat[n]], radii=[0.6 * r], colors=discs[n:n + 1]))
-            self._log(f"{HEADS_3D}/{pid}",
-                      rr.Ellipsoids3D(centers=[frame.faces_xyz[n]], half_sizes=[(r, r, r)], colors=colors[n:n + 1],
-                                      labels=[label], fill_mode=_SOLID if frame.speaking[n] else _WIREFRAME))
+        self._log_people(BIRDSEYE_HEADS, n,
+                         rr.Ellipses2D(centers=flat, half_sizes=np.full((n, 2), r), colors=colors, labels=labels,
+                                       line_radii=np.where(frame.speaking, 0.02, 0.01)),
+                         rr.Points2D(flat, radii=0.6 * r, colors=discs))
+        # the fill mode is one value per entity: speakers and silent heads are two entities
+        for path, mask, fill in ((HEADS_SPEAKING, frame.speaking, _SOLID), (HEADS_SILENT, ~frame.speaking, _WIREFRAME)):
+            k = int(np.count_nonzero(mask))
+            self._log_people(path, k,
+                             rr.Ellipsoids3D(centers=frame.faces_xyz[mask], half_sizes=np.full((k, 3), r),
+                                             colors=colors[mask], labels=[lb for lb, m in zip(labels, mask) if m],
+                                             fill_mode=fill))
 
     def _log_itd_space(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
         """Pane 3: the histogram of the interval's ITDs and each mapped face as its fitted Gaussian."""
         pane, edges = self.itd_pane, self._edges_s
         counts, outside = geo.itd_histogram(frame.itds_s, edges)
         k = frame.itds_s.size
-        fractions = counts / k if k else np.zeros(counts.shape)
-        xs, ys = geo.histogram_outline(edges, fractions)
-        label = f"{k} ITDs" + (f" ({outside} outside the axis)" if outside else "")
-        self._log(f"{ITD}/histogram", rr.LineStrips2D([pane.xy(xs, ys)], radii=0.8, colors=[(40, 40, 40)],
-                                                      labels=[label]))
-        if self._bars_axis_logged:
-            # the bars' positions never change: sent with the first counts only (a tensor conversion costs
-            # ~0.4 ms; static would not do: static values would hide the per-frame ones)
-            self._log(ITD_BARS, rr.BarChart.from_fields(values=counts))
-        else:
-            centres_us = 0.5 * (edges[1:] + edges[:-1]) * 1e6
-            self._log(ITD_BARS, rr.BarChart(counts, abscissa=centres_us, color=(40, 40, 40),
-                                            widths=np.full(centres_us.size, pane.bin_s * 1e6, np.float32)))
-            self._bars_axis_logged = True
+        # the same ITDs give the same histogram (silence: none, frame after frame): the logged one still holds
+        if self._last_counts is None or outside != self._last_outside or not np.array_equal(counts, self._last_counts):
+            fractions = counts / k if k else np.zeros(counts.shape)
+            xs, ys = geo.histogram_outline(edges, fractions)
+            label = f"{k} ITDs" + (f" ({outside} outside the axis)" if outside else "")
+            self._log(f"{ITD}/histogram", rr.LineStrips2D(_strips_2d([pane.xy(xs, ys)]), radii=0.8,
+                                                          colors=[(40, 40, 40)], labels=[label]))
+            self._log_bars(counts)
+            self._last_counts, self._last_outside = counts, outside
         if frame.model is None:
-            self._log(f"{ITD}/outliers", rr.Clear(recursive=False))
-            for pid in ids:
-                self._log(f"{ITD_FACES}/{pid}", rr.Clear(recursive=True))
+            self._log_people(f"{ITD}/outliers", 0)
+            self._log_people(ITD_GAUSSIANS, 0)
             return
         level = geo.outlier_level(frame.model, pane.bin_s)
         lo_s, hi_s = frame.model.support
-        self._log(f"{ITD}/outliers", rr.LineStrips2D([pane.xy(np.array([lo_s, hi_s]), np.full(2, level))],
-                                                     radii=0.5, colors=[(150, 150, 150)], labels=["outliers"]))
+        self._log_people(f"{ITD}/outliers", 1,
+                         rr.LineStrips2D(_strips_2d([pane.xy(np.array([lo_s, hi_s]), np.full(2, level))]),
+                                         radii=0.5, colors=[(150, 150, 150)], labels=["outliers"]))
+        n = frame.n_people
         curves = geo.gaussian_curves(frame.model, pane.bin_s, clip_s=pane.range_s)
-        mapped_s = self.mics.itd(frame.faces_xyz) if frame.n_people else np.zeros(0)
-        for n, pid in enumerate(ids):
-            x, y = curves[n]
-            self._log(f"{ITD_FACES}/{pid}",
-                      rr.LineStrips2D([pane.xy(x, y)], radii=[1.5 if frame.speaking[n] else 0.8],
-                                      colors=colors[n:n + 1],
-                                      labels=[f"{pid}: mu {frame.model.means[n] * 1e6:+.0f} us"]),
-                      rr.Points2D(pane.xy(mapped_s[n:n + 1], np.zeros(1)), radii=[4.0], colors=colors[n:n + 1]))
+        mapped_s = self.mics.itd(frame.faces_xyz) if n else np.zeros(0)
+        means_us = (frame.model.means * 1e6).tolist()
+        self._log_people(ITD_GAUSSIANS, n,
+                         rr.LineStrips2D(_strips_2d([pane.xy(x, y) for x, y in curves]),
+                                         radii=np.where(frame.speaking, 1.5, 0.8), colors=colors,
+                                         labels=[f"{pid}: mu {mu:+.0f} us" for pid, mu in zip(ids, means_us,
+                                                                                              strict=True)]),
+                         rr.Points2D(pane.xy(mapped_s, np.zeros(n)), radii=4.0, colors=colors))
+
+    def _log_bars(self, counts: np.ndarray) -> None:
+        if self._counts_tensor is not None:
+            # the bars' positions never change: sent with the first counts only (static would not do: static
+            # values would hide the per-frame ones)
+            self._log(ITD_BARS, rr.BarChart.from_fields(values=self._counts_tensor(counts)))
+            return
+        edges, pane = self._edges_s, self.itd_pane
+        centres_us = 0.5 * (edges[1:] + edges[:-1]) * 1e6
+        self._counts_tensor = _CountsTensor(counts)
+        self._log(ITD_BARS, rr.BarChart(self._counts_tensor.first, abscissa=centres_us, color=(40, 40, 40),
+                                        widths=np.full(centres_us.size, pane.bin_s * 1e6, np.float32)))
 
     def _log_series(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
         """Speaking probability per person, the counts and the diagnostics, as time series."""
-        for n, pid in enumerate(ids):
+        for n, (pid, p) in enumerate(zip(ids, frame.probability.tolist(), strict=True)):
             path = f"{PEOPLE}/{pid}/speaking_probability"
             if pid not in self._styled:
                 self._log(path, rr.SeriesLines(names=f"person {pid}", colors=colors[n:n + 1]), static=True)
                 self._styled.add(pid)
-            self._log(path, rr.Scalars(float(frame.probability[n])))
-        self._log(f"{COUNTS}/people", rr.Scalars(float(frame.n_people)))
-        self._log(f"{COUNTS}/speakers", rr.Scalars(float(np.count_nonzero(frame.speaking))))
-        self._log(f"{COUNTS}/itds", rr.Scalars(float(frame.itds_s.size)))
+            self._log(path, rr.Scalars(p))
+        self._log(COUNTS, rr.Scalars([frame.n_people, np.count_nonzero(frame.speaking), frame.itds_s.size]))
         for key, value in frame.diagnostics.items():
             self._log(f"{DIAGNOSTICS}/{key}", rr.Scalars(float(value)))
 

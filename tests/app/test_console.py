@@ -205,6 +205,21 @@ def test_person_colours_are_stable_per_id() -> None:
     assert np.array_equal(c[0], c[2]) and np.array_equal(c[1], c[3]) and not np.array_equal(c[0], c[1])
 
 
+def test_arrow_fast_paths_equal_rerun_conversions() -> None:
+    """The console hands strips and bar counts to Rerun as ready Arrow arrays: the same arrays Rerun would build."""
+    from app.console import _CountsTensor, _strips_2d
+
+    rng = np.random.default_rng(5)
+    strips = [rng.normal(size=(64, 2)), np.zeros((0, 2)), rng.normal(size=(3, 2))]
+    assert _strips_2d(strips).equals(rr.components.LineStrip2DBatch(strips).as_arrow_array())
+    first, later = rng.integers(0, 9, 105), rng.integers(0, 9, 105)
+    tensor = _CountsTensor(first)
+    assert tensor.first.equals(rr.components.TensorDataBatch(first).as_arrow_array())
+    assert tensor(later).equals(rr.components.TensorDataBatch(later).as_arrow_array())
+    with pytest.raises(ValueError, match="counts must have shape"):
+        tensor(later[:5])
+
+
 # ---------------------------------------------------------------------------------------------- ConsoleFrame
 def _frame(**kw: object) -> ConsoleFrame:
     base: dict[str, object] = {
@@ -313,7 +328,7 @@ def test_static_rig_microphones_and_cameras(recorded: dict, scene: dict) -> None
 
 
 def test_timelines_follow_frame_numbers_and_capture_stamps(recorded: dict) -> None:
-    rows = recorded["rrd"].rows["/counts/people"]
+    rows = recorded["rrd"].rows["/counts"]
     timed = [(f, row["capture_time_ns"]) for f, row in rows if f is not None]
     assert [f for f, _ in timed] == [0, 1, 2, 3, 4]
     np.testing.assert_allclose([t * 1e-9 for _, t in timed], 10.0 + np.arange(5) / 30.0, atol=1e-9)
@@ -335,28 +350,37 @@ def test_face_boxes_and_speaking_circles(recorded: dict, scene: dict) -> None:
     rrd = recorded["rrd"]
     _, out = recorded["logged"][0]
     assert out.speaking.tolist() == [False, True, False]
-    greys = {}
-    for n, pid in enumerate((7, 8, 9)):
-        path = f"/scene/cameras/left/faces/{pid}"
-        x, y, w, h = scene["boxes"][n]
-        np.testing.assert_allclose(rrd.values(path, "Boxes2D:centers")[0], [[x + w / 2, y + h / 2]], rtol=1e-6)
-        np.testing.assert_allclose(rrd.values(path, "Boxes2D:half_sizes")[0], [[w / 2, h / 2]], rtol=1e-6)
-        np.testing.assert_allclose(rrd.values(path, "Points2D:positions")[0], [[x + w / 2, y + h / 2]], rtol=1e-6)
-        assert rrd.values(path, "Boxes2D:labels")[0] == [f"{pid}: {out.probability[n]:.2f}"]
-        greys[pid] = rrd.values(path, "Points2D:colors")[0][0] >> 24  # 0xRRGGBBAA: the red (= grey) level
-    assert greys[8] < 0.5 * 255 < greys[7] and greys[8] < greys[9]  # the speaker's circle is the dark one
+    path = "/scene/cameras/left/faces"  # one instance per person, in the frame's order
+    x, y, w, h = scene["boxes"].T
+    centres = np.stack([x + w / 2, y + h / 2], 1)
+    np.testing.assert_allclose(rrd.values(path, "Boxes2D:centers")[0], centres, rtol=1e-6)
+    np.testing.assert_allclose(rrd.values(path, "Boxes2D:half_sizes")[0], np.stack([w / 2, h / 2], 1), rtol=1e-6)
+    np.testing.assert_allclose(rrd.values(path, "Points2D:positions")[0], centres, rtol=1e-6)
+    assert rrd.values(path, "Boxes2D:labels")[0] == [f"{pid}: {p:.2f}" for pid, p in zip((7, 8, 9), out.probability)]
+    assert rrd.values(path, "Boxes2D:radii")[0] == [1.5, 3.0, 1.5]  # the speaker's box is the thick one
+    colours = rrd.values(path, "Boxes2D:colors")[0]
+    assert colours == geo.pack_rgba(geo.person_colors(np.array([7, 8, 9]))).tolist()
+    greys = [c >> 24 for c in rrd.values(path, "Points2D:colors")[0]]  # 0xRRGGBBAA: the red (= grey) level
+    assert greys[1] < 0.5 * 255 < greys[0] and greys[1] < greys[2]  # the speaker's circle is the dark one
+    assert len(rrd.values(path, "Boxes2D:centers")[-1]) == 2  # person 9 gone at the last frame: two boxes left
 
 
 def test_birdseye_heads_and_3d_heads(recorded: dict, scene: dict) -> None:
     rrd = recorded["rrd"]
-    for n, pid in enumerate((7, 8, 9)):
-        x, _, z = scene["xyz"][n]
-        np.testing.assert_allclose(rrd.values(f"/birdseye/heads/{pid}", "Ellipses2D:centers")[0], [[x, -z]],
-                                   rtol=1e-6)
-        np.testing.assert_allclose(rrd.values(f"/birdseye/heads/{pid}", "Ellipses2D:half_sizes")[0],
-                                   [[0.09, 0.09]], rtol=1e-6)
-        np.testing.assert_allclose(rrd.values(f"/scene/heads/{pid}", "Ellipsoids3D:centers")[0], [scene["xyz"][n]],
-                                   rtol=1e-6)
+    _, out = recorded["logged"][0]
+    xyz = scene["xyz"]
+    circles = "/birdseye/heads/circles"
+    np.testing.assert_allclose(rrd.values(circles, "Ellipses2D:centers")[0], np.stack([xyz[:, 0], -xyz[:, 2]], 1),
+                               rtol=1e-6)
+    np.testing.assert_allclose(rrd.values(circles, "Ellipses2D:half_sizes")[0], [[0.09, 0.09]] * 3, rtol=1e-6)
+    assert rrd.values(circles, "Ellipses2D:labels")[0] == [f"{pid}: {p:.2f}" for pid, p in zip((7, 8, 9),
+                                                                                               out.probability)]
+    # person 8 speaks: a solid head; 7 and 9 are wireframes
+    np.testing.assert_allclose(rrd.values("/scene/heads/speaking", "Ellipsoids3D:centers")[0], xyz[[1]], rtol=1e-6)
+    np.testing.assert_allclose(rrd.values("/scene/heads/silent", "Ellipsoids3D:centers")[0], xyz[[0, 2]], rtol=1e-6)
+    assert rrd.values("/scene/heads/speaking", "Ellipsoids3D:labels")[0] == [f"8: {out.probability[1]:.2f}"]
+    solid, wire = (rrd.values(f"/scene/heads/{s}", "Ellipsoids3D:fill_mode")[0] for s in ("speaking", "silent"))
+    assert solid == [rr.components.FillMode.Solid.value] and wire == [rr.components.FillMode.MajorWireframe.value]
 
 
 def test_itd_histogram_and_fitted_gaussians(recorded: dict, scene: dict) -> None:
@@ -375,15 +399,16 @@ def test_itd_histogram_and_fitted_gaussians(recorded: dict, scene: dict) -> None
     assert rrd.values("/itd/histogram", "LineStrips2D:labels")[0] == ["18 ITDs (1 outside the axis)"]
     strip = np.array(rrd.values("/itd/histogram", "LineStrips2D:strips")[0][0])
     assert strip.shape == (2 * counts.size + 2, 2) and np.all(strip[:, 1] <= 0)  # bars drawn upwards
-    curve = np.array(rrd.values("/itd/faces/8", "LineStrips2D:strips")[0][0])
+    gaussians = "/itd/faces/gaussians"  # one strip per face, in the frame's order: person 8 is the second
+    curve = np.array(rrd.values(gaussians, "LineStrips2D:strips")[0][1])
     peak_x_us = curve[np.argmin(curve[:, 1]), 0]
     step_us = 8 * np.sqrt(out.model.variances[1]) * 1e6 / 63  # 64 points over mu +- 4 sigma
     assert peak_x_us == pytest.approx(out.model.means[1] * 1e6, abs=0.5 * step_us + 1e-3)
-    np.testing.assert_allclose(rrd.values("/itd/faces/8", "Points2D:positions")[0], [[mapped_us, 0.0]], atol=1e-3)
+    np.testing.assert_allclose(rrd.values(gaussians, "Points2D:positions")[0][1], [mapped_us, 0.0], atol=1e-3)
+    assert rrd.values(gaussians, "LineStrips2D:labels")[0][1] == f"8: mu {out.model.means[1] * 1e6:+.0f} us"
     # the speaker's curve is the tall one
-    tallest = {pid: -np.array(rrd.values(f"/itd/faces/{pid}", "LineStrips2D:strips")[0][0])[:, 1].min()
-               for pid in (7, 8, 9)}
-    assert tallest[8] > 5 * max(tallest[7], tallest[9])
+    tallest = [-np.array(strip)[:, 1].min() for strip in rrd.values(gaussians, "LineStrips2D:strips")[0]]
+    assert tallest[1] > 5 * max(tallest[0], tallest[2])
 
 
 def test_time_series_per_person_counts_and_diagnostics(recorded: dict) -> None:
@@ -393,19 +418,26 @@ def test_time_series_per_person_counts_and_diagnostics(recorded: dict) -> None:
     np.testing.assert_allclose([s[0] for s in series], [out.probability[1] for _, out in logged])
     assert rrd.values("/people/8/speaking_probability", "SeriesLines:names") == [["person 8"]]
     assert len(rrd.values("/people/9/speaking_probability", "Scalars:scalars")) == 4
-    assert [v[0] for v in rrd.values("/counts/people", "Scalars:scalars")] == [3, 3, 3, 3, 2]
-    assert [v[0] for v in rrd.values("/counts/itds", "Scalars:scalars")] == [18] * 5
+    counts = rrd.values("/counts", "Scalars:scalars")  # people, speakers, ITDs
+    assert rrd.values("/counts", "SeriesLines:names") == [["people", "speakers", "ITDs in the interval"]]
+    assert [v[0] for v in counts] == [3, 3, 3, 3, 2]
+    assert [v[1] for v in counts] == [int(np.count_nonzero(out.speaking)) for _, out in logged]
+    assert [v[2] for v in counts] == [18] * 5
     assert [v[0] for v in rrd.values("/diagnostics/fps/vision", "Scalars:scalars")] == [30, 29, 28, 27, 26]
     assert rrd.values("/diagnostics/latency_ms/capture_to_log", "Scalars:scalars")[0] == [12.5]
 
 
-def test_departed_person_is_cleared_everywhere(recorded: dict) -> None:
+def test_departed_person_is_gone_everywhere(recorded: dict) -> None:
     rrd = recorded["rrd"]
-    for path in ("/scene/cameras/left/faces/9", "/scene/heads/9", "/birdseye/heads/9", "/itd/faces/9"):
-        assert rrd.frames(path, "Clear:is_recursive") == [4], path
-        assert rrd.values(path, "Clear:is_recursive") == [[True]]
-    for path in ("/scene/cameras/left/faces/8", "/birdseye/heads/8"):
-        assert rrd.frames(path, "Clear:is_recursive") == []
+    # a frame replaces the people of the last one: person 9 (third) is in none of the last frame's instances
+    last = {"/scene/cameras/left/faces": "Boxes2D:labels", "/birdseye/heads/circles": "Ellipses2D:labels",
+            "/itd/faces/gaussians": "LineStrips2D:labels"}
+    for path, column in last.items():
+        ids = [[lb.split(":")[0] for lb in labels] for labels in rrd.values(path, column)]
+        assert ids == [["7", "8", "9"]] * 4 + [["7", "8"]], path
+    heads = rrd.values("/scene/heads/speaking", "Ellipsoids3D:labels") + rrd.values("/scene/heads/silent",
+                                                                                    "Ellipsoids3D:labels")
+    assert sum(lb.startswith("9:") for frame in heads for lb in frame) == 4  # in frames 0..3 only
     texts = rrd.values("/events", "TextLog:text")
     assert texts == [["person 7 appeared; person 8 appeared; person 9 appeared"], ["person 9 left"]]
 
@@ -430,12 +462,12 @@ def test_motion_guided_frame_without_boxes_with_points(scene: dict, tmp_path: Pa
     rrd = Rrd(path)
     buffer = rrd.values("/scene/cameras/left/image", "Image:buffer")
     assert len(buffer) == 1 and bytes(buffer[0][0]) == scene["image"].tobytes()  # raw, exact
-    assert "Boxes2D:centers" not in rrd.rows["/scene/cameras/left/faces/0"][0][1]
+    assert "Boxes2D:centers" not in rrd.rows["/scene/cameras/left/faces"][0][1]
     centre, _ = geo.head_circles_px(scene["rig"], scene["xyz"][1:2], 0.09)
-    np.testing.assert_allclose(rrd.values("/scene/cameras/left/faces/0", "Points2D:positions")[0], centre, rtol=1e-6)
+    np.testing.assert_allclose(rrd.values("/scene/cameras/left/faces", "Points2D:positions")[0], centre, rtol=1e-6)
     np.testing.assert_allclose(rrd.values("/scene/hm3d_points", "Points3D:positions")[0], points, rtol=1e-6)
     assert rrd.frames("/scene/hm3d_points", "Clear:is_recursive") == [1]
-    stamps = [row["capture_time_ns"] for f, row in rrd.rows["/counts/people"] if f is not None]
+    stamps = [row["capture_time_ns"] for f, row in rrd.rows["/counts"] if f is not None]
     np.testing.assert_allclose(np.array(stamps) * 1e-9, [1.7e9 + 0.5, 1.7e9 + 0.6])  # a timestamp timeline
 
 
@@ -449,7 +481,7 @@ def test_image_every_thins_the_images_not_the_overlays(scene: dict, tmp_path: Pa
     rec.disconnect()
     rrd = Rrd(path)
     assert rrd.frames("/scene/cameras/left/image", "EncodedImage:blob") == [0, 2, 4]
-    assert rrd.frames("/scene/cameras/left/faces/0", "Boxes2D:centers") == [0, 1, 2, 3, 4]
+    assert rrd.frames("/scene/cameras/left/faces", "Boxes2D:centers") == [0, 1, 2, 3, 4]
 
 
 def test_empty_scene_and_silence_are_logged(tmp_path: Path) -> None:
@@ -463,10 +495,33 @@ def test_empty_scene_and_silence_are_logged(tmp_path: Path) -> None:
     console.log(_frame(frame=1, model=Mixture1D.outliers_only(MICS.itd_interval()), **nobody))
     rec.disconnect()
     rrd = Rrd(path)
-    assert [v[0] for v in rrd.values("/counts/people", "Scalars:scalars")] == [0, 0]
-    assert [v[0] for v in rrd.values("/counts/itds", "Scalars:scalars")] == [0, 2]
+    assert rrd.values("/counts", "Scalars:scalars") == [[0, 0, 0], [0, 0, 2]]
     assert _tensor(rrd.values("/itd/bars", "BarChart:values")[1]).sum() == 2
     assert rrd.frames("/itd/outliers", "LineStrips2D:strips") == [1]  # no model at frame 0, outliers only at 1
+
+
+def test_people_leaving_and_repeated_silence(tmp_path: Path) -> None:
+    """The last person going clears the batched entities once; the same empty histogram is not sent again."""
+    path = tmp_path / "leaving.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(RIG, MICS, recording=rec)
+    nobody = {"boxes": np.zeros((0, 4)), "faces_xyz": np.zeros((0, 3)), "speaking": np.zeros(0, bool),
+              "probability": np.zeros(0), "itds_s": np.zeros(0)}
+    model = Mixture1D(np.array([0.9, 0.1]), np.array([1e-5]), np.array([1e-9]), MICS.itd_interval())
+    console.log(_frame(frame=0, model=model))
+    for i in (1, 2, 3):
+        console.log(_frame(frame=i, **nobody))
+    rec.disconnect()
+    rrd = Rrd(path)
+    for entity in ("/scene/cameras/left/faces", "/birdseye/heads/circles", "/scene/heads/speaking",
+                   "/itd/faces/gaussians", "/itd/outliers"):
+        assert rrd.frames(entity, "Clear:is_recursive") == [1], entity
+    assert rrd.frames("/scene/heads/silent", "Ellipsoids3D:centers") == []  # nobody silent: never logged
+    assert rrd.frames("/itd/histogram", "LineStrips2D:strips") == [0, 1]  # frames 2 and 3: the same, not resent
+    assert rrd.frames("/itd/bars", "BarChart:values") == [0, 1]
+    assert rrd.values("/itd/histogram", "LineStrips2D:labels")[-1] == ["0 ITDs"]
+    assert [v[0] for v in rrd.values("/counts", "Scalars:scalars")] == [1, 0, 0, 0]  # the series go on
 
 
 def test_image_of_the_wrong_size_is_refused(scene: dict) -> None:
