@@ -166,3 +166,39 @@ def test_scan_jobs_cover_every_face_size_and_row():
         == [1]
     assert [j.octave for j in HaarFaceDetector(scale=0.8, min_size_px=50, max_size_px=130).scan_jobs((640, 480))] \
         == [0, 1, 2]
+
+
+def test_yunet_wrapper_scales_its_input_and_reports_full_resolution_boxes(tmp_path, monkeypatch):
+    """No YuNet model can be downloaded here, so cv2.FaceDetectorYN is replaced by a stand-in that records what it
+    is given and answers in the detector's output format (x, y, w, h, 5 landmarks, score per row); what is tested is
+    the wrapper: the down-scaled input, the input size kept in step with the image, boxes in full-resolution pixels,
+    None (no face) as an empty (0, 4) array."""
+    model = tmp_path / "face_detection_yunet_2023mar.onnx"
+    model.write_bytes(b"stand-in")
+    calls: dict[str, list] = {"create": [], "size": [], "detect": []}
+
+    class StandIn:
+        def __init__(self, answer):
+            self.answer = answer
+
+        def setInputSize(self, size):  # noqa: N802 (OpenCV's name)
+            calls["size"].append(tuple(size))
+
+        def detect(self, image):
+            calls["detect"].append(image.shape)
+            return 1, self.answer
+
+    answers = iter([np.array([[10.0, 20.0, 30.0, 40.0] + [0.0] * 10 + [0.9]], np.float32), None])
+
+    def create(path, config, size, score, nms):
+        calls["create"].append((path, tuple(size), score, nms))
+        return StandIn(next(answers))
+
+    monkeypatch.setattr(cv2.FaceDetectorYN, "create", create)
+    det = YuNetFaceDetector(model, scale=0.5)
+    boxes = det.detect(np.zeros((480, 640, 3), np.uint8))
+    np.testing.assert_allclose(boxes, [[20.0, 40.0, 60.0, 80.0]])
+    assert calls["create"] == [(str(model), (320, 240), 0.7, 0.3)] and calls["detect"] == [(240, 320, 3)]
+    det._net.answer = None
+    assert det.detect(np.zeros((240, 320), np.uint8)).shape == (0, 4)  # grey input, a new size, no face
+    assert calls["size"] == [(320, 240), (160, 120)] and calls["detect"][-1] == (120, 160, 3)
