@@ -221,6 +221,13 @@ def test_arrow_fast_paths_equal_rerun_conversions() -> None:
 
 
 # ---------------------------------------------------------------------------------------------- ConsoleFrame
+def _console_to_file(path: Path) -> tuple[rr.RecordingStream, Console]:
+    """A console logging to a fresh .rrd at ``path``."""
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    return rec, Console(RIG, MICS, recording=rec)
+
+
 def _frame(**kw: object) -> ConsoleFrame:
     base: dict[str, object] = {
         "stamp_s": 0.0, "frame": 0, "image": None, "boxes": np.array([[10.0, 10.0, 50.0, 50.0]]),
@@ -486,9 +493,7 @@ def test_image_every_thins_the_images_not_the_overlays(scene: dict, tmp_path: Pa
 
 def test_empty_scene_and_silence_are_logged(tmp_path: Path) -> None:
     path = tmp_path / "empty.rrd"
-    rec = rr.RecordingStream(APPLICATION_ID)
-    rec.save(path)
-    console = Console(RIG, MICS, recording=rec)
+    rec, console = _console_to_file(path)
     nobody = {"boxes": np.zeros((0, 4)), "faces_xyz": np.zeros((0, 3)), "speaking": np.zeros(0, bool),
               "probability": np.zeros(0)}
     console.log(_frame(frame=0, itds_s=np.zeros(0), **nobody))
@@ -503,9 +508,7 @@ def test_empty_scene_and_silence_are_logged(tmp_path: Path) -> None:
 def test_people_leaving_and_repeated_silence(tmp_path: Path) -> None:
     """The last person going clears the batched entities once; the same empty histogram is not sent again."""
     path = tmp_path / "leaving.rrd"
-    rec = rr.RecordingStream(APPLICATION_ID)
-    rec.save(path)
-    console = Console(RIG, MICS, recording=rec)
+    rec, console = _console_to_file(path)
     nobody = {"boxes": np.zeros((0, 4)), "faces_xyz": np.zeros((0, 3)), "speaking": np.zeros(0, bool),
               "probability": np.zeros(0), "itds_s": np.zeros(0)}
     model = Mixture1D(np.array([0.9, 0.1]), np.array([1e-5]), np.array([1e-9]), MICS.itd_interval())
