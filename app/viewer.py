@@ -44,7 +44,12 @@ def display_available() -> bool:
 class ViewerTarget:
     """save : an .rrd path; connect : a viewer URL ("" for the default local viewer); spawn : open the native
     viewer; serve : host the web viewer on ``bind`` (``grpc_port`` for the data, ``web_port`` for the page);
-    none of them: log nothing (headless)."""
+    none of them: log nothing (headless).
+
+    part_s : with ``save``, a long run goes into parts of this many seconds of wall time: ``NAME.rrd``, then
+    ``NAME.part2.rrd``, ... (the viewer opens them together: ``rerun NAME*.rrd``). Rerun's file writer keeps memory
+    for everything it wrote until its file is closed, about 15-30 MB a minute of the console
+    (``benchmarks/pipeline.py``); a new part releases it. None: one file, however long the run."""
 
     save: Path | None = None
     connect: str | None = None
@@ -53,6 +58,7 @@ class ViewerTarget:
     bind: str = "127.0.0.1"
     grpc_port: int = 9876
     web_port: int = 9090
+    part_s: float | None = 60.0
 
     @property
     def logs(self) -> bool:
@@ -79,13 +85,19 @@ class ViewerSession:
         self.target = target
         self.server: subprocess.Popen | None = None
         self.recording: rr.RecordingStream | None = None
+        self.parts: list[Path] = []  # the .rrd files written, in order
+        self._part_started = time.monotonic()
+        if target.part_s is not None and not target.part_s > 0:
+            raise ValueError(f"part_s must be > 0 seconds or None, got {target.part_s!r}")
         if not target.logs:
             return
         rec = rr.RecordingStream(APPLICATION_ID)
         blueprint = default_blueprint()
+        self._blueprint = blueprint
         if target.save is not None:
             target.save.parent.mkdir(parents=True, exist_ok=True)
             rec.save(str(target.save), default_blueprint=blueprint)
+            self.parts.append(target.save)
         elif target.connect is not None:
             rec.connect_grpc(target.connect or None, default_blueprint=blueprint)
         elif target.serve:
@@ -93,6 +105,23 @@ class ViewerSession:
         else:
             rec.spawn(default_blueprint=blueprint)
         self.recording = rec
+
+    def part_due(self) -> bool:
+        """Whether the current .rrd part has run for ``part_s`` (always False when not saving in parts)."""
+        t = self.target
+        return (self.recording is not None and t.save is not None and t.part_s is not None
+                and time.monotonic() - self._part_started >= t.part_s)
+
+    def next_part(self) -> Path:
+        """Close the current .rrd part and continue in the next, ``NAME.partK.rrd``; returns its path. The caller
+        logs the static data again (:meth:`app.console.Console.new_part`), so that each part opens on its own."""
+        assert self.recording is not None and self.target.save is not None, "next_part needs a save target"
+        save = self.target.save
+        path = save.with_name(f"{save.stem}.part{len(self.parts) + 1}{save.suffix}")
+        self.recording.save(str(path), default_blueprint=self._blueprint)
+        self.parts.append(path)
+        self._part_started = time.monotonic()
+        return path
 
     @property
     def web_url(self) -> str:

@@ -2,6 +2,7 @@
 
     python benchmarks/pipeline.py                       # scenario S2, 60 s in real time, then as fast as possible
     python benchmarks/pipeline.py --duration 600 --skip-fast    # the 10-minute memory run (about 12 minutes)
+    python benchmarks/pipeline.py --duration 120 --part-s 0     # one .rrd file: Rerun's writer keeps growing
     python benchmarks/pipeline.py --duration 90 --sink none     # the same without Rerun: whose memory grows?
     python benchmarks/pipeline.py --duration 90 --tracemalloc   # where Python allocations grow (slower)
 
@@ -126,16 +127,21 @@ class MemoryMonitor:
 
 
 def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, sample_s: float = 2.0,
-        progress_s: float = 30.0, trace: bool = False) -> dict[str, Any]:
-    """One run of ``scenario``: the pipeline with the console logging to ``rrd`` (None: no Rerun at all)."""
+        progress_s: float = 30.0, trace: bool = False, part_s: float | None = 60.0) -> dict[str, Any]:
+    """One run of ``scenario``: the pipeline with the console logging to ``rrd`` (None: no Rerun at all), in parts
+    of ``part_s`` seconds as ``avhear run`` writes them (None: one file)."""
     source = open_source(f"sim:{scenario}", realtime=realtime, duration_s=duration_s,
                          progress=lambda m: _say(f"  {m}"))
     config = PipelineConfig()
-    session = ViewerSession(ViewerTarget(save=rrd)) if rrd is not None else None
+    session = ViewerSession(ViewerTarget(save=rrd, part_s=part_s)) if rrd is not None else None
     console = Console(source.rig, source.mics, recording=session.recording) if session is not None else None
 
     def on_result(r: FusionResult) -> None:
         if console is not None:
+            assert session is not None
+            if session.part_due():
+                session.next_part()
+                console.new_part()
             console.log(ConsoleFrame.from_face_guided(r.stamp_s, r.index, r.image, r.boxes, r.xyz, r.itds_s,
                                                       r.output, person_ids=r.person_ids))
 
@@ -159,7 +165,8 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
         "beyond_window_p95_ms": float(np.percentile(lat, 95) - imposed_ms) if lat.size else float("nan"),
         "imposed_ms": imposed_ms, **monitor.figures(), "trajectory": monitor.trajectory(),
         "top_growth": monitor.top_growth(),
-        "rrd_mb": rrd.stat().st_size / 2**20 if rrd is not None else 0.0, "stage_ms": d["stage_ms_per_item"],
+        "rrd_mb": sum(p.stat().st_size for p in session.parts) / 2**20 if session is not None else 0.0,
+        "rrd_parts": len(session.parts) if session is not None else 0, "stage_ms": d["stage_ms_per_item"],
     }
 
 
@@ -170,6 +177,8 @@ def main() -> None:
     parser.add_argument("--skip-fast", action="store_true", help="only the real-time run")
     parser.add_argument("--sink", choices=("file", "none"), default="file",
                         help="the console logs to an .rrd file (default), or no Rerun at all")
+    parser.add_argument("--part-s", type=float, default=60.0,
+                        help="seconds per .rrd part, as avhear run writes them (default 60; 0: one file)")
     parser.add_argument("--sample-s", type=float, default=2.0, help="seconds between RSS samples (default 2)")
     parser.add_argument("--progress-s", type=float, default=30.0, help="seconds between progress lines on stderr")
     parser.add_argument("--tracemalloc", action="store_true",
@@ -179,8 +188,9 @@ def main() -> None:
         sink = "console to an .rrd file" if args.sink == "file" else "no Rerun"
         print(f"{args.scenario}, {args.duration:.0f} s in real time, {sink} ...", flush=True)
         rrd = Path(tmp) / "rt.rrd" if args.sink == "file" else None
+        part_s = args.part_s or None
         r = run(args.scenario, args.duration, True, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
-                trace=args.tracemalloc)
+                trace=args.tracemalloc, part_s=part_s)
         print(f"  results per second {r['fps']:.1f} (target >= 30; the paper 17), {r['results']} results in "
               f"{r['duration_s']:.0f} s, {r['late_frames']} late frames skipped by the source, drops {r['drops']}, "
               f"audio blocks {r['audio_blocks']} (gaps {r['audio_gaps']})")
@@ -190,7 +200,7 @@ def main() -> None:
         print(f"  resident memory {r['rss_start_mb']:.0f} MB (first quarter) -> {r['rss_end_mb']:.0f} MB (last "
               f"quarter), growth {r['growth_mb']:+.0f} MB (target <= 50 over 10 min); second half "
               f"{r['slope_mb_per_min']:+.2f} MB/min; peak {r['peak_mb']:.0f} MB; {r['n_samples']} samples; .rrd "
-              f"{r['rrd_mb']:.0f} MB")
+              f"{r['rrd_mb']:.0f} MB in {r['rrd_parts']} part(s)")
         print(f"  RSS (MB) along the run: {r['trajectory']}")
         print(f"  per item: {r['stage_ms']} ms")
         if r["top_growth"]:
@@ -199,7 +209,8 @@ def main() -> None:
                 print(f"    {line}")
         if not args.skip_fast:
             rrd = Path(tmp) / "fast.rrd" if args.sink == "file" else None
-            f = run(args.scenario, args.duration, False, rrd, sample_s=args.sample_s, progress_s=args.progress_s)
+            f = run(args.scenario, args.duration, False, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
+                    part_s=part_s)
             print(f"as fast as possible: {f['fps']:.1f} results per second, {f['results']} results, drops "
                   f"{f['drops']}")
 

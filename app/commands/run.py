@@ -127,6 +127,9 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
             frame = ConsoleFrame.from_motion_guided(result.stamp_s, result.index, result.image, result.xyz,
                                                     result.itds_s, result.output, person_ids=result.person_ids,
                                                     diagnostics=diagnostics)
+        if session.part_due():
+            session.next_part()
+            console.new_part()
         console.log(frame)
 
     pipeline = Pipeline(source, config, on_result)
@@ -148,7 +151,11 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
     if args.stats_json is not None:
         args.stats_json.parent.mkdir(parents=True, exist_ok=True)
         args.stats_json.write_text(json.dumps(summary, indent=2))
-    if target.save is not None:
+    if len(session.parts) > 1:
+        pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
+        print(f"avhear: the console's data is in {len(session.parts)} parts, {session.parts[0]} to "
+              f"{session.parts[-1]}; open them together with: rerun {pattern}")
+    elif target.save is not None:
         print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
     # an interactive user keeps the web viewer until Ctrl-C; a script or CI run ends here
     session.close(keep_serving=sys.stdin is not None and sys.stdin.isatty())

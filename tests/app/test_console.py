@@ -17,6 +17,7 @@ from rerun.chunk import RrdReader
 
 from app import console_geometry as geo
 from app.console import Console, ConsoleFrame
+from app.viewer import ViewerSession, ViewerTarget
 from avcore.faces import locate_faces
 from avcore.geometry import MicPair
 from avcore.inference import FaceGuidedHearing
@@ -580,3 +581,32 @@ def test_saved_default_blueprint_is_current(tmp_path: Path) -> None:
 def test_blueprint_file_needs_the_rbl_suffix(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"\.rbl"):
         save_default_blueprint(tmp_path / "layout.rrd")
+
+
+def test_a_long_recording_goes_into_parts_that_each_open_alone(tmp_path: Path) -> None:
+    """Rerun's file writer holds memory until its file is closed, so a long run is saved in parts; each part has the
+    static data and the people's styles again, and together they hold every frame once."""
+    path = tmp_path / "long.rrd"
+    session = ViewerSession(ViewerTarget(save=path, part_s=3600.0))
+    console = Console(RIG, MICS, recording=session.recording)
+    for i in range(6):
+        if i in (2, 4):
+            session._part_started -= 3600.0  # the part has run its time
+        if session.part_due():
+            assert session.next_part().name == f"long.part{len(session.parts)}.rrd"
+            console.new_part()
+        console.log(_frame(frame=i))
+    session.close(keep_serving=False)
+    assert session.parts == [path, tmp_path / "long.part2.rrd", tmp_path / "long.part3.rrd"]
+    seen = []
+    for k, part in enumerate(session.parts):
+        rrd = Rrd(part)
+        assert rrd.frames("/scene", "ViewCoordinates:xyz") == [None]  # the static data, in every part
+        assert rrd.frames("/scene/cameras/left/faces", "Boxes2D:centers") == [2 * k, 2 * k + 1]
+        series = {p: rows for p, rows in rrd.rows.items() if p.endswith("/speaking_probability")}
+        assert series and all(any(f is None and "SeriesLines:names" in row for f, row in rows)
+                              for rows in series.values())  # each person's series named and coloured again
+        seen += rrd.frames("/counts", "Scalars:scalars")
+    assert seen == list(range(6))
+    with pytest.raises(ValueError, match="part_s"):
+        ViewerSession(ViewerTarget(save=path, part_s=0.0))
