@@ -5,6 +5,7 @@ The recordings are written with ``RecordingStream.save`` into ``tmp_path`` and r
 """
 from __future__ import annotations
 
+import subprocess
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,7 +18,7 @@ from rerun.chunk import RrdReader
 
 from app import console_geometry as geo
 from app.console import Console, ConsoleFrame
-from app.viewer import ViewerSession, ViewerTarget
+from app.viewer import ViewerSession, ViewerTarget, rerun_executable
 from avcore.faces import locate_faces
 from avcore.geometry import MicPair
 from avcore.inference import FaceGuidedHearing
@@ -608,5 +609,11 @@ def test_a_long_recording_goes_into_parts_that_each_open_alone(tmp_path: Path) -
                               for rows in series.values())  # each person's series named and coloured again
         seen += rrd.frames("/counts", "Scalars:scalars")
     assert seen == list(range(6))
+    # Rerun's own tool joins the parts into one recording
+    merged = tmp_path / "merged.rrd"
+    with merged.open("wb") as out:
+        subprocess.run([rerun_executable() or "rerun", "rrd", "merge", *map(str, session.parts)], stdout=out,
+                       stderr=subprocess.DEVNULL, check=True, timeout=60)
+    assert Rrd(merged).frames("/counts", "Scalars:scalars") == list(range(6))
     with pytest.raises(ValueError, match="part_s"):
         ViewerSession(ViewerTarget(save=path, part_s=0.0))
