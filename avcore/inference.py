@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from avcore._packed_em import Packed, class_sums, log_likelihoods, run_em, run_fusion
 from avcore._validate import as_points, as_samples
 from avcore.geometry import MicPair
-from avcore._packed_em import Packed, class_sums, log_likelihoods, run_em, run_fusion
 from avcore.mixture import (
     US,
     BinnedSamples,

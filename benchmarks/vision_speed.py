@@ -18,7 +18,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from avcore.faces import HaarFaceDetector, TrackingFaceDetector, detect_faces, locate_faces
+from avcore.faces import (
+    HaarFaceDetector,
+    TrackingFaceDetector,
+    detect_faces,
+    locate_faces,
+)
 from avcore.motion import harris_motion_points
 from avcore.render import default_scene
 

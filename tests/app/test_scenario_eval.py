@@ -13,7 +13,6 @@ import pytest
 
 from app.cli import main
 from app.pipeline import PipelineConfig
-from app.simsource import load_clip_bank
 from app.scenario_eval import (
     INTERVAL_S,
     PAPER_SCENARIOS,
@@ -22,6 +21,7 @@ from app.scenario_eval import (
     calibrate_on_preset,
     score_run,
 )
+from app.simsource import load_clip_bank
 from avcore.scenario import FrameTruth, Scenario, make_scenario
 
 FPS = 30.0
