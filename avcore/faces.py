@@ -86,11 +86,11 @@ class HaarFaceDetector:
     ``detectMultiScale`` slides its 24 px window with a 2 px step while the window is scaled by less than two and
     with a 1 px step beyond, so on one image the large faces, which are few and need no such precision, cost more
     than half of the scan. Here each octave of face sizes gets its own image, halved from one octave to the next,
-    and so its own 2 px step. On the rendered scenes of ``benchmarks/vision_speed.py`` (VGA, one core, scale 0.8)
-    this cuts a full scan from 58 to 36 ms of CPU and finds 46 of 48 faces instead of 45, with one false detection
-    instead of three. A coarse octave sees a face from fewer window positions, so it needs fewer overlapping hits
-    (``min_neighbors_coarse``). A full scan is a list of :class:`ScanJob`; :class:`TrackingFaceDetector` spreads
-    them over frames.
+    and so its own 2 px step. On the rendered scenes of ``benchmarks/vision_speed.py --skip hm3d`` (VGA, one core,
+    scale 0.8, step 1.2) this cuts a full scan from 56 to 35 ms of CPU against one ``detectMultiScale`` call, and
+    finds the same 24 faces of 24. A coarse octave sees a face from fewer window positions, so it needs fewer
+    overlapping hits (``min_neighbors_coarse``). A full scan is a list of :class:`ScanJob`;
+    :class:`TrackingFaceDetector` spreads them over frames.
 
     scale : the finest octave's image is the input resized by this factor (0.8 keeps faces of 30 px, a face at
         3 m with a 554 px focal length, at the cascade's 24 px window; smaller is faster but loses far faces).
@@ -191,31 +191,11 @@ class HaarFaceDetector:
         out[:, 1] += y0
         return out
 
-    def detect(self, image: np.ndarray, *, region: tuple[int, int, int, int] | None = None,
-               size_range_px: tuple[float, float] | None = None) -> np.ndarray:
-        """image : (h, w) or (h, w, 3) uint8  ->  (n, 4) float boxes x, y, w, h in full-resolution pixels.
-
-        Without arguments, a full scan (all octaves). region : (x, y, w, h) pixels, search only there (boxes are
-        still reported in image pixels); size_range_px : (min, max) face sizes in full-resolution pixels. With
-        either, one scan of the region at the scale that brings the smallest size to the cascade's window.
-        """
+    def detect(self, image: np.ndarray) -> np.ndarray:
+        """image : (h, w) or (h, w, 3) uint8  ->  (n, 4) float boxes x, y, w, h in full-resolution pixels: a full
+        scan, every octave (:meth:`search_near` searches around a known face)."""
         grey = _as_grey(image, "image")
-        if region is None and size_range_px is None:
-            return merge_boxes([self.scan(grey, job) for job in self.scan_jobs(grey.shape[::-1])])
-        x0 = y0 = 0
-        if region is not None:
-            x0, y0 = max(0, int(region[0])), max(0, int(region[1]))
-            x1 = min(grey.shape[1], int(region[0] + region[2]))
-            y1 = min(grey.shape[0], int(region[1] + region[3]))
-            if x1 - x0 < 8 or y1 - y0 < 8:
-                return np.zeros((0, 4))
-            grey = grey[y0:y1, x0:x1]
-        lo, hi = size_range_px if size_range_px is not None else (self.min_size_px, self.max_size_px)
-        lo = max(float(lo), float(self.min_size_px))
-        out = self._cascade(grey, min(1.0, WINDOW_PX / lo), lo_px=lo, hi_px=hi, min_neighbors=self.min_neighbors)
-        out[:, 0] += x0
-        out[:, 1] += y0
-        return out
+        return merge_boxes([self.scan(grey, job) for job in self.scan_jobs(grey.shape[::-1])])
 
 
 def merge_boxes(groups: list[np.ndarray], *, contained: float = 0.6) -> np.ndarray:

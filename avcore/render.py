@@ -116,9 +116,8 @@ def drawn_face_texture(size_px: int = 96, skin_bgr: tuple[int, int, int] = (150,
     For machines without ``../shared/data``. The face box is the skin oval's width, centred on the eyes-mouth area.
     The cascade's features expect the band of the eyes darker than the cheeks, as the eye sockets' shadow makes it
     in a lit face: each eye sits in a shadow of the skin colour and its white is only a little lighter than the skin
-    (pure white eyes in a dark face turned that band bright: the darkest of the five drawn skins was then found in
-    19 of 27 views and, seated at 2 m in scenario S2, in 2 frames of 120; now 24 of 27 and 120 of 120, like the
-    others).
+    (pure white eyes in a dark face turned that band bright, and the darkest of the five drawn skins went unfound;
+    ``tests/avcore/test_render.py`` checks every skin at 1.3-2.9 m).
     """
     s = size_px
     w, h = round(FACE_MARGIN * s), round(FACE_MARGIN * s * 1.15)

@@ -132,6 +132,15 @@ def _signal(values: Any, name: str) -> np.ndarray:
     return arr
 
 
+def _signal_pair(left: Any, right: Any, what: str) -> tuple[np.ndarray, np.ndarray]:
+    """Both channels checked by :func:`_signal`, and of one length (``what``: "" or " blocks", for the message)."""
+    left_arr, right_arr = _signal(left, "left"), _signal(right, "right")
+    if left_arr.shape != right_arr.shape:
+        raise ValueError(f"left and right{what} must have the same length, got {left_arr.shape[0]} and "
+                         f"{right_arr.shape[0]} samples")
+    return left_arr, right_arr
+
+
 def _mean_power(frames_l: np.ndarray, frames_r: np.ndarray) -> np.ndarray:
     """``(n,)`` mean power ``mean((left^2 + right^2) / 2)`` of ``(n, w)`` frames: the paper's activity measure."""
     w = frames_l.shape[1]
@@ -206,11 +215,7 @@ def extract_itds(left: Any, right: Any, samplerate: float, method: str = "correl
     """
     impl, framing = make_method(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s,
                                 min_confidence, **options)
-    left_arr = _signal(left, "left")
-    right_arr = _signal(right, "right")
-    if left_arr.shape != right_arr.shape:
-        raise ValueError(f"left and right must have the same length, got {left_arr.shape[0]} and "
-                         f"{right_arr.shape[0]} samples")
+    left_arr, right_arr = _signal_pair(left, right, "")
     n = left_arr.shape[0]
     if n < framing.window_len:
         raise ValueError(f"the signal ({n} samples) is shorter than one window ({framing.window_len} samples, "
@@ -277,11 +282,7 @@ class ItdStream:
 
     def push(self, left: Any, right: Any) -> ItdTrack:
         """Append one block of left and right samples ``(n,)``; return the ITDs of the windows it completed."""
-        left_arr = _signal(left, "left")
-        right_arr = _signal(right, "right")
-        if left_arr.shape != right_arr.shape:
-            raise ValueError(f"left and right blocks must have the same length, got {left_arr.shape[0]} and "
-                             f"{right_arr.shape[0]} samples")
+        left_arr, right_arr = _signal_pair(left, right, " blocks")
         n = left_arr.shape[0]
         if n <= self._piece:  # the usual case: one audio callback's block
             return self._append(left_arr, right_arr)

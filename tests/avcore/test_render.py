@@ -75,3 +75,22 @@ def test_missing_face_folder_falls_back_to_drawn_faces(tmp_path):
 def test_person_validation():
     with pytest.raises(ValueError, match="position"):
         Person(drawn_face_texture(), (0.0, 0.0, -1.0))
+
+
+@pytest.mark.parametrize("skin", [(150, 180, 220), (110, 140, 190), (90, 120, 160), (130, 160, 205), (70, 95, 130)])
+def test_every_drawn_skin_is_found_by_the_default_detector(skin):
+    """The drawn faces stand in for real ones on a clean machine: the Haar cascade must find each skin colour, at
+    the distances of the scenarios and nodding (the darkest skin was missed when its eyes were pure white)."""
+    from avcore.faces import HaarFaceDetector
+
+    rig = StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12)
+    face = drawn_face_texture(skin_bgr=skin)
+    detector = HaarFaceDetector()
+    for z in (1.3, 2.0, 2.9):
+        scene = StereoSceneRenderer(rig, [Person(face=face, position=(0.4, -0.1, z), nod_rad=0.17)], seed=0)
+        for t in (0.0, 0.45):
+            frame = scene.render(t)
+            boxes = detector.detect(frame.left)
+            truth = frame.face_boxes_left[0]
+            centres = boxes[:, :2] + boxes[:, 2:] / 2
+            assert len(boxes) and np.min(np.linalg.norm(centres - (truth[:2] + truth[2:] / 2), axis=1)) < 15, (z, t)
