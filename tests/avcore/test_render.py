@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from avcore.faces import HaarFaceDetector
 from avcore.render import Person, StereoSceneRenderer, default_scene, drawn_face_texture, load_face_textures
 from avcore.stereo import StereoRig
 
@@ -81,8 +82,6 @@ def test_person_validation():
 def test_every_drawn_skin_is_found_by_the_default_detector(skin):
     """The drawn faces stand in for real ones on a clean machine: the Haar cascade must find each skin colour, at
     the distances of the scenarios and nodding (the darkest skin was missed when its eyes were pure white)."""
-    from avcore.faces import HaarFaceDetector
-
     rig = StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12)
     face = drawn_face_texture(skin_bgr=skin)
     detector = HaarFaceDetector()
