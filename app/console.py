@@ -331,18 +331,19 @@ class Console:
         self.fov_depth_m = float(fov_depth_m)
         self.itd_pane = geo.ItdPane.for_mics(mics, bin_s=itd_bin_s)
         self._edges_s = self.itd_pane.edges_s
-        self._counts_tensor: _CountsTensor | None = None  # set with the first histogram
         self.frames_logged = 0
         self.new_part()
 
     def new_part(self) -> None:
         """Start afresh in a new .rrd part (:meth:`app.viewer.ViewerSession.next_part`): the static data again, and
-        whatever is logged only on change (people's styles, the histogram) at the next frame."""
+        whatever is logged only once or on change (people's styles, the bars' positions, the histogram) at the next
+        frame."""
         self._present: set[int] = set()
         self._styled: set[int] = set()
         self._occupied: set[str] = set()  # batched per-person entities holding instances now
         self._had_points = False
         self._had_boxes = False
+        self._counts_tensor: _CountsTensor | None = None  # set with the first histogram of the part
         self._last_counts: np.ndarray | None = None  # the histogram logged last, and its ITDs off the axis
         self._last_outside = 0
         self.log_static()

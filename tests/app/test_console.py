@@ -604,6 +604,7 @@ def test_a_long_recording_goes_into_parts_that_each_open_alone(tmp_path: Path) -
         rrd = Rrd(part)
         assert rrd.frames("/scene", "ViewCoordinates:xyz") == [None]  # the static data, in every part
         assert rrd.frames("/scene/cameras/left/faces", "Boxes2D:centers") == [2 * k, 2 * k + 1]
+        assert rrd.frames("/itd/bars", "BarChart:abscissa") == [2 * k]  # the bars' positions, in every part
         series = {p: rows for p, rows in rrd.rows.items() if p.endswith("/speaking_probability")}
         assert series and all(any(f is None and "SeriesLines:names" in row for f, row in rows)
                               for rows in series.values())  # each person's series named and coloured again
