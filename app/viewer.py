@@ -65,6 +65,26 @@ class ViewerTarget:
         return self.save is not None or self.connect is not None or self.spawn or self.serve
 
 
+def stop_process_group(proc: subprocess.Popen, timeout_s: float = 3.0) -> None:
+    """Stop a process started with ``start_new_session=True`` and all it started: Ctrl-C to its whole process group
+    first, as a user would, then harder. The ``rerun`` command is a Python launcher that runs the viewer binary as a
+    child; a signal to the launcher alone (``terminate()``) leaves the binary serving, at full CPU."""
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:  # the whole group is gone
+            break
+        try:
+            proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            continue
+        try:
+            os.killpg(proc.pid, 0)  # a child that outlived the launcher?
+        except ProcessLookupError:
+            break
+    proc.wait(timeout=timeout_s)
+
+
 def _wait_for_port(host: str, port: int, timeout_s: float) -> bool:
     deadline = time.monotonic() + timeout_s
     target = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
@@ -144,16 +164,10 @@ class ViewerSession:
         return f"rerun+http://{t.bind}:{t.grpc_port}/proxy"
 
     def _stop_server(self) -> str:
-        """Stop the server (Ctrl-C first, as a user would, then harder); returns what it printed."""
+        """Stop the server (:func:`stop_process_group`); returns what it printed."""
         if self.server is None:
             return ""
-        for stop in (lambda p: p.send_signal(signal.SIGINT), subprocess.Popen.terminate, subprocess.Popen.kill):
-            stop(self.server)
-            try:
-                self.server.wait(timeout=3)
-                break
-            except subprocess.TimeoutExpired:
-                continue
+        stop_process_group(self.server)
         self.server = None
         self._server_log.seek(0)
         text = self._server_log.read()

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -67,6 +68,7 @@ def test_serve_binds_to_localhost(capsys: pytest.CaptureFixture[str]) -> None:
         b.bind(("127.0.0.1", 0))
         grpc_port, web_port = a.getsockname()[1], b.getsockname()[1]
     session = ViewerSession(ViewerTarget(serve=True, grpc_port=grpc_port, web_port=web_port))
+    group = session.server.pid if session.server is not None else -1
     try:
         assert session.server is not None and session.server.poll() is None
         listening = Path("/proc/net/tcp").read_text() if Path("/proc/net/tcp").exists() else ""
@@ -79,3 +81,5 @@ def test_serve_binds_to_localhost(capsys: pytest.CaptureFixture[str]) -> None:
     finally:
         session.close(keep_serving=False)
     assert session.server is None
+    with pytest.raises(ProcessLookupError):  # the viewer binary the rerun launcher started is gone too
+        os.killpg(group, 0)

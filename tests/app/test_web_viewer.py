@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.viewer import rerun_executable
+from app.viewer import rerun_executable, stop_process_group
 
 pytestmark = pytest.mark.slow
 
@@ -79,8 +79,7 @@ def test_console_in_the_web_viewer(tmp_path: Path) -> None:
         url = f"http://127.0.0.1:{web}/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A{grpc}%2Fproxy"
         _screenshot(chromium, url, shot, tmp_path / "profile", wait_s=40)
     finally:
-        server.terminate()
-        server.wait(10)
+        stop_process_group(server)
     img = cv2.imread(str(shot))
     assert img is not None and img.shape[1] >= 1200
     # the loading screen is a flat dark page; the console has the camera image, panes and plots
