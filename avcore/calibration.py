@@ -37,6 +37,8 @@ from avcore._validate import as_points, as_samples
 from avcore.geometry import MicPair
 
 __all__ = [
+    "CALIBRATION_BURST_S",
+    "calibration_signal",
     "CalibrationReport",
     "CalibrationSession",
     "fit_av_calibration",
@@ -53,6 +55,47 @@ LMEDS_SAMPLE = 1000
 MIN_SPAN_FRACTION = 0.1  # faces must cover this share of the ITD interval [-d/nu, d/nu]
 TRUNCATED_SD_2_5 = 0.954597  # standard deviation of a standard normal truncated to [-2.5, 2.5]
 SCALE_FLOOR_S = 1e-9  # 1 ns: below any ITD resolution; keeps the weights finite on exact data
+
+
+CALIBRATION_BURST_S: tuple[float, float] = (0.15, 0.35)
+"""Seconds on and off of the calibration loudspeaker's white noise.
+
+The fitted correction c1, c0 absorbs what the room and the ITD extractor do to the ITDs, so the calibration signal
+must meet the extractor as speech does. The default extractor (``gcc-phat-robust``) weights onsets, where the direct
+sound leads its reflections (precedence): speech is all onsets, continuous noise has none, and continuous noise's
+ITDs are pulled further towards zero by the reflections. Bursts of syllable length at a syllable rate give the
+extractor onsets as speech does. Measured with ``avhear eval scenarios --seed 0 1 2`` (which first fits c1, c0
+on the ``calibration`` preset, seed 0): continuous noise (commit 2ccdda4) gave c1 = 0.678, the bursts give
+c1 = 0.796. With the bursts, S5's false speaking stretches fall from 15 to 8 (per 138 spoken numbers; TP stays at
+87.0 %), its TP per 0.4 s interval rises from 76.0 to 78.8 %, and S1-S4 are unchanged per spoken number.
+"""
+
+
+def calibration_signal(samplerate_hz: int, duration_s: float, *, seed: int = 0, level_dbfs: float = -18.0,
+                       ramp_s: float = 0.002) -> np.ndarray:
+    """What the calibration loudspeaker plays: white-noise bursts of :data:`CALIBRATION_BURST_S`, ``(n,)`` float in
+    [-1, 1]. Gaussian noise at ``level_dbfs`` RMS during the bursts (at -18 dBFS a peak of 7 sigma stays below full
+    scale; louder levels are clipped there), raised-cosine ramps of ``ramp_s`` against clicks, silence between."""
+    if not samplerate_hz > 0 or int(samplerate_hz) != samplerate_hz:
+        raise ValueError(f"samplerate_hz must be a positive whole number of hertz, got {samplerate_hz!r}")
+    if not 1.0 <= duration_s <= 3600.0:
+        raise ValueError(f"duration_s must be between 1 and 3600 seconds, got {duration_s!r}")
+    if not level_dbfs <= 0:
+        raise ValueError(f"level_dbfs must be <= 0 dBFS, got {level_dbfs!r}")
+    fs = int(samplerate_hz)
+    on, off = CALIBRATION_BURST_S
+    out = np.zeros(round(duration_s * fs))
+    burst = round(on * fs)
+    ramp = max(1, round(ramp_s * fs))
+    envelope = np.ones(burst)
+    rise = 0.5 - 0.5 * np.cos(np.pi * (np.arange(ramp) + 0.5) / ramp)
+    envelope[:ramp] = rise
+    envelope[-ramp:] = rise[::-1]
+    rng = np.random.default_rng(seed)
+    rms = 10 ** (level_dbfs / 20)
+    for start in range(0, out.size - burst + 1, round((on + off) * fs)):
+        out[start:start + burst] = rms * rng.standard_normal(burst) * envelope
+    return np.clip(out, -1.0, 1.0)
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,8 @@ Presets (section 7.3, "Results on NAO"; the paper's room is about 5 x 5 m, the r
 - ``S4``: as S2, with one of the talkers outside the cameras' field of view.
 - ``S5``: three people speaking independently (overlaps happen), one walking while speaking, and hand claps.
 - ``calibration`` (section 5.3): one person holding a loudspeaker just below the face, playing white noise, walking
-  a zig-zag across the whole field of view.
+  a zig-zag across the whole field of view. The noise comes in bursts of 150 ms every 0.5 s (``CALIBRATION_BURST_S``),
+  not continuously as in the paper: see :data:`avcore.calibration.CALIBRATION_BURST_S` for why.
 
 Scene frame (DESIGN.md): the cyclopean frame of the rectified rig, metres, x right, y down, z forward; the robot's
 head (cameras and microphones) is at the origin, 1.0 m above the floor. Times are seconds from the start of the
@@ -31,6 +32,7 @@ from typing import Literal
 
 import numpy as np
 
+from avcore.calibration import CALIBRATION_BURST_S
 from avcore.geometry import MicPair
 from avcore.render import Room as VisualRoom
 from avcore.roomsim import Room as AcousticRoom
@@ -476,7 +478,7 @@ _DESCRIPTIONS = {
     "S3": "three people counting in turns, one of them standing",
     "S4": "three people counting in turns, one of them outside the field of view",
     "S5": "three people speaking independently, one walking while speaking, hand claps",
-    "calibration": "a person holding a loudspeaker (white noise) below the face, walking a zig-zag over the view",
+    "calibration": "a person holding a loudspeaker (white-noise bursts) below the face, walking a zig-zag over the view",
 }
 
 
@@ -527,7 +529,9 @@ def make_scenario(name: str, *, clip_durations_s: Sequence[Sequence[float]], dur
     else:  # calibration
         actors = [Actor("person0", _zigzag(rig, dur, rng), voice=0, face=faces[0], shirt_bgr=_SHIRTS[0],
                         nod_rad=0.0, posture="walking")]
-        events = [SoundEvent(0, "noise", 0.3, dur - 0.2, int(rng.integers(2**31)), "white noise")]
+        on, off = CALIBRATION_BURST_S
+        events = [SoundEvent(0, "noise", float(t), float(t) + on, int(rng.integers(2**31)), "white noise")
+                  for t in np.arange(0.3, dur - 0.2 - on, on + off)]
     events.sort(key=lambda e: (e.start_s, e.actor))
     return Scenario(name=name, description=_DESCRIPTIONS[name], duration_s=dur, seed=seed, actors=tuple(actors),
                     events=tuple(events), rig=rig, room=room)

@@ -3,7 +3,8 @@
 ``avhear calibrate stereo`` calibrates the stereo rig from chessboard picture pairs and writes the rig YAML.
 ``avhear calibrate av RECORDING --rig rig.yaml -o rig.yaml`` fits the affine audio-visual correction c1, c0 of
 eq. (itd_up) on a recording of a person carrying a white-noise loudspeaker in a zig-zag (the work is in
-:mod:`app.av_calibration`). Each kind is one sub-command with its own ``add_*_parser`` below.
+:mod:`app.av_calibration`); ``avhear calibrate signal -o FILE.wav`` writes what that loudspeaker plays. Each kind is
+one sub-command with its own ``add_*_parser`` below.
 """
 from __future__ import annotations
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
+from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
 from avcore.itd import METHODS as ITD_METHODS
 from avcore.stereo import calibrate_stereo, find_chessboard
 
@@ -36,6 +38,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     kinds.required = True
     add_stereo_parser(kinds)
     add_av_parser(kinds)
+    add_signal_parser(kinds)
 
 
 def add_stereo_parser(kinds: argparse._SubParsersAction) -> None:
@@ -215,8 +218,8 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
         "av", help="audio-visual correction c1, c0 from a recording (white-noise loudspeaker in a zig-zag)",
         description=(
             "Audio-visual calibration (paper section 5.3). RECORDING shows one person holding a loudspeaker that "
-            "plays white noise just below the face, walking a zig-zag across the whole field of view (about one "
-            "minute; `avhear simulate calibration` makes one). Each frame with exactly one face gives an F3D "
+            "plays white-noise bursts (`avhear calibrate signal`) just below the face, walking a zig-zag across the "
+            "whole field of view (about one minute; `avhear simulate calibration` makes one). Each frame with exactly one face gives an F3D "
             "position, each audio window an ITD; the ITDs are paired with the face of their instant and c1, c0 of "
             "eq. (itd_up) are fitted so that c1 * A(face) + c0 follows the ITDs. The hand-measured microphone "
             "positions come from --rig; the faces are located with the recording's own stereo calibration. "
@@ -260,7 +263,8 @@ def run_av(args: argparse.Namespace) -> int:
                         "add them, e.g.\nmicrophones:\n  left_m: [-0.06, 0.0, 0.0]\n  right_m: [0.06, 0.0, 0.0]")
     if not args.recording.exists():
         raise UserError(f"{args.recording}: no such recording folder; record the calibration sequence (a person "
-                        "carrying a loudspeaker playing white noise in a zig-zag across the view), or simulate one "
+                        "carrying a loudspeaker playing `avhear calibrate signal`'s white-noise bursts in a zig-zag "
+                        "across the view), or simulate one "
                         f"with `avhear simulate calibration -o {args.recording}`")
     recording = open_recording(args.recording)
     mics = rig.microphones
@@ -326,3 +330,47 @@ def run_av(args: argparse.Namespace) -> int:
 
 def _xyz(p: tuple[float, float, float]) -> str:
     return "(" + ", ".join(f"{v:+.4f}" for v in p) + ")"
+
+
+def add_signal_parser(kinds: argparse._SubParsersAction) -> None:
+    on, off = CALIBRATION_BURST_S
+    p = kinds.add_parser(
+        "signal", help="write the WAV that the calibration loudspeaker plays (white-noise bursts)",
+        description=(
+            f"Write the signal for the audio-visual calibration (section 5.3): white-noise bursts of {on * 1000:.0f} "
+            f"ms every {on + off:.1f} s, as the simulated calibration uses. Bursts rather than the paper's "
+            "continuous noise: the default ITD extractor weights onsets, as it must for speech, and continuous "
+            "noise gives it ITDs pulled further towards zero by the room (avcore.calibration.CALIBRATION_BURST_S). "
+            "Play it from a small loudspeaker held just below the face and record with `avhear record`."
+        ),
+    )
+    p.add_argument("-o", "--output", required=True, type=Path, help="WAV file to write (mono, 16-bit)")
+    p.add_argument("--duration", type=_positive_float, default=90.0, help="seconds (default 90)")
+    p.add_argument("--samplerate", type=int, default=48000, help="hertz (default 48000)")
+    p.add_argument("--level", type=float, default=-18.0, metavar="DBFS",
+                   help="RMS level of the bursts, dB below full scale (default -18)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
+    p.set_defaults(func=run_signal)
+
+
+def run_signal(args: argparse.Namespace) -> int:
+    import wave
+
+    try:
+        signal = calibration_signal(args.samplerate, args.duration, seed=args.seed, level_dbfs=args.level)
+    except ValueError as exc:
+        raise UserError(f"avhear calibrate signal: {exc}") from exc
+    if args.output.suffix.lower() != ".wav":
+        raise UserError(f"{args.output}: the output must be a .wav file")
+    if not args.output.parent.exists():
+        raise UserError(f"{args.output.parent}: no such folder")
+    pcm = np.round(signal * 32767).astype("<i2")
+    with wave.open(str(args.output), "wb") as f:
+        f.setnchannels(1)
+        f.setsampwidth(2)
+        f.setframerate(args.samplerate)
+        f.writeframes(pcm.tobytes())
+    on, off = CALIBRATION_BURST_S
+    print(f"wrote {args.output}: {args.duration:g} s at {args.samplerate} Hz, {on * 1000:.0f} ms bursts every "
+          f"{on + off:.1f} s at {args.level:g} dBFS RMS")
+    return 0

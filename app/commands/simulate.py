@@ -24,7 +24,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description=("Simulate one of the paper's scenarios (section 7.3: S1 one person counting; S2 three seated "
                      "people counting in turns; S3 one of them standing; S4 one outside the field of view; S5 "
                      "independent speakers, one walking, hand claps; and the section 5.3 calibration: a loudspeaker "
-                     "playing white noise carried in a zig-zag) and write it as a raw recording folder "
+                     "playing white-noise bursts carried in a zig-zag) and write it as a raw recording folder "
                      "(recordings/FORMAT.md)."),
     )
     p.add_argument("scenario", choices=PRESETS, metavar="SCENARIO", help=f"one of {', '.join(PRESETS)}")

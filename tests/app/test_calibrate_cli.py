@@ -113,3 +113,21 @@ def test_a_mismatched_pair_is_flagged(shared_data, tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     flagged = [line for line in lines if "bad view" in line]
     assert len(flagged) >= 1 and any(line.startswith("left07.jpg") for line in flagged), lines
+
+
+def test_signal_writes_the_loudspeaker_wav(tmp_path, capsys):
+    import wave
+
+    out = tmp_path / "calibration.wav"
+    assert _run(["calibrate", "signal", "-o", str(out), "--duration", "2", "--samplerate", "16000"]) == 0
+    with wave.open(str(out)) as f:
+        assert (f.getnchannels(), f.getsampwidth(), f.getframerate(), f.getnframes()) == (1, 2, 16000, 32000)
+        pcm = np.frombuffer(f.readframes(32000), dtype="<i2")
+    assert 0.25 < np.mean(pcm != 0) < 0.35  # 150 ms of noise every 0.5 s
+    assert "150 ms bursts" in capsys.readouterr().out
+    with pytest.raises(UserError, match="wav"):
+        _run(["calibrate", "signal", "-o", str(tmp_path / "x.mp3")])
+    with pytest.raises(UserError, match="no such folder"):
+        _run(["calibrate", "signal", "-o", str(tmp_path / "missing" / "x.wav")])
+    with pytest.raises(UserError, match="samplerate"):
+        _run(["calibrate", "signal", "-o", str(out), "--samplerate", "0"])

@@ -134,8 +134,8 @@ def test_itds_of_the_active_talker_are_where_the_geometry_says(missing):
 
 
 def test_a_moving_loudspeaker_is_heard_where_it_is(missing):
-    """Calibration (section 5.3): the ITDs of the white noise follow the zig-zag of the loudspeaker."""
-    src = SimSource.from_preset("calibration", duration_s=3.0, seed=0, fps=5, data_dir=missing)
+    """Calibration (section 5.3): the ITDs of the white-noise bursts follow the zig-zag of the loudspeaker."""
+    src = SimSource.from_preset("calibration", duration_s=6.0, seed=0, fps=5, data_dir=missing)
     x = src.audio.samples.astype(np.float64) / 32768
     track = extract_itds(x[:, 0], x[:, 1], 16000, method="gcc-phat")
     assert len(track) > 100

@@ -5,7 +5,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from avcore.calibration import fit_av_calibration, fit_av_calibration_report, simulate_calibration
+from avcore.calibration import (
+    CALIBRATION_BURST_S,
+    calibration_signal,
+    fit_av_calibration,
+    fit_av_calibration_report,
+    simulate_calibration,
+)
 from avcore.geometry import MicPair
 
 US = 1e-6
@@ -200,3 +206,23 @@ def test_swapped_channels_are_reported() -> None:
     faces = faces_across_the_view(100)
     with pytest.raises(ValueError, match="channels are probably swapped"):
         fit_av_calibration(faces, -mics.itd(faces), mics)
+
+
+def test_calibration_signal_is_bursts_of_white_noise() -> None:
+    fs = 16000
+    x = calibration_signal(fs, 10.0, seed=3, level_dbfs=-18.0)
+    on, off = CALIBRATION_BURST_S
+    assert x.shape == (10 * fs,) and np.all(np.abs(x) <= 1.0)
+    period, burst = round((on + off) * fs), round(on * fs)
+    cycles = x[: (x.size // period) * period].reshape(-1, period)
+    assert np.all(cycles[:, burst:] == 0.0)  # silence between the bursts
+    middle = cycles[:, 100:burst - 100]  # inside the bursts, past the ramps
+    assert np.sqrt(np.mean(middle**2)) == pytest.approx(10 ** (-18 / 20), rel=0.05)
+    spectrum = np.abs(np.fft.rfft(middle, axis=1)) ** 2  # white: flat from low to high frequencies
+    bands = spectrum.mean(axis=0)[1:1097].reshape(8, -1).mean(axis=1)
+    assert bands.max() / bands.min() < 1.3
+    assert np.array_equal(x, calibration_signal(fs, 10.0, seed=3))  # deterministic for a seed
+    for bad in ({"samplerate_hz": 0, "duration_s": 5.0}, {"samplerate_hz": 16000, "duration_s": 0.1},
+                {"samplerate_hz": 16000, "duration_s": 5.0, "level_dbfs": 3.0}):
+        with pytest.raises(ValueError):
+            calibration_signal(**bad)

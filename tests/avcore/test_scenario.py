@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from avcore.scenario import (
+    CALIBRATION_BURST_S,
     PRESETS,
     Actor,
     Path3D,
@@ -87,10 +88,17 @@ def test_s5_has_independent_speakers_a_walker_and_claps():
 
 def test_calibration_sweeps_the_whole_field_of_view_with_white_noise():
     s = _scenario("calibration", duration_s=40.0)
-    assert len(s.actors) == 1 and [e.kind for e in s.events] == ["noise"]
+    assert len(s.actors) == 1 and {e.kind for e in s.events} == {"noise"}
+    # bursts of CALIBRATION_BURST_S (on, off) over the whole sequence
+    on, off = CALIBRATION_BURST_S
+    starts = np.array([e.start_s for e in s.events])
+    assert np.allclose([e.end_s - e.start_s for e in s.events], on)
+    assert np.allclose(np.diff(starts), on + off) and starts[0] < 1.0 and s.events[-1].end_s > 39.0
     times = np.linspace(0.5, 39.5, 300)
     truths = [s.truth(t) for t in times]
-    assert all(tr.visible[0] and tr.sounding[0] and not tr.speaking[0] for tr in truths)
+    assert all(tr.visible[0] and not tr.speaking[0] for tr in truths)
+    sounding = np.array([tr.sounding[0] for tr in truths])
+    assert abs(sounding.mean() - on / (on + off)) < 0.05
     u = np.array([tr.boxes_left[0, 0] + tr.boxes_left[0, 2] / 2 for tr in truths])
     z = np.array([tr.positions_m[0, 2] for tr in truths])
     assert u.min() < 0.15 * 640 and u.max() > 0.85 * 640  # edge to edge
