@@ -5,10 +5,20 @@ the real :class:`~app.pipeline.Pipeline`: face detection and F3D on the rendered
 extraction on the simulated microphone signals (section 4), and face-guided fusion (Algorithm 2, section 5.4) or,
 when asked, motion-guided fusion (Algorithm 1). The fused results are scored against the simulator's truth.
 
-Speaking states, the table of section 7.3 (FP, FN, TP)
-    The paper annotated its recordings by hand and does not define its unit. Here one count is one *visible
-    person during one interval of 0.4 s* (the Delta t of section 7): interval ``k`` holds the fused frames stamped in
-    ``[0.4 k, 0.4 (k + 1))`` (for the motion-guided variant, the one result of that interval).
+Speaking states, the table of section 7.3 (FP, FN, TP), per spoken number
+    The paper annotated its recordings by hand. Its caption calls the table's total "the total number of counts",
+    its people count "from one up to sixteen", and its totals are close to multiples of 16 (TP + FN = 172, 207,
+    177, 178 and 168: 10.75, 12.9, 11.1, 11.1 and 10.5 times 16). So one count is one number spoken by a visible
+    person (:class:`UtteranceCounts`): TP when the person was judged speaking in at least half of the results
+    during the number in which the face was found, FN otherwise; FP for each stretch of consecutive results
+    judging a found person speaking that overlaps none of that person's numbers (a hand clap, another person's
+    speech). The speaking state's lag behind the speech (the ITD window and the fusion's time frame) costs nothing
+    here, unlike per interval.
+
+Per interval of 0.4 s (a second, stricter view)
+    One count is one *visible person during one interval of 0.4 s* (the Delta t of section 7): interval ``k``
+    holds the fused frames stamped in ``[0.4 k, 0.4 (k + 1))`` (for the motion-guided variant, the one result of
+    that interval).
 
     - Truth: a person is *visible* in the interval when ``FrameTruth.visible`` holds in most of its frames, and
       *speaking* when ``FrameTruth.speaking`` holds in most of them (speech only: the hand claps of S5 are
@@ -21,16 +31,8 @@ Speaking states, the table of section 7.3 (FP, FN, TP)
     - TP: speaking, detected speaking. FN: speaking, detected silent (``fn_missed_face`` of them because the face
       was not found at all). FP: silent, detected speaking, plus one per interval in which, in most frames, a
       detection associated with nobody was judged speaking (``fp_false_face``). TN: silent, detected silent.
-      TP % = TP / (TP + FN), as in the paper's table.
-
-Per spoken number (a second view)
-    The table's caption calls its total "the total number of counts", which reads as one count per number spoken
-    (S1: 149 + 23 = 172 numbers). So the same results are also counted per spoken number of a visible person
-    (:class:`UtteranceCounts`): TP when the person was judged speaking in at least half of the results during the
-    number in which the face was found, FN otherwise; FP for each stretch of consecutive results judging a found
-    person speaking that overlaps none of that person's numbers (a hand clap, another person's speech). The speaking
-    state's lag behind the speech (the ITD window and the fusion's time frame) costs nothing here, unlike per
-    interval.
+      TP % = TP / (TP + FN), as in the paper's table. A speaking state that lasts into the pause after a number
+      (the ITD window and the +-0.2 s time frame) costs an FP here whenever the pause covers most of an interval.
 
 Per scenario also (per fused frame): the share of frames in which every visible face was found, the median F3D
 error of the found faces (metres), and the ITD accuracy: the share of the extracted ITDs within 40 us of the true
@@ -42,7 +44,7 @@ affine correction (eq. itd_up) as the fusion; the extraction is :func:`avcore.it
 pipeline's settings on the same samples.
 
 Audio-visual calibration (section 5.3): with ``calibration`` the fusion uses ``c1``, ``c0`` fitted on the
-``calibration`` preset (a loudspeaker of white noise carried over the field of view), exactly as a user of the rig
+``calibration`` preset (a loudspeaker of white-noise bursts carried over the field of view), exactly as a user of the rig
 would calibrate it (:func:`calibrate_on_preset`). The simulator's microphones are at their nominal positions, so
 the correction only absorbs what the room and the extractor do to the ITDs (reverberation pulls them towards zero).
 """
