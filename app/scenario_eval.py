@@ -167,13 +167,15 @@ class UtteranceCounts(_Counts):
     """Speaking states counted per spoken number (the paper's caption calls its total "the number of counts").
 
     tp / fn : spoken numbers of visible people judged speaking / silent (in at least / fewer than half of the
-    results during the number in which the face was found; ``fn_missed_face``: found in none). fp : stretches of
-    consecutive results in which a found person was judged speaking that overlap none of that person's numbers.
+    results during the number in which the face was found; ``fn_missed_face``: found in none; ``fn_overlap``: missed
+    numbers during which someone else spoke too). fp : stretches of consecutive results in which a found person was
+    judged speaking that overlap none of that person's numbers.
     """
 
     tp: int = 0
     fn: int = 0
     fn_missed_face: int = 0
+    fn_overlap: int = 0
     fp: int = 0
 
     def as_dict(self) -> dict[str, Any]:
@@ -476,6 +478,7 @@ def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarr
         else:
             out.fn += 1
             out.fn_missed_face += int(st.size == 0)
+            out.fn_overlap += any(o.actor != e.actor and o.start_s < e.end_s and o.end_s > e.start_s for o in speech)
     for i in range(states.shape[1]):
         own = [(e.start_s, e.end_s) for e in speech if e.actor == i]
         found = np.flatnonzero(states[:, i] >= 0)

@@ -322,14 +322,14 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
         "",
         ("Per spoken number (the paper's unit, its people counting to 16): TP = a number judged spoken by its "
          "visible speaker, FN = not; FP = a stretch judged speaking that overlaps none of the person's numbers."),
-        f"{head}  {'FN face missed':>14s}",
+        f"{head}  {'FN face missed':>14s} {'FN overlap':>10s}",
     ]
     for s in scores:
         u = s.utterances
         n = u.tp + u.fn
         lines += [_paper_row(s.scenario),
                   (f"{'':6s} {label:24s} {u.fp:5d} {u.fn:4d} {_pct(u.fn, n):>8s} {u.tp:5d} {_pct(u.tp, n):>8s}  "
-                   f"{_fp_share(u.fp, n):6.3f}  {u.fn_missed_face:14d}")]
+                   f"{_fp_share(u.fp, n):6.3f}  {u.fn_missed_face:14d} {u.fn_overlap:10d}")]
     lines += [
         "",
         (f"Per interval (a stricter view): one count = one visible person during {INTERVAL_S} s (majority of its "

@@ -97,6 +97,24 @@ def test_wrong_states_and_missed_faces_are_counted() -> None:
     assert c.fp == c.fp_false_face == 20 and c.tp == speaking
 
 
+def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap() -> None:
+    scenario = _scenario("S5", duration_s=15.0)
+    fused, stamps = _frames(scenario, lambda tr: np.zeros_like(tr.speaking))  # nobody ever judged speaking
+    u = _score(scenario, fused, stamps).utterances
+    speech = [e for e in scenario.events if e.kind == "speech"]
+    visible = [e for e in speech if scenario.visible(0.5 * (e.start_s + e.end_s))[e.actor]]
+    overlapped = [e for e in visible
+                  if any(o.actor != e.actor and o.start_s < e.end_s and o.end_s > e.start_s for o in speech)]
+    assert u.tp == 0 and u.fn == len(visible)
+    assert 0 < len(overlapped) < len(visible)  # S5's talkers are independent: some numbers overlap, not all
+    assert u.fn_overlap == len(overlapped)
+    # S2's people count in turns: a miss there is never an overlap
+    s2 = _scenario("S2")
+    fused, stamps = _frames(s2, lambda tr: np.zeros_like(tr.speaking))
+    u2 = _score(s2, fused, stamps).utterances
+    assert u2.fn > 0 and u2.fn_overlap == 0
+
+
 def test_s4_counts_the_unseen_talker_apart() -> None:
     scenario = _scenario("S4", duration_s=10.0)
     assert not scenario.truth(1.0).visible[0]  # person0 sits outside the field of view
