@@ -6,8 +6,9 @@ Methods, one module each, registered by name in ``METHODS``:
 - ``"gcc-phat"``: generalised cross-correlation with the phase transform.
 - ``"correlogram-robust"``, ``"gcc-phat-robust"``: the same two, computed over short frames weighted by
   signal-to-noise ratio, onsets (precedence), coherence and coherent-to-diffuse ratio (and, for
-  ``gcc-phat-robust``, whole frames by their signal-to-noise ratio and spectral flatness); stateful (a noise floor),
-  so they run frame by frame (``avcore.itd.robust``). Much better in reverberant, noisy rooms: see
+  ``gcc-phat-robust``, whole frames by their signal-to-noise ratio and spectral flatness, after a linear-prediction
+  dereverberation of the frames' spectra); stateful (a noise floor, the dereverberation's filters), so they run
+  frame by frame (``avcore.itd.robust``). Much better in reverberant, noisy rooms: see
   ``benchmarks/itd_accuracy.py``.
 
 Sign (DESIGN.md): ITD = t_left - t_right, positive for a source on the right, as ``MicPair.itd``.

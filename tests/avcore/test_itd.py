@@ -203,6 +203,11 @@ def test_erb_spacing_and_gammatone_response():
     ({"frame_snr_power": -1.0}, "frame_snr_power"),
     ({"mic_distance_m": 0.0}, "mic_distance_m"),
     ({"low_hz": 5000.0, "high_hz": 100.0}, "low_hz"),
+    ({"frame_corr_power": -1.0}, "frame_corr_power"),
+    ({"dereverb_taps": -1}, "dereverb_taps"),
+    ({"dereverb_taps": 1.5}, "dereverb_taps"),
+    ({"dereverb_delay": 0}, "dereverb_delay"),
+    ({"dereverb_step": 2.0}, "dereverb_step"),
 ])
 def test_robust_options_are_validated(options, match):
     left, right = delayed_pair(1.0, 16000, seconds=0.3)
@@ -268,3 +273,54 @@ def test_frame_cues_favour_the_peaky_talker_over_flat_noise_bursts():
     near_without = np.mean(np.abs(without.itds_s * fs - 3) < 0.5)
     assert near_with > 0.8
     assert near_with > near_without + 0.3
+
+
+def test_robust_gcc_phat_earlier_forms_are_options():
+    """Summing the frames' cross-spectra (frame_corr_power=0) and no dereverberation: the method before them."""
+    fs = 16000
+    left, right = delayed_pair(-2.6, fs, seconds=0.6, seed=4)
+    for options in ({"frame_corr_power": 0, "dereverb_taps": 0},
+                    {"frame_corr_power": 1}, {"dereverb_taps": 1, "dereverb_delay": 4}):
+        track = extract_itds(left, right, fs, method="gcc-phat-robust", **options)
+        np.testing.assert_allclose(track.itds_s * fs, -2.6, atol=0.1)
+        assert np.all((track.confidence > 0.5) & (track.confidence <= 1))
+
+
+def test_dereverberation_survives_digital_silence_and_near_silence():
+    """The prediction filter adapts by normalised steps: zeros and a 1e-9 level stretch must not blow it up, and
+    the ITD after them is exact; streaming equals batch through them."""
+    fs = 16000
+    a_l, a_r = delayed_pair(3.0, fs, seconds=0.5, seed=1)
+    b_l, b_r = delayed_pair(-1.5, fs, seconds=0.8, seed=2)
+    tiny_l, tiny_r = delayed_pair(-1.5, fs, seconds=0.5, seed=3, level=1e-9)
+    zeros = np.zeros(fs)
+    left = np.concatenate([a_l, zeros, tiny_l, b_l])
+    right = np.concatenate([a_r, zeros, tiny_r, b_r])
+    batch = extract_itds(left, right, fs, method="gcc-phat-robust")
+    assert np.all(np.isfinite(batch.itds_s)) and np.all(np.isfinite(batch.confidence))
+    last = batch.times_s > (len(left) - len(b_l) + 0.15 * fs) / fs  # windows wholly in the last stretch
+    assert np.count_nonzero(last) >= 20
+    np.testing.assert_allclose(batch.itds_s[last] * fs, -1.5, atol=0.1)
+    stream = ItdStream(fs, method="gcc-phat-robust")
+    streamed = ItdTrack.concatenate([stream.push(left[i:i + 160], right[i:i + 160])
+                                     for i in range(0, len(left), 160)])
+    np.testing.assert_allclose(streamed.itds_s, batch.itds_s, rtol=0, atol=1e-12)
+
+
+def test_dereverberation_weakens_a_late_echo_from_the_other_side():
+    """Noise bursts (ITD +3 samples) and an equally loud echo 40 ms later from the other side (-5 samples): the
+    linear prediction removes much of the echo, which is predictable from the past, so more windows find the
+    direct sound."""
+    fs = 16000
+    rng = np.random.default_rng(2)
+    n = 4 * fs
+    t = np.arange(n) / fs
+    source = 0.1 * rng.standard_normal(n) * (np.floor(t / 0.1) % 2 == 0)
+    echo = np.concatenate([np.zeros(640), source[:-640]])
+    left = np.roll(source, 3) + np.roll(echo, -5) + 0.001 * rng.standard_normal(n)
+    right = source + echo + 0.001 * rng.standard_normal(n)
+    near = {}
+    for taps in (0, 3):
+        track = extract_itds(left, right, fs, method="gcc-phat-robust", dereverb_taps=taps)
+        near[taps] = np.mean(np.abs(track.itds_s * fs - 3) < 0.5)
+    assert near[3] > near[0] + 0.03
