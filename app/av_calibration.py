@@ -3,7 +3,7 @@
 ``avhear calibrate av RECORDING --rig rig.yaml -o rig.yaml`` (``app/commands/calibrate.py``) runs the steps below on a
 recording of the section 5.3 protocol -- a person holding a loudspeaker that plays white noise just below the face,
 walking a zig-zag across the whole field of view (the noise in bursts, as ``avhear calibrate signal`` writes it: see
-:data:`avcore.scenario.CALIBRATION_BURST_S`):
+:data:`avcore.calibration.CALIBRATION_BURST_S`):
 
 1. :func:`locate_recording_faces`: F3D (section 5.2) on every stereo frame; only frames with exactly one face count
    (with two faces, or none, we cannot tell whose position the ITD belongs to).
@@ -230,8 +230,8 @@ def _too_few_pairs_message(faces: FaceTrack, itds: ItdTrack, pairs: CalibrationP
                         "the recording's rig.yaml holds the stereo calibration of these cameras")
     if len(itds) == 0:
         return where + ("No audio window passed the energy gate: the loudspeaker must play its white-noise "
-                        "bursts loudly during the whole sequence; check the WAV's left/right channels (recording.json) or lower "
-                        "--energy-threshold")
+                        "bursts loudly during the whole sequence; check the WAV's left/right channels "
+                        "(recording.json) or lower --energy-threshold")
     return where + ("The faces and the ITDs do not overlap in time: check the audio clock (audio_start_s in "
                     "recording.json) and record longer")
 

@@ -44,8 +44,8 @@ affine correction (eq. itd_up) as the fusion; the extraction is :func:`avcore.it
 pipeline's settings on the same samples.
 
 Audio-visual calibration (section 5.3): with ``calibration`` the fusion uses ``c1``, ``c0`` fitted on the
-``calibration`` preset (a loudspeaker of white-noise bursts carried over the field of view), exactly as a user of the rig
-would calibrate it (:func:`calibrate_on_preset`). The simulator's microphones are at their nominal positions, so
+``calibration`` preset (a loudspeaker of white-noise bursts carried over the field of view), exactly as a user of
+the rig would calibrate it (:func:`calibrate_on_preset`). The simulator's microphones are at their nominal positions, so
 the correction only absorbs what the room and the extractor do to the ITDs (reverberation pulls them towards zero).
 """
 from __future__ import annotations

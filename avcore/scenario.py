@@ -478,7 +478,8 @@ _DESCRIPTIONS = {
     "S3": "three people counting in turns, one of them standing",
     "S4": "three people counting in turns, one of them outside the field of view",
     "S5": "three people speaking independently, one walking while speaking, hand claps",
-    "calibration": "a person holding a loudspeaker (white-noise bursts) below the face, walking a zig-zag over the view",
+    "calibration": "a person holding a loudspeaker (white-noise bursts) below the face, walking a zig-zag over the "
+                   "view",
 }
 
 

@@ -5,6 +5,8 @@ Every window passes the energy gate (the worst case: someone speaks all the time
 
     python benchmarks/itd_speed.py           # 16 and 48 kHz, 20 s of audio, best and median of 5
     python benchmarks/itd_speed.py --quick   # 5 s of audio, best and median of 3
+    python benchmarks/itd_speed.py --quick --rates 16000 --methods gcc-phat-robust \
+        'gcc-phat-robust[dereverb_taps=0,frame_corr_power=0]'   # a method with options (as itd_accuracy.py)
 
 Times are the process's CPU time (one thread: the BLAS and FFT libraries are limited to one), so that other work on
 a shared machine does not count; still, it slows the caches and the core down, so the best of the repeats is the
@@ -29,6 +31,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from avcore.itd import ItdStream, extract_itds
+from benchmarks.itd_accuracy import parse_spec
 
 METHODS = ["correlogram", "gcc-phat", "correlogram-robust", "gcc-phat-robust"]
 TARGETS = {"correlogram": 0.05, "gcc-phat": 0.01}
@@ -67,29 +70,31 @@ def main() -> None:
 
     print(f"ITD real-time factor: {args.seconds:.0f} s of two-channel audio, every window active, window 150 ms, "
           f"hop 20 ms, lags +-1 ms, one core, best (median) of {args.repeats}.")
-    header = (f"{'method':<20} {'rate Hz':>8} {'batch RTF':>17} {'stream RTF':>17} {'target':>8}")
+    width = max(20, *(len(m) + 1 for m in args.methods))
+    header = (f"{'method':<{width}} {'rate Hz':>8} {'batch RTF':>17} {'stream RTF':>17} {'target':>8}")
     print(header)
     print("-" * len(header))
     for fs in args.rates:
         left, right = test_signal(args.seconds, fs)
         block = int(0.01 * fs)
-        for method in args.methods:
-            print(f"  timing {method} at {fs} Hz ...", file=sys.stderr, flush=True)
+        for spec in args.methods:
+            print(f"  timing {spec} at {fs} Hz ...", file=sys.stderr, flush=True)
+            method, options = parse_spec(spec)
 
-            def batch(left=left, right=right, fs=fs, method=method) -> None:
-                extract_itds(left, right, fs, method=method)
+            def batch(left=left, right=right, fs=fs, method=method, options=options) -> None:
+                extract_itds(left, right, fs, method=method, **options)
 
-            def stream(left=left, right=right, fs=fs, method=method, block=block) -> None:
-                s = ItdStream(fs, method=method)
+            def stream(left=left, right=right, fs=fs, method=method, options=options, block=block) -> None:
+                s = ItdStream(fs, method=method, **options)
                 for i in range(0, len(left), block):
                     s.push(left[i:i + block], right[i:i + block])
 
             rtf_batch, med_batch = (t / args.seconds for t in timings(batch, args.repeats))
             rtf_stream, med_stream = (t / args.seconds for t in timings(stream, args.repeats))
-            target = TARGETS.get(method) if fs == 16000 else None
+            target = TARGETS.get(spec) if fs == 16000 else None
             mark = "" if target is None else f"<= {target:g}" + (" ok" if max(rtf_batch, rtf_stream) <= target
                                                                  else " MISSED")
-            print(f"{method:<20} {fs:>8d} {rtf_batch:>8.4f} ({med_batch:.4f}) {rtf_stream:>8.4f} ({med_stream:.4f}) "
+            print(f"{spec:<{width}} {fs:>8d} {rtf_batch:>8.4f} ({med_batch:.4f}) {rtf_stream:>8.4f} ({med_stream:.4f}) "
                   f"{mark:>8}", flush=True)
 
 

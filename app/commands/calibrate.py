@@ -219,8 +219,8 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
         description=(
             "Audio-visual calibration (paper section 5.3). RECORDING shows one person holding a loudspeaker that "
             "plays white-noise bursts (`avhear calibrate signal`) just below the face, walking a zig-zag across the "
-            "whole field of view (about one minute; `avhear simulate calibration` makes one). Each frame with exactly one face gives an F3D "
-            "position, each audio window an ITD; the ITDs are paired with the face of their instant and c1, c0 of "
+            "whole field of view (about one minute; `avhear simulate calibration` makes one). Each frame with "
+            "exactly one face gives an F3D position, each audio window an ITD; the ITDs are paired with the face of their instant and c1, c0 of "
             "eq. (itd_up) are fitted so that c1 * A(face) + c0 follows the ITDs. The hand-measured microphone "
             "positions come from --rig; the faces are located with the recording's own stereo calibration. "
             "Writes the output rig (the stereo section of --rig, or of the recording, kept), the paper's "
@@ -264,8 +264,7 @@ def run_av(args: argparse.Namespace) -> int:
     if not args.recording.exists():
         raise UserError(f"{args.recording}: no such recording folder; record the calibration sequence (a person "
                         "carrying a loudspeaker playing `avhear calibrate signal`'s white-noise bursts in a zig-zag "
-                        "across the view), or simulate one "
-                        f"with `avhear simulate calibration -o {args.recording}`")
+                        f"across the view), or simulate one with `avhear simulate calibration -o {args.recording}`")
     recording = open_recording(args.recording)
     mics = rig.microphones
     n_frames = len(recording.frame_stamps_s)

@@ -20,11 +20,26 @@ from typing import ClassVar
 import numpy as np
 import scipy.fft
 
-__all__ = ["ItdMethod"]
+__all__ = ["ItdMethod", "parabolic_peak"]
 
 _FINE_STEPS = 16  # evaluations per sample of the band-limited correlation around the integer peak
 _AROUND = np.array([-1, 0, 1])
 _PRODUCT_PER_FFT = 16  # complex multiply-adds per FFT point at which a matrix product and an inverse FFT cost alike
+
+
+def parabolic_peak(values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The maximum of each row of ``(n, G)`` samples on a uniform grid, refined by the parabola through the three
+    samples around it (a maximum only where it curves down). Returns the index of the largest sample ``top``, the
+    grid point ``j`` the parabola is centred on (``top`` kept one point off the ends) and the vertex's offset from
+    ``j`` in grid steps, within ``[-0.5, 0.5]``."""
+    rows = np.arange(values.shape[0])
+    top = values.argmax(axis=1)
+    j = np.minimum(np.maximum(top, 1), values.shape[1] - 2)
+    y0, y1, y2 = values[rows[:, None], j[:, None] + _AROUND].T
+    denom = y0 - 2.0 * y1 + y2
+    curved = denom < 0
+    shift = np.where(curved, 0.5 * (y0 - y2) / np.where(curved, denom, -1.0), 0.0)
+    return top, j, np.minimum(np.maximum(shift, -0.5), 0.5)
 
 
 class ItdMethod(ABC):
@@ -128,16 +143,9 @@ class ItdMethod(ABC):
             best = corr[:, self._lags].argmax(axis=1)  # negative lags wrap to the end of the circular correlation
         # r(p + d) = sum_k fold_k Re(WC_k exp(2 pi i k (p + d) / nfft)), evaluated on a fine grid of d.
         fine = ((weighted * self._lag_phasors[best]) @ self._fine_phasors).real  # (n, F)
-        top = fine.argmax(axis=1)
-        j = np.minimum(np.maximum(top, 1), fine.shape[1] - 2)
-        rows = np.arange(n)
-        y0, y1, y2 = fine[rows[:, None], j[:, None] + _AROUND].T
-        # parabola through the three fine samples around the maximum (a maximum only if it curves down)
-        denom = y0 - 2.0 * y1 + y2
-        curved = denom < 0
-        shift = np.where(curved, 0.5 * (y0 - y2) / np.where(curved, denom, -1.0), 0.0)
-        lag = self._lags[best] + self._fine_offsets[j] + np.minimum(np.maximum(shift, -0.5), 0.5) * self._fine_step
+        top, j, shift = parabolic_peak(fine)
+        lag = self._lags[best] + self._fine_offsets[j] + shift * self._fine_step
         itds = np.minimum(np.maximum(lag / self.samplerate_hz, -self.max_itd_s), self.max_itd_s)
-        confidence = fine[rows, top] / np.where(norm > 0, norm, np.nan)
+        confidence = fine[np.arange(n), top] / np.where(norm > 0, norm, np.nan)
         itds[~np.isfinite(confidence)] = np.nan
         return itds, np.minimum(np.maximum(confidence, -1.0), 1.0)

@@ -71,9 +71,9 @@ before the two stages above; ``--snr 0 20`` for the other levels, ``--talkers 2`
 80.8; two talkers in turns (digits, ``--talkers 2``, seeds 11 / 12 / 13; they decided against ``over_subtraction``
 2, below): 73.4 -> 74.3, 75.7 -> 76.8, 67.3 -> 71.0 (mean 72.1 -> 74.0). By part (digits, mean of seeds 1 to 3): the
 dereverberation alone 73.3 -> 75.9, the frames' correlations alone 73.3 -> 73.9. The cost: the streaming real-time
-factor at 16 kHz is 1.5 times the previous default's (``ItdStream`` fed 10 ms blocks, as ``benchmarks/itd_speed.py``
-does, best of 5, both in one process on a shared machine: 0.020 -> 0.030; there ``benchmarks/itd_speed.py --quick``
-gives 0.0073 for plain GCC-PHAT and 0.0315 for ``gcc-phat-robust``, 0.018 in batch form).
+factor at 16 kHz is about 1.5 times the previous default's (``python benchmarks/itd_speed.py --rates 16000 --methods
+gcc-phat-robust 'gcc-phat-robust[dereverb_taps=0,frame_corr_power=0]'``, best of 5 on one core: 0.020 -> 0.031, and
+in batch form 0.011 -> 0.021; plain GCC-PHAT streams at 0.0077).
 
 Earlier, without -> with both frame cues, power 8 each: spoken digits, seeds 1 / 2 / 3: 73.6 -> 76.7, 68.0 -> 72.9,
 65.0 -> 70.4; ARCTIC sentences, seeds 1 / 2: 74.0 -> 74.5, 77.3 -> 78.1; at 0 and 20 dB (digits, seeds 1 and 2)
@@ -149,7 +149,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..gammatone import erb_space_hz, gammatone_power_response
-from ._base import ItdMethod
+from ._base import ItdMethod, parabolic_peak
 
 __all__ = ["FrameMethod", "FrameState", "RobustCorrelogram", "RobustGccPhat"]
 
@@ -157,7 +157,6 @@ __all__ = ["FrameMethod", "FrameState", "RobustCorrelogram", "RobustGccPhat"]
 _TINY = np.finfo(np.float64).tiny
 _PREDICT_LOADING = 1e-3  # share of the current frame's power added to the NLMS normaliser (dereverberation)
 _GRID_STEPS = 4  # lags per sample of the per-frame correlations (RobustGccPhat.frame_corr_power)
-_AROUND = np.array([-1, 0, 1])
 
 
 def _unit(x: np.ndarray) -> np.ndarray:
@@ -490,16 +489,10 @@ class RobustGccPhat(FrameMethod):
             return super().estimate_windows(sums)
         corr = sums["corr"]  # (n, G)
         total = sums["total"][:, 0]
-        rows = np.arange(corr.shape[0])
-        top = corr.argmax(axis=1)
-        j = np.minimum(np.maximum(top, 1), corr.shape[1] - 2)
-        y0, y1, y2 = corr[rows[:, None], j[:, None] + _AROUND].T
-        denom = y0 - 2.0 * y1 + y2  # parabola through the three grid points around the maximum
-        curved = denom < 0
-        shift = np.where(curved, 0.5 * (y0 - y2) / np.where(curved, denom, -1.0), 0.0)
-        lag = self._grid[j] + np.minimum(np.maximum(shift, -0.5), 0.5) / _GRID_STEPS
+        top, j, shift = parabolic_peak(corr)
+        lag = self._grid[j] + shift / _GRID_STEPS
         itds = np.minimum(np.maximum(lag / self.samplerate_hz, -self.max_itd_s), self.max_itd_s)
-        confidence = corr[rows, top] / np.where(total > 0, total, np.nan)
+        confidence = corr[np.arange(corr.shape[0]), top] / np.where(total > 0, total, np.nan)
         itds[~np.isfinite(confidence)] = np.nan
         return itds, np.minimum(confidence, 1.0)
 
