@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any, Literal, Protocol
@@ -71,6 +72,9 @@ class PipelineConfig:
     frame_window_s : face-guided: each vision result collects the ITDs within +- this of its stamp.
     decision_window_s : face-guided: decide on the ITDs within +- this of the stamp only (EM still fits on the
         whole time frame; :class:`avcore.inference.FaceGuidedParams`); None: on all of them, as the paper.
+    frame_itds : face-guided with "gcc-phat-robust": the ITD worker also passes the single 32 ms frames' ITDs,
+        and the speaking test takes a second look at those of the time frame (:class:`avcore.speaking.SpeakingTest`
+        ``frame_rescue``: a talker that a louder one masks in every 150 ms window still wins some frames).
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
     *_queue : queue lengths (items); a full queue drops its oldest item.
     """
@@ -82,6 +86,7 @@ class PipelineConfig:
     energy_threshold: float = 1e-3
     frame_window_s: float = 0.2
     decision_window_s: float | None = None
+    frame_itds: bool = True
     interval_s: float = 0.4
     frame_queue: int = 4
     audio_queue: int = 256
@@ -203,6 +208,7 @@ class Pipeline:
         self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
         self._q_fusion: DropOldestQueue[tuple[str, float, Any]] = DropOldestQueue(c.fusion_queue, "fusion")
         self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
+        self._frame_itds: deque[tuple[np.ndarray, np.ndarray]] = deque()  # (times, ITDs) blocks, fusion thread
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
         self._backpressure = not getattr(source, "realtime", True)
 
@@ -339,6 +345,7 @@ class Pipeline:
         extra = ({"mic_distance_m": src.mics.distance_m, "speed_of_sound": src.mics.speed_of_sound}
                  if c.itd_method.endswith("-robust") else {})
         stream: ItdStream | None = None
+        frame_itds = c.frame_itds and c.inference == "face" and c.itd_method == "gcc-phat-robust"
         start_s = expected_s = 0.0
         n = 0
         while True:
@@ -357,10 +364,14 @@ class Pipeline:
                     self.stats.audio_gaps += 1
                 stream = ItdStream(src.samplerate_hz, method=c.itd_method, window_s=c.window_s, hop_s=c.hop_s,
                                    energy_threshold=c.energy_threshold, max_itd_s=1.2 * src.mics.max_itd_s,
-                                   **extra)
+                                   frame_itds=frame_itds, **extra)
                 start_s = block.stamp_s
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
             track = stream.push(samples[:, left], samples[:, right])
+            if frame_itds:  # before the windows' ITDs, which complete vision frames (frames run ahead of windows)
+                frames = stream.pop_frame_itds()
+                if len(frames):
+                    self._q_fusion.put(("frame_itds", start_s, frames))
             for t, itd in zip(track.times_s, track.itds_s):
                 self._q_fusion.put(("itd", start_s + float(t), float(itd)))
             self.stats.itds += len(track)
@@ -377,6 +388,7 @@ class Pipeline:
         hearing = (FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=c.decision_window_s))
                    if c.inference == "face" else MotionGuidedHearing(mics))
         tracker = NearestTracker()
+        frames = self._frame_itds
         while True:
             if self._stop.is_set():
                 raise _Stop
@@ -392,6 +404,9 @@ class Pipeline:
                 completed = sync.push_primary(stamp, item)
             elif kind == "itd":
                 completed = sync.push_secondary(stamp, (stamp, item))
+            elif kind == "frame_itds":
+                frames.append((stamp + item.times_s, item.itds_s))
+                continue
             else:  # the audio clock moved on without ITDs (silence): frames before it are complete
                 completed = sync.advance(stamp)
             for vision, itds in completed:
@@ -404,7 +419,7 @@ class Pipeline:
         timed = np.asarray(itds, dtype=np.float64).reshape(-1, 2)  # (window centre, ITD)
         a = timed[:, 1].copy()
         if isinstance(hearing, FaceGuidedHearing):
-            output = hearing.step(xyz, a, timed[:, 0] - stamp)
+            output = hearing.step(xyz, a, timed[:, 0] - stamp, self._frame_itds_near(stamp))
         else:
             output = hearing.step(xyz, a)
         ids = tracker.update(xyz if boxes is not None else output.positions)
@@ -419,6 +434,17 @@ class Pipeline:
             self.on_result(result)
         self.stats.results += 1
         self._timed("fusion", t0, self.stats.results)
+
+
+    def _frame_itds_near(self, stamp: float) -> np.ndarray | None:
+        """The single frames' ITDs within the time frame of ``stamp`` (None: none); blocks of them that no later
+        vision frame can use are dropped (vision frames are fused in stamp order)."""
+        frames = self._frame_itds
+        span = self.config.decision_window_s or self.config.frame_window_s
+        while frames and frames[0][0][-1] < stamp - span:
+            frames.popleft()
+        near = [itds[np.abs(times - stamp) <= span] for times, itds in frames if times[0] <= stamp + span]
+        return np.concatenate(near) if near else None
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:

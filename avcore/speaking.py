@@ -61,13 +61,19 @@ class SpeakingTest:
     min_itds: int = 2
     use_tau_a: bool = False
     shared_counts: bool = True
+    frame_rescue: bool = True
+    frame_within_s: float = 25e-6
+    frame_quantile: float = 0.99
+    frame_min: int = 3
 
-    def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D, present: np.ndarray | None = None
-               ) -> tuple[np.ndarray, np.ndarray, float]:
+    def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D, present: np.ndarray | None = None,
+               frame_itds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
         """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
 
         beta : (K, N) the auditory posteriors of the N persons (eq. beta_kn, outlier column dropped).
         present : (K,) bool, the ITDs the decision counts (K and tau_A are theirs); None: all.
+        frame_itds : (M,) the ITDs of the single frames of the same time (``ItdStream.pop_frame_itds``), for
+            ``frame_rescue``; None: the window ITDs alone decide.
         """
         if present is not None:
             beta, itds = beta[present], itds[present]
@@ -92,4 +98,18 @@ class SpeakingTest:
             else:
                 speaking = counts > thr
                 prob = count_prob
+            if self.frame_rescue and frame_itds is not None and frame_itds.size:
+                speaking, prob = self._rescue(speaking, prob, np.asarray(frame_itds, dtype=np.float64), model)
         return speaking, prob, tau
+
+    def _rescue(self, speaking: np.ndarray, prob: np.ndarray, frame_itds: np.ndarray, model: Mixture1D
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The second look at the single frames: a person also speaks when more frame ITDs lie within
+        ``frame_within_s`` of their mean, and nearer to it than to any other person's, than chance allows (all M
+        frame ITDs spread uniformly over the ITD interval: Poisson, above its ``frame_quantile`` and at least
+        ``frame_min``)."""
+        d = np.abs(frame_itds[:, None] - model.means[None, :])
+        counts = ((d <= self.frame_within_s) & (d == d.min(axis=1, keepdims=True))).sum(axis=0)
+        lam = frame_itds.size * min(2.0 * self.frame_within_s * model.outlier_density, 1.0)
+        thr = max(float(_poisson_quantile(self.frame_quantile, lam)[0]) + 1.0, self.frame_min) - 1e-9
+        return speaking | (counts > thr), np.maximum(prob, counts / (counts + thr))

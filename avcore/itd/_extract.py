@@ -258,9 +258,13 @@ class ItdStream:
 
     def __init__(self, samplerate: float, method: str = "correlogram", window_s: float = 0.15, hop_s: float = 0.02,
                  energy_threshold: float = 1e-3, max_itd_s: float = 1e-3, min_confidence: float = -1.0,
-                 **options: Any) -> None:
+                 frame_itds: bool = False, **options: Any) -> None:
         self._impl, self._framing = make_method(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s,
                                                 min_confidence, **options)
+        if frame_itds and not getattr(self._impl, "gives_frame_itds", False):
+            raise ValueError(f"frame_itds needs the per-frame correlations of 'gcc-phat-robust' (frame_corr_power > 0);"
+                             f" method {method!r} has none: pass frame_itds=False")
+        self._frame_itds: list[ItdTrack] | None = [] if frame_itds else None
         w, hop = self._framing.window_len, self._framing.hop_len
         self._piece = max(hop, 4096)
         self._buffer = RingBuffer(2, w + self._piece)
@@ -336,6 +340,25 @@ class ItdStream:
             self._buffer.read_ending_at(first + i * step + length, length, out=out[i])
         return out
 
+    def pop_frame_itds(self) -> ItdTrack:
+        """The ITDs of the single frames (32 ms every 10 ms for gcc-phat-robust) analysed since the last call, of
+        the frames that pass the energy gate; ``times_s`` are frame centres. Needs ``frame_itds=True``."""
+        if self._frame_itds is None:
+            raise RuntimeError("this ItdStream keeps no frame ITDs: create it with frame_itds=True")
+        out = ItdTrack.concatenate(self._frame_itds)
+        self._frame_itds.clear()
+        return out
+
+    def _keep_frame_itds(self, frames: np.ndarray, terms: dict[str, np.ndarray]) -> None:
+        impl = self._impl
+        energy = _interleaved_power(frames)
+        itds, height = impl.frame_itds(terms)  # type: ignore[attr-defined]
+        starts = (self._next_frame + np.arange(frames.shape[0])) * impl.frame_hop
+        times = (starts + 0.5 * impl.frame_len) / self._framing.samplerate_hz
+        ok = _gate(self._framing, energy) & np.isfinite(itds)
+        if ok.any():
+            self._frame_itds.append(ItdTrack(times[ok], itds[ok], height[ok], energy[ok]))  # type: ignore[union-attr]
+
     def _drain_frames(self) -> ItdTrack:
         """Frame methods: analyse every new frame (updating the method's state), then finish complete windows."""
         impl = self._impl
@@ -345,6 +368,8 @@ class ItdStream:
         if last >= self._next_frame:
             frames = self._read(self._frames, self._next_frame * fh, last + 1 - self._next_frame, fh)
             terms = impl.frame_terms(frames[:, :, 0], frames[:, :, 1], self._state)
+            if self._frame_itds is not None:
+                self._keep_frame_itds(frames, terms)
             for key, value in terms.items():
                 self._terms.setdefault(key, []).extend(value)
             self._next_frame = int(last) + 1

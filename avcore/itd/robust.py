@@ -484,6 +484,29 @@ class RobustGccPhat(FrameMethod):
         norm = sums["weight"] @ self._fold[:self.n_used]
         return weighted, norm
 
+    @property
+    def gives_frame_itds(self) -> bool:
+        return self.frame_corr_power > 0
+
+    def frame_itds(self, terms: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The ITD of each frame alone: the peak of the frame's own correlation (the ``corr`` term before the window
+        sums it), and its height in ``[0, 1]``; nan for a frame with no weight. ``(m,)`` and ``(m,)``.
+
+        A talker that a louder one masks in the window's sum still wins some of the 32 ms frames (the gaps between
+        the louder talker's syllables); :class:`avcore.speaking.SpeakingTest` looks at these (``frame_rescue``).
+        """
+        if not self.gives_frame_itds:
+            raise ValueError("frame ITDs need the per-frame correlations: frame_corr_power > 0")
+        corr, total = terms["corr"], terms["total"][:, 0]
+        top, j, shift = parabolic_peak(corr)
+        lag = self._grid[j] + shift / _GRID_STEPS
+        itds = np.minimum(np.maximum(lag / self.samplerate_hz, -self.max_itd_s), self.max_itd_s)
+        weighted = total > 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            height = np.where(weighted, corr[np.arange(corr.shape[0]), top] / total, np.nan) ** (1.0 / self.frame_corr_power)
+        itds[~weighted] = np.nan
+        return itds, np.minimum(height, 1.0)
+
     def estimate_windows(self, sums):
         if self.frame_corr_power == 0:
             return super().estimate_windows(sums)

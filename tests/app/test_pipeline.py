@@ -115,6 +115,28 @@ def test_decision_window_ends_the_speaking_state_at_the_frame() -> None:
         PipelineConfig(decision_window_s=-0.1)
 
 
+def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With gcc-phat-robust the ITD worker passes the 32 ms frames' ITDs; each vision frame gets those of its time
+    frame (+-0.2 s: about 40 at 10 ms) at the talker's ITD; switched off, none."""
+    from avcore.inference import FaceGuidedHearing
+
+    seen: dict[bool, list] = {True: [], False: []}
+    step = FaceGuidedHearing.step
+    for enabled in (True, False):
+        def spy(self, faces, itds, offsets=None, frame_itds_s=None, _on=enabled):  # type: ignore[no-untyped-def]
+            seen[_on].append(frame_itds_s)
+            return step(self, faces, itds, offsets, frame_itds_s)
+
+        monkeypatch.setattr(FaceGuidedHearing, "step", spy)
+        source = FakeSource()
+        results, _ = _run(source, frame_itds=enabled)
+        assert len(results) == len(seen[enabled])
+    assert all(f is None for f in seen[False])
+    middle = seen[True][6:-4]  # frames with a whole time frame of sound
+    assert middle and all(f is not None and 35 <= f.size <= 42 for f in middle)
+    assert np.median(np.concatenate(middle)) == pytest.approx(source.expected_itd, abs=20e-6)
+
+
 def test_bad_frames_and_nan_audio_are_counted_not_fatal() -> None:
     source = FakeSource(duration_s=1.0, bad_every=4, nan_block=3)
     results, pipe = _run(source)

@@ -185,3 +185,11 @@ def test_eval_scenarios_bad_arguments(capsys: pytest.CaptureFixture[str]) -> Non
     with pytest.raises(SystemExit):
         main(["eval", "scenarios", "--scenario", "S9"])
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_eval_scenarios_frame_itds_switch() -> None:
+    from app.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["eval", "scenarios"]).frame_itds is True
+    assert parser.parse_args(["eval", "scenarios", "--no-frame-itds"]).frame_itds is False

@@ -324,3 +324,35 @@ def test_dereverberation_weakens_a_late_echo_from_the_other_side():
         track = extract_itds(left, right, fs, method="gcc-phat-robust", dereverb_taps=taps)
         near[taps] = np.mean(np.abs(track.itds_s * fs - 3) < 0.5)
     assert near[3] > near[0] + 0.03
+
+
+def test_frame_itds_of_the_robust_stream():
+    """Each 32 ms frame's own ITD, every 10 ms, for the frames that pass the energy gate; the same whatever the
+    blocks; only gcc-phat-robust has them, and only when asked."""
+    fs = 16000
+    left, right = delayed_pair(3.0, fs, seconds=1.0, seed=2)
+    left[: fs // 4] = 0.0
+    right[: fs // 4] = 0.0  # a silent start: no frame ITD there
+    whole = ItdStream(fs, method="gcc-phat-robust", frame_itds=True)
+    whole.push(left, right)
+    frames = whole.pop_frame_itds()
+    assert len(whole.pop_frame_itds()) == 0  # popped once
+    assert frames.times_s[0] > 0.25 - 0.016 and frames.times_s[-1] <= 1.0 - 0.016 + 1e-9
+    np.testing.assert_allclose(np.diff(frames.times_s), 0.01)
+    assert len(frames) > 60
+    assert np.median(np.abs(frames.itds_s - 3.0 / fs)) < 10e-6
+    assert np.all((frames.confidence > 0) & (frames.confidence <= 1))
+    pieces = ItdStream(fs, method="gcc-phat-robust", frame_itds=True)
+    parts = []
+    for i in range(0, len(left), 333):
+        pieces.push(left[i:i + 333], right[i:i + 333])
+        parts.append(pieces.pop_frame_itds())
+    streamed = ItdTrack.concatenate(parts)
+    np.testing.assert_array_equal(streamed.times_s, frames.times_s)
+    np.testing.assert_allclose(streamed.itds_s, frames.itds_s, rtol=0, atol=1e-12)
+    with pytest.raises(ValueError, match="frame_itds"):
+        ItdStream(fs, method="gcc-phat", frame_itds=True)
+    with pytest.raises(ValueError, match="frame_itds"):
+        ItdStream(fs, method="gcc-phat-robust", frame_itds=True, frame_corr_power=0)
+    with pytest.raises(RuntimeError, match="frame_itds=True"):
+        ItdStream(fs, method="gcc-phat-robust").pop_frame_itds()

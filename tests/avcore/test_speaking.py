@@ -54,3 +54,33 @@ def test_outlier_aware_keeps_a_talker_among_unseen_ones() -> None:
 def test_no_itds_nobody_speaks() -> None:
     speaking, prob, tau = SpeakingTest().decide(np.zeros((0, 2)), np.empty(0), MODEL)
     assert not speaking.any() and np.all(prob == 0) and tau == 0
+
+
+def test_frame_rescue_finds_a_talker_masked_in_every_window() -> None:
+    """The window ITDs are all the louder talker's (at -100 us); the other one (at +100 us) wins 10 of 45 frames,
+    where chance (45 frames spread over 700 us) puts 3.2 on average within +-25 us, and at most 8 in 99 %."""
+    itds = np.full(20, -100e-6) + np.linspace(-5e-6, 5e-6, 20)
+    rng = np.random.default_rng(0)
+    frame_itds = np.concatenate([np.full(30, -100e-6), np.full(10, 104e-6), rng.uniform(-350e-6, 350e-6, 5)])
+    windows_only, _, _ = SpeakingTest().decide(_beta(itds), itds, MODEL)
+    assert windows_only.tolist() == [True, False]
+    speaking, prob, _ = SpeakingTest().decide(_beta(itds), itds, MODEL, frame_itds=frame_itds)
+    assert speaking.tolist() == [True, True]
+    np.testing.assert_array_equal(prob > 0.5, speaking)
+    off, _, _ = SpeakingTest(frame_rescue=False).decide(_beta(itds), itds, MODEL, frame_itds=frame_itds)
+    assert off.tolist() == [True, False]
+    # what chance allows is not enough
+    chance = np.concatenate([np.full(30, -100e-6), np.full(6, 104e-6), rng.uniform(-350e-6, 350e-6, 9)])
+    speaking, prob, _ = SpeakingTest().decide(_beta(itds), itds, MODEL, frame_itds=chance)
+    assert speaking.tolist() == [True, False] and prob[1] < 0.5
+
+
+def test_frame_rescue_counts_a_frame_for_the_nearest_person_only() -> None:
+    """Two people 40 us apart: frames at the talker's ITD are within 25 us of the talker alone (nearest person),
+    frames in between count for the nearer one."""
+    model = Mixture1D(np.array([0.3, 0.3, 0.4]), np.array([0.0, 40e-6]), np.array([4e-10, 4e-10]), SUPPORT)
+    itds = np.array([0.0, 2e-6])
+    beta = model.responsibilities(itds)[:, :-1]
+    frames = np.full(12, 15e-6)  # within 25 us of both, nearer to the first
+    speaking, _, _ = SpeakingTest(min_itds=5).decide(beta, itds, model, frame_itds=frames)
+    assert speaking.tolist() == [True, False]
