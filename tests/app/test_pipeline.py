@@ -137,6 +137,44 @@ def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPa
     assert np.median(np.concatenate(middle)) == pytest.approx(source.expected_itd, abs=20e-6)
 
 
+def _masked_source(quiet_db: float) -> FakeSource:
+    """The talker speaks in syllables (110 ms of noise, 50 ms gaps); person 0 talks without pause ``quiet_db``
+    quieter, so the talker wins every 150 ms window and person 0 only the frames in the gaps."""
+    source = FakeSource(duration_s=2.0)
+    rng = np.random.default_rng(4)
+    n = source.audio_data.shape[0]
+
+    def pair(face: int, level: float) -> tuple[np.ndarray, np.ndarray]:
+        lag = int(round(float(MICS.itd(source.faces[face])) * FS))
+        s = rng.normal(0, level, n + abs(lag))
+        late, early = s[:n], s[abs(lag): abs(lag) + n]  # ITD > 0: the left channel lags
+        return (late, early) if lag >= 0 else (early, late)
+
+    left, right = pair(TALKER, 0.3)
+    syllables = (np.arange(n) / FS) % 0.16 < 0.11
+    quiet_left, quiet_right = pair(0, 0.3 * 10 ** (-quiet_db / 20))
+    source.audio_data[:, 1] = left * syllables + quiet_left
+    source.audio_data[:, 3] = right * syllables + quiet_right
+    return source
+
+
+def test_frame_itds_find_a_talker_masked_in_every_window() -> None:
+    found = {}
+    for enabled in (True, False):
+        source = _masked_source(6.0)
+        results, _ = _run(source, frame_itds=enabled)
+        late = [r for r in results if r.stamp_s - source.t0 > 0.4]
+        assert late
+        states = []
+        for r in late:
+            who = [int(np.argmin(np.linalg.norm(r.xyz - source.faces[i], axis=1))) for i in range(3)]
+            states.append([bool(r.output.speaking[w]) for w in who])
+        found[enabled] = np.mean(states, axis=0)  # share of the results judging person 0, 1, 2 speaking
+    assert found[False][TALKER] == 1.0 and found[False][0] == 0.0  # the windows' ITDs alone: masked
+    assert found[True][TALKER] == 1.0 and found[True][0] >= 0.8  # the frames' second look finds the quiet one
+    assert found[True][1] == 0.0  # and nobody else
+
+
 def test_bad_frames_and_nan_audio_are_counted_not_fatal() -> None:
     source = FakeSource(duration_s=1.0, bad_every=4, nan_block=3)
     results, pipe = _run(source)
