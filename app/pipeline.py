@@ -103,6 +103,9 @@ class PipelineConfig:
             raise ValueError(f"decision_window_s must be > 0 seconds or None, got {self.decision_window_s!r}")
 
 
+_FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
+
+
 @dataclass(frozen=True)
 class FusionResult:
     """One fused result.
@@ -406,6 +409,9 @@ class Pipeline:
                 completed = sync.push_secondary(stamp, (stamp, item))
             elif kind == "frame_itds":
                 frames.append((stamp + item.times_s, item.itds_s))
+                # bounded without vision frames too (a camera that vanished)
+                while frames[0][0][-1] < frames[-1][0][-1] - _FRAME_ITDS_KEEP_S:
+                    frames.popleft()
                 continue
             else:  # the audio clock moved on without ITDs (silence): frames before it are complete
                 completed = sync.advance(stamp)
@@ -434,7 +440,6 @@ class Pipeline:
             self.on_result(result)
         self.stats.results += 1
         self._timed("fusion", t0, self.stats.results)
-
 
     def _frame_itds_near(self, stamp: float) -> np.ndarray | None:
         """The single frames' ITDs within the time frame of ``stamp`` (None: none); blocks of them that no later

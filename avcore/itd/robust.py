@@ -503,7 +503,8 @@ class RobustGccPhat(FrameMethod):
         itds = np.minimum(np.maximum(lag / self.samplerate_hz, -self.max_itd_s), self.max_itd_s)
         weighted = total > 0
         with np.errstate(divide="ignore", invalid="ignore"):
-            height = np.where(weighted, corr[np.arange(corr.shape[0]), top] / total, np.nan) ** (1.0 / self.frame_corr_power)
+            powered = np.where(weighted, corr[np.arange(corr.shape[0]), top] / total, np.nan)
+        height = powered ** (1.0 / self.frame_corr_power)
         itds[~weighted] = np.nan
         return itds, np.minimum(height, 1.0)
 

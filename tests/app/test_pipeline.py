@@ -137,6 +137,20 @@ def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPa
     assert np.median(np.concatenate(middle)) == pytest.approx(source.expected_itd, abs=20e-6)
 
 
+def test_single_frames_itds_stay_bounded_without_vision(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A camera that delivers nothing: the frame ITDs no vision frame collects are not kept forever."""
+    import app.pipeline as pipeline_module
+
+    monkeypatch.setattr(pipeline_module, "_FRAME_ITDS_KEEP_S", 1.0)
+    source = FakeSource(duration_s=4.0)
+    source.fps = 1e-9  # no frame
+    results, pipe = _run(source)
+    assert results == []
+    kept = list(pipe._frame_itds)
+    assert kept and kept[-1][0][-1] - kept[0][0][0] <= 1.0 + 0.1  # one block of margin
+    assert kept[-1][0][-1] > 3.5  # the newest are there
+
+
 def _masked_source(quiet_db: float) -> FakeSource:
     """The talker speaks in syllables (110 ms of noise, 50 ms gaps); person 0 talks without pause ``quiet_db``
     quieter, so the talker wins every 150 ms window and person 0 only the frames in the gaps."""
