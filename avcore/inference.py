@@ -328,7 +328,8 @@ class FaceGuidedParams:
     update_variances : let EM adapt each variance within ``[var_min_s2, var_max_s2]``.
     init_outlier_weight : the outlier prior before EM.
     em : iterations, tolerance.
-    speaking : the speaking test (:class:`SpeakingTest`); the paper's variant uses beta_bar > tau_A alone.
+    speaking : the speaking test (:class:`SpeakingTest`, each ITD counted for the nearest face); the paper's
+        variant uses beta_bar > tau_A alone.
     decision_window_s : when :meth:`FaceGuidedHearing.step` is given the ITDs' times, the speaking test counts
         only the ITDs whose windows are centred within +- this of the frame's stamp, while EM fits on all the ITDs
         of the time frame. The paper decides on the whole time frame (the pipeline's +-0.2 s), which stretches
@@ -346,7 +347,7 @@ class FaceGuidedParams:
     var_max_s2: float = 4e-9
     init_outlier_weight: float = 0.2
     em: EMSettings = field(default_factory=lambda: EMSettings(max_iter=50, tol=1e-4))
-    speaking: SpeakingTest = field(default_factory=SpeakingTest)
+    speaking: SpeakingTest = field(default_factory=lambda: SpeakingTest(count_by="nearest"))
     decision_window_s: float | None = None
 
     def __post_init__(self) -> None:

@@ -11,6 +11,7 @@ from avcore.inference import (
     MotionGuidedParams,
     speaking_threshold,
 )
+from avcore.speaking import SpeakingTest
 
 MICS = MicPair()
 PEOPLE = np.array([[-0.8, 0.0, 2.0], [0.0, 0.1, 2.5], [0.9, -0.1, 2.2]])
@@ -177,3 +178,21 @@ def test_face_guided_decides_on_the_itds_near_the_frame() -> None:
         fg.step(PEOPLE, itds, before[:3])
     with pytest.raises(ValueError, match="decision_window_s"):
         FaceGuidedParams(decision_window_s=0.0)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_face_guided_counts_each_itd_for_the_nearest_face(seed: int) -> None:
+    """Two faces 20 us apart in ITD, both talking: EM hands most of the weight, and so of the posteriors, to one of
+    them; counted by posterior the other is silent, counted for the nearest face both speak."""
+    faces = np.array([[0.3, 0.0, 2.0], [0.42, 0.0, 2.0], [-0.8, 0.0, 2.0]])
+    mu = MICS.itd(faces)
+    assert 15e-6 < mu[1] - mu[0] < 25e-6
+    rng = np.random.default_rng(seed)
+    itds = np.concatenate([rng.normal(mu[0], 8e-6, 9), rng.normal(mu[1], 8e-6, 7)])
+    posterior = FaceGuidedParams(speaking=SpeakingTest(count_by="posterior"))
+    by_posterior = FaceGuidedHearing(MICS, posterior).step(faces, itds)
+    assert by_posterior.model.weights[1] < 0.2 and by_posterior.speaking.tolist() == [True, False, False]
+    nearest = FaceGuidedHearing(MICS).step(faces, itds)
+    assert nearest.speaking.tolist() == [True, True, False]
+    with pytest.raises(ValueError, match="count_by"):
+        SpeakingTest(count_by="loudest")
