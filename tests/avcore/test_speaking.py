@@ -57,8 +57,9 @@ def test_no_itds_nobody_speaks() -> None:
 
 
 def test_frame_rescue_finds_a_talker_masked_in_every_window() -> None:
-    """The window ITDs are all the louder talker's (at -100 us); the other one (at +100 us) wins 10 of 45 frames,
-    where chance (45 frames spread over 700 us) puts 3.2 on average within +-25 us, and at most 8 in 99 %."""
+    """The window ITDs are all the louder talker's (at -100 us); the other one (at +100 us) wins 10 of 45 frames.
+    Chance: a fifth of the 45 frames spread over 700 us put 0.64 within +-25 us on average (at most 3 in 99 %), and
+    the louder talker's frames 200 us away spill almost none over."""
     itds = np.full(20, -100e-6) + np.linspace(-5e-6, 5e-6, 20)
     rng = np.random.default_rng(0)
     frame_itds = np.concatenate([np.full(30, -100e-6), np.full(10, 104e-6), rng.uniform(-350e-6, 350e-6, 5)])
@@ -70,9 +71,25 @@ def test_frame_rescue_finds_a_talker_masked_in_every_window() -> None:
     off, _, _ = SpeakingTest(frame_rescue=False).decide(_beta(itds), itds, MODEL, frame_itds=frame_itds)
     assert off.tolist() == [True, False]
     # what chance allows is not enough
-    chance = np.concatenate([np.full(30, -100e-6), np.full(6, 104e-6), rng.uniform(-350e-6, 350e-6, 9)])
+    chance = np.concatenate([np.full(30, -100e-6), np.full(3, 104e-6), np.linspace(-340e-6, 340e-6, 12)[::3]])
     speaking, prob, _ = SpeakingTest().decide(_beta(itds), itds, MODEL, frame_itds=chance)
     assert speaking.tolist() == [True, False] and prob[1] < 0.5
+
+
+def test_frame_rescue_expects_a_talkers_frames_to_spill_over_to_a_neighbour() -> None:
+    """A talker 40 us from a silent person: single frames scatter (Laplace, scale 20 us), and about one in six lands
+    nearer the silent person. That is the talker's spill, not a second talker."""
+    model = Mixture1D(np.array([0.4, 0.2, 0.4]), np.array([0.0, 40e-6]), np.array([1e-9, 1e-9]), SUPPORT)
+    itds = np.zeros(1)
+    beta = model.responsibilities(itds)[:, :-1]
+    u = (np.arange(30) + 0.5) / 30  # the talker's 30 frames: Laplace quantiles
+    frames = -20e-6 * np.sign(u - 0.5) * np.log(1 - 2 * np.abs(u - 0.5))
+    d = np.abs(frames[:, None] - model.means[None, :])
+    assert np.sum((d[:, 1] <= 25e-6) & (d[:, 1] < d[:, 0])) >= 4  # frames nearer the silent person
+    speaking, _, _ = SpeakingTest().decide(beta, itds, model, frame_itds=frames)
+    assert speaking.tolist() == [True, False]  # the talker by its frames (one window ITD is too few), not the other
+    naive, _, _ = SpeakingTest(frame_spread_s=1e-12).decide(beta, itds, model, frame_itds=frames)
+    assert naive.tolist() == [True, True]  # without the spill, the silent neighbour would speak too
 
 
 def test_frame_rescue_counts_a_frame_for_the_nearest_person_only() -> None:
