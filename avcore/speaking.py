@@ -112,6 +112,11 @@ class SpeakingTest:
     def __post_init__(self) -> None:
         if self.count_by not in COUNT_BY:
             raise ValueError(f"count_by must be one of {', '.join(COUNT_BY)}, got {self.count_by!r}")
+        for name in ("frame_within_s", "frame_spread_s"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
+        if not 0 < self.frame_quantile < 1:
+            raise ValueError(f"frame_quantile must be in (0, 1), got {self.frame_quantile!r}")
 
     def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D, present: np.ndarray | None = None,
                frame_itds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:

@@ -101,3 +101,10 @@ def test_frame_rescue_counts_a_frame_for_the_nearest_person_only() -> None:
     frames = np.full(12, 15e-6)  # within 25 us of both, nearer to the first
     speaking, _, _ = SpeakingTest(min_itds=5).decide(beta, itds, model, frame_itds=frames)
     assert speaking.tolist() == [True, False]
+
+
+@pytest.mark.parametrize("bad", [{"count_by": "loudest"}, {"frame_within_s": 0.0}, {"frame_spread_s": -1e-6},
+                                 {"frame_quantile": 1.0}])
+def test_bad_settings_are_refused(bad: dict) -> None:
+    with pytest.raises(ValueError, match=next(iter(bad))):
+        SpeakingTest(**bad)
