@@ -497,28 +497,25 @@ class RobustGccPhat(FrameMethod):
         """
         if not self.gives_frame_itds:
             raise ValueError("frame ITDs need the per-frame correlations: frame_corr_power > 0")
-        corr, total = terms["corr"], terms["total"][:, 0]
-        top, j, shift = parabolic_peak(corr)
-        lag = self._grid[j] + shift / _GRID_STEPS
-        itds = np.minimum(np.maximum(lag / self.samplerate_hz, -self.max_itd_s), self.max_itd_s)
-        weighted = total > 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            powered = np.where(weighted, corr[np.arange(corr.shape[0]), top] / total, np.nan)
-        height = powered ** (1.0 / self.frame_corr_power)
-        itds[~weighted] = np.nan
-        return itds, np.minimum(height, 1.0)
+        itds, peak = self._grid_peak(terms)
+        return itds, np.minimum(peak ** (1.0 / self.frame_corr_power), 1.0)
 
     def estimate_windows(self, sums):
         if self.frame_corr_power == 0:
             return super().estimate_windows(sums)
-        corr = sums["corr"]  # (n, G)
-        total = sums["total"][:, 0]
+        itds, confidence = self._grid_peak(sums)
+        return itds, np.minimum(confidence, 1.0)
+
+    def _grid_peak(self, terms: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """ITDs at the parabola-refined peaks of ``(n, G)`` correlations on the lag grid (a frame's, or a window's
+        sum of frames), and the peak over the total weight; both nan where the total weight is 0."""
+        corr, total = terms["corr"], terms["total"][:, 0]
         top, j, shift = parabolic_peak(corr)
         lag = self._grid[j] + shift / _GRID_STEPS
         itds = np.minimum(np.maximum(lag / self.samplerate_hz, -self.max_itd_s), self.max_itd_s)
-        confidence = corr[np.arange(corr.shape[0]), top] / np.where(total > 0, total, np.nan)
-        itds[~np.isfinite(confidence)] = np.nan
-        return itds, np.minimum(confidence, 1.0)
+        peak = corr[np.arange(corr.shape[0]), top] / np.where(total > 0, total, np.nan)
+        itds[~np.isfinite(peak)] = np.nan
+        return itds, peak
 
 
 class RobustCorrelogram(FrameMethod):
