@@ -21,7 +21,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal, Protocol
 
 import numpy as np
@@ -33,6 +33,7 @@ from avcore.geometry import MicPair
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import ItdStream
 from avcore.motion import harris_motion_points
+from avcore.speaking import vote_speaking
 from avcore.stereo import StereoRig
 from avcore.sync import TimeFrame
 from avcore.tracking import NearestTracker
@@ -74,7 +75,12 @@ class PipelineConfig:
         whole time frame; :class:`avcore.inference.FaceGuidedParams`); None: on all of them, as the paper.
     frame_itds : face-guided with "gcc-phat-robust": the ITD worker also passes the single 32 ms frames' ITDs,
         and the speaking test takes a second look at those of the time frame (:class:`avcore.speaking.SpeakingTest`
-        ``frame_rescue``: a talker that a louder one masks in every 150 ms window still wins some frames).
+        ``frame_rescue``: a talker that a louder one masks in every 150 ms window still wins some frames), and
+        the peaks of the frames' frequency bands (``band_itds``: where two talk at once, some bands are the
+        quieter one's).
+    vote_frames : face-guided: each person's speaking state is the majority of their states over this many
+        consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
+        thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
     *_queue : queue lengths (items); a full queue drops its oldest item.
     """
@@ -87,6 +93,7 @@ class PipelineConfig:
     frame_window_s: float = 0.2
     decision_window_s: float | None = None
     frame_itds: bool = True
+    vote_frames: int = 9
     interval_s: float = 0.4
     frame_queue: int = 4
     audio_queue: int = 256
@@ -101,6 +108,9 @@ class PipelineConfig:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
         if self.decision_window_s is not None and not self.decision_window_s > 0:
             raise ValueError(f"decision_window_s must be > 0 seconds or None, got {self.decision_window_s!r}")
+        if not (isinstance(self.vote_frames, int) and self.vote_frames >= 1 and self.vote_frames % 2 == 1):
+            raise ValueError(f"vote_frames must be an odd number of results >= 1 (1: no vote), got "
+                             f"{self.vote_frames!r}")
 
 
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
@@ -211,7 +221,11 @@ class Pipeline:
         self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
         self._q_fusion: DropOldestQueue[tuple[str, float, Any]] = DropOldestQueue(c.fusion_queue, "fusion")
         self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
-        self._frame_itds: deque[tuple[np.ndarray, np.ndarray]] = deque()  # (times, ITDs) blocks, fusion thread
+        # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
+        self._frame_itds: deque[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = deque()
+        self._voting: deque[FusionResult] = deque()  # the vote's window: emitted results, then those waiting
+        self._waiting = 0  # results of _voting not emitted yet
+        self._fused = 0  # vision frames fused (results emitted lag them by the vote)
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
         self._backpressure = not getattr(source, "realtime", True)
 
@@ -372,9 +386,9 @@ class Pipeline:
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
             track = stream.push(samples[:, left], samples[:, right])
             if frame_itds:  # before the windows' ITDs, which complete vision frames (frames run ahead of windows)
-                frames = stream.pop_frame_itds()
+                frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
                 if len(frames):
-                    self._q_fusion.put(("frame_itds", start_s, frames))
+                    self._q_fusion.put(("frame_itds", start_s, (frames, bands)))
             for t, itd in zip(track.times_s, track.itds_s):
                 self._q_fusion.put(("itd", start_s + float(t), float(itd)))
             self.stats.itds += len(track)
@@ -394,12 +408,15 @@ class Pipeline:
         frames = self._frame_itds
         while True:
             if self._stop.is_set():
+                if not self._errors:  # stopped by the user: the results waiting for their vote still go out
+                    self._flush_votes()
                 raise _Stop
             message = self._q_fusion.get(timeout=0.05)
             if message is None:
                 if self._done["vision"].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
                     for vision, itds in sync.flush():  # the source is over: the last frames get the ITDs there are
                         self._fuse(hearing, tracker, vision, itds)
+                    self._flush_votes()
                     return
                 continue
             kind, stamp, item = message
@@ -408,7 +425,8 @@ class Pipeline:
             elif kind == "itd":
                 completed = sync.push_secondary(stamp, (stamp, item))
             elif kind == "frame_itds":
-                frames.append((stamp + item.times_s, item.itds_s))
+                single, bands = item
+                frames.append((stamp + single.times_s, single.itds_s, stamp + bands.times_s, bands.itds_s))
                 # bounded without vision frames too (a camera that vanished)
                 while frames[0][0][-1] < frames[-1][0][-1] - _FRAME_ITDS_KEEP_S:
                     frames.popleft()
@@ -425,13 +443,45 @@ class Pipeline:
         timed = np.asarray(itds, dtype=np.float64).reshape(-1, 2)  # (window centre, ITD)
         a = timed[:, 1].copy()
         if isinstance(hearing, FaceGuidedHearing):
-            output = hearing.step(xyz, a, timed[:, 0] - stamp, self._frame_itds_near(stamp))
+            output = hearing.step(xyz, a, timed[:, 0] - stamp, *self._frame_itds_near(stamp))
         else:
             output = hearing.step(xyz, a)
         ids = tracker.update(xyz if boxes is not None else output.positions)
+        result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, float("nan"), ids)
+        half = self.config.vote_frames // 2 if isinstance(hearing, FaceGuidedHearing) else 0
+        if half == 0:
+            self._emit(result)
+        else:  # the vote of the result `half` frames back is complete: emit it
+            self._voting.append(result)
+            self._waiting += 1
+            if self._waiting > half:
+                self._emit_voted(half)
+            while len(self._voting) > 2 * half + 1:
+                self._voting.popleft()
+        self._fused += 1
+        self._timed("fusion", t0, self._fused)
+
+    def _emit_voted(self, half: int) -> None:
+        """Emit the oldest waiting result of the vote's window, its states voted over up to ``half`` results on
+        each side (fewer at the end of the stream)."""
+        window = list(self._voting)
+        i = len(window) - self._waiting
+        r = window[i]
+        around = [(w.person_ids, w.output.speaking) for w in window[max(i - half, 0):i + half + 1]]
+        speaking, probability = vote_speaking(r.person_ids, r.output.speaking, r.output.probability, around)
+        self._waiting -= 1
+        self._emit(replace(r, output=replace(r.output, speaking=speaking, probability=probability)))
+
+    def _flush_votes(self) -> None:
+        """The stream is over: emit the results still waiting for their vote, on the neighbours there are."""
+        half = self.config.vote_frames // 2
+        while self._waiting:
+            self._emit_voted(half)
+
+    def _emit(self, result: FusionResult) -> None:
         # a replay as fast as possible runs ahead of its stamps: latency is only defined in real time
-        latency = self.clock() - stamp if not self._backpressure else float("nan")
-        result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, latency, ids)
+        latency = self.clock() - result.stamp_s if not self._backpressure else float("nan")
+        result = replace(result, latency_s=latency)
         if latency == latency:
             self.stats.latencies_s.append(latency)
         if len(self.stats.latencies_s) > 100_000:
@@ -439,17 +489,19 @@ class Pipeline:
         if self.on_result is not None:
             self.on_result(result)
         self.stats.results += 1
-        self._timed("fusion", t0, self.stats.results)
 
-    def _frame_itds_near(self, stamp: float) -> np.ndarray | None:
-        """The single frames' ITDs within the time frame of ``stamp`` (None: none); blocks of them that no later
-        vision frame can use are dropped (vision frames are fused in stamp order)."""
+    def _frame_itds_near(self, stamp: float) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """The single frames' ITDs and their bands' peaks within the time frame of ``stamp`` (None: none); blocks of
+        them that no later vision frame can use are dropped (vision frames are fused in stamp order)."""
         frames = self._frame_itds
         span = self.config.decision_window_s or self.config.frame_window_s
         while frames and frames[0][0][-1] < stamp - span:
             frames.popleft()
-        near = [itds[np.abs(times - stamp) <= span] for times, itds in frames if times[0] <= stamp + span]
-        return np.concatenate(near) if near else None
+        near = [(itds[np.abs(times - stamp) <= span], b_itds[np.abs(b_times - stamp) <= span])
+                for times, itds, b_times, b_itds in frames if times[0] <= stamp + span]
+        if not near:
+            return None, None
+        return np.concatenate([n[0] for n in near]), np.concatenate([n[1] for n in near])
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:

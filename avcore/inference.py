@@ -402,11 +402,12 @@ class FaceGuidedHearing:
         self._u = 1.0 / (self.support[1] - self.support[0])
 
     def step(self, faces_xyz: object, itds_s: object, itd_offsets_s: object = None,
-             frame_itds_s: object = None) -> FaceGuidedOutput:
+             frame_itds_s: object = None, band_itds_s: object = None) -> FaceGuidedOutput:
         """faces_xyz : (N, 3) float, metres. itds_s : (K,) float, seconds. itd_offsets_s : (K,) seconds, each ITD
         window's centre minus the frame's stamp, for ``params.decision_window_s`` (None: every ITD decides).
         frame_itds_s : (M,) seconds, the single frames' ITDs of the same time for the speaking test's second look
-        (:class:`SpeakingTest` ``frame_rescue``; EM does not see them); None: none."""
+        (:class:`SpeakingTest` ``frame_rescue``; EM does not see them); None: none.
+        band_itds_s : (L,) seconds, the peaks of those frames' frequency bands, the third look; None: none."""
         faces = as_points(faces_xyz, "faces_xyz")
         a = as_samples(itds_s, "itds_s")
         present = None
@@ -429,7 +430,8 @@ class FaceGuidedHearing:
         model = Mixture1D._trusted(w, mu, var, self.support)
         bbar = beta[:, :-1].sum(axis=0)
         frame_itds = None if frame_itds_s is None else as_samples(frame_itds_s, "frame_itds_s")
-        speaking, prob, tau = p.speaking.decide(beta[:, :-1], a, model, present, frame_itds)
+        band_itds = None if band_itds_s is None else as_samples(band_itds_s, "band_itds_s")
+        speaking, prob, tau = p.speaking.decide(beta[:, :-1], a, model, present, frame_itds, band_itds)
         return FaceGuidedOutput(speaking, prob, mu.copy(), bbar, model, tau, n_iter)
 
     def _em(self, a: np.ndarray, w: np.ndarray, mu: np.ndarray, var: np.ndarray

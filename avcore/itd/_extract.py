@@ -265,6 +265,7 @@ class ItdStream:
             raise ValueError(f"frame_itds needs the per-frame correlations of 'gcc-phat-robust' (frame_corr_power > 0);"
                              f" method {method!r} has none: pass frame_itds=False")
         self._frame_itds: list[ItdTrack] | None = [] if frame_itds else None
+        self._band_itds: list[ItdTrack] | None = [] if frame_itds else None
         w, hop = self._framing.window_len, self._framing.hop_len
         self._piece = max(hop, 4096)
         self._buffer = RingBuffer(2, w + self._piece)
@@ -349,6 +350,16 @@ class ItdStream:
         self._frame_itds.clear()
         return out
 
+    def pop_band_itds(self) -> ItdTrack:
+        """The peaks of the frames' bands (``band_edges_hz`` of gcc-phat-robust) analysed since the last call, of the
+        frames that pass the energy gate: one ITD per frame and band that has weight, ``times_s`` the frame's centre,
+        ``confidence`` nan (a band's peak height is not kept). Needs ``frame_itds=True``."""
+        if self._band_itds is None:
+            raise RuntimeError("this ItdStream keeps no frame ITDs: create it with frame_itds=True")
+        out = ItdTrack.concatenate(self._band_itds)
+        self._band_itds.clear()
+        return out
+
     def _keep_frame_itds(self, frames: np.ndarray, terms: dict[str, np.ndarray]) -> None:
         impl = self._impl
         energy = _interleaved_power(frames)
@@ -358,6 +369,13 @@ class ItdStream:
         ok = _gate(self._framing, energy) & np.isfinite(itds)
         if ok.any():
             self._frame_itds.append(ItdTrack(times[ok], itds[ok], height[ok], energy[ok]))  # type: ignore[union-attr]
+        bands = terms.get("frame_band_itds")
+        if bands is not None:
+            keep = ok[:, None] & np.isfinite(bands)
+            if keep.any():
+                rows = np.nonzero(keep)[0]
+                self._band_itds.append(ItdTrack(times[rows], bands[keep], np.full(rows.size, np.nan),  # type: ignore
+                                                energy[rows]))
 
     def _drain_frames(self) -> ItdTrack:
         """Frame methods: analyse every new frame (updating the method's state), then finish complete windows."""
@@ -371,7 +389,8 @@ class ItdStream:
             if self._frame_itds is not None:
                 self._keep_frame_itds(frames, terms)
             for key, value in terms.items():
-                self._terms.setdefault(key, []).extend(value)
+                if not key.startswith("frame_"):  # the frames' own results, not summed into windows
+                    self._terms.setdefault(key, []).extend(value)
             self._next_frame = int(last) + 1
         w, hop = self._framing.window_len, self._framing.hop_len
         if self._next_start + w > available:

@@ -116,25 +116,29 @@ def test_decision_window_ends_the_speaking_state_at_the_frame() -> None:
 
 
 def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPatch) -> None:
-    """With gcc-phat-robust the ITD worker passes the 32 ms frames' ITDs; each vision frame gets those of its time
-    frame (+-0.2 s: about 40 at 10 ms) at the talker's ITD; switched off, none."""
+    """With gcc-phat-robust the ITD worker passes the 32 ms frames' ITDs and their bands' peaks; each vision frame
+    gets those of its time frame (+-0.2 s: about 40 frames at 10 ms, up to 4 bands each) at the talker's ITD;
+    switched off, none."""
     from avcore.inference import FaceGuidedHearing
 
     seen: dict[bool, list] = {True: [], False: []}
     step = FaceGuidedHearing.step
     for enabled in (True, False):
-        def spy(self, faces, itds, offsets=None, frame_itds_s=None, _on=enabled):  # type: ignore[no-untyped-def]
-            seen[_on].append(frame_itds_s)
-            return step(self, faces, itds, offsets, frame_itds_s)
+        def spy(self, faces, itds, offsets=None, frame_itds_s=None, band_itds_s=None,  # type: ignore[no-untyped-def]
+                _on=enabled):
+            seen[_on].append((frame_itds_s, band_itds_s))
+            return step(self, faces, itds, offsets, frame_itds_s, band_itds_s)
 
         monkeypatch.setattr(FaceGuidedHearing, "step", spy)
         source = FakeSource()
         results, _ = _run(source, frame_itds=enabled)
         assert len(results) == len(seen[enabled])
-    assert all(f is None for f in seen[False])
+    assert all(f is None and b is None for f, b in seen[False])
     middle = seen[True][6:-4]  # frames with a whole time frame of sound
-    assert middle and all(f is not None and 35 <= f.size <= 42 for f in middle)
-    assert np.median(np.concatenate(middle)) == pytest.approx(source.expected_itd, abs=20e-6)
+    assert middle and all(f is not None and 35 <= f.size <= 42 for f, _ in middle)
+    assert all(b is not None and f.size < b.size <= 4 * f.size for f, b in middle)
+    assert np.median(np.concatenate([f for f, _ in middle])) == pytest.approx(source.expected_itd, abs=20e-6)
+    assert np.median(np.concatenate([b for _, b in middle])) == pytest.approx(source.expected_itd, abs=20e-6)
 
 
 def test_single_frames_itds_stay_bounded_without_vision(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -239,3 +243,39 @@ def test_person_ids_are_stable() -> None:
     assert len(by_id) == 3  # three still people, three ids for the whole run
     for positions in by_id.values():
         assert np.ptp(np.asarray(positions), axis=0).max() < 0.1
+
+
+def test_vote_fills_a_gap_and_emits_every_frame(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every third frame, the speaking test misses the talker (a forced gap); the vote over 9 results (the default)
+    fills the gaps and the result count and order stay those of the frames, the last ones voted on the neighbours
+    there are; vote_frames=1 leaves the gaps. An even or zero window is refused."""
+    from avcore.inference import FaceGuidedHearing
+
+    step = FaceGuidedHearing.step
+    calls = [0]
+
+    def gappy(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        out = step(self, *args, **kwargs)
+        calls[0] += 1
+        if calls[0] % 3 == 0:
+            out.speaking[:] = False
+            out.probability[:] = 0.0
+        return out
+
+    monkeypatch.setattr(FaceGuidedHearing, "step", gappy)
+    found = {}
+    for vote in (9, 1):
+        calls[0] = 0
+        source = FakeSource()
+        results, _ = _run(source, vote_frames=vote)
+        assert len(results) == int(source.duration_s * source.fps)
+        assert [r.index for r in results] == sorted(r.index for r in results)
+        late = [r for r in results if r.stamp_s - source.t0 > 0.6]
+        states = [bool(r.output.speaking[int(np.argmin(np.linalg.norm(r.xyz - source.faces[TALKER], axis=1)))])
+                  for r in late]
+        assert all((r.output.probability > 0.5).tolist() == r.output.speaking.tolist() for r in results)
+        found[vote] = np.mean(states)
+    assert found[9] == 1.0 and found[1] < 0.8
+    for bad in (0, 4, 2.0):
+        with pytest.raises(ValueError, match="vote_frames"):
+            PipelineConfig(vote_frames=bad)  # type: ignore[arg-type]

@@ -356,3 +356,28 @@ def test_frame_itds_of_the_robust_stream():
         ItdStream(fs, method="gcc-phat-robust", frame_itds=True, frame_corr_power=0)
     with pytest.raises(RuntimeError, match="frame_itds=True"):
         ItdStream(fs, method="gcc-phat-robust").pop_frame_itds()
+
+
+def test_band_itds_of_the_robust_stream():
+    """Each frame's bands (cut at 800, 1600 and 2600 Hz) give their own peak: up to four per frame that passes the
+    gate, at the frame's time, at the source's ITD for broadband noise; the windows' ITDs are unchanged by the cut
+    (the same product in pieces)."""
+    fs = 16000
+    left, right = delayed_pair(3.0, fs, seconds=1.0, seed=2)
+    left[: fs // 4] = 0.0
+    right[: fs // 4] = 0.0
+    stream = ItdStream(fs, method="gcc-phat-robust", frame_itds=True)
+    windows = stream.push(left, right)
+    frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
+    assert len(stream.pop_band_itds()) == 0  # popped once
+    assert len(frames) < len(bands) <= 4 * len(frames)
+    assert set(np.round(bands.times_s, 6)) <= set(np.round(frames.times_s, 6))
+    assert np.median(np.abs(bands.itds_s - 3.0 / fs)) < 16e-6  # within a step of the 1/4-sample grid
+    one_band = ItdStream(fs, method="gcc-phat-robust", frame_itds=True, band_edges_hz=())
+    uncut = one_band.push(left, right)
+    np.testing.assert_allclose(uncut.itds_s, windows.itds_s, rtol=0, atol=1e-9)
+    assert len(one_band.pop_band_itds()) == len(one_band.pop_frame_itds())  # one band: one peak per frame
+    with pytest.raises(ValueError, match="band_edges_hz"):
+        ItdStream(fs, method="gcc-phat-robust", band_edges_hz=(1600.0, 800.0))
+    with pytest.raises(RuntimeError, match="frame_itds=True"):
+        ItdStream(fs, method="gcc-phat-robust").pop_band_itds()

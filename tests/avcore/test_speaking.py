@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from avcore.mixture import Mixture1D
-from avcore.speaking import SpeakingTest, _poisson_quantile, speaking_threshold
+from avcore.speaking import SpeakingTest, _poisson_quantile, speaking_threshold, vote_speaking
 
 SUPPORT = (-350e-6, 350e-6)
 MODEL = Mixture1D(np.array([0.3, 0.3, 0.4]), np.array([-100e-6, 100e-6]), np.array([4e-10, 4e-10]), SUPPORT)
@@ -103,8 +103,52 @@ def test_frame_rescue_counts_a_frame_for_the_nearest_person_only() -> None:
     assert speaking.tolist() == [True, False]
 
 
+def test_band_itds_find_a_talker_and_spare_a_phantom_between_two() -> None:
+    """The bands' peaks are a third look, with a wider spread (30 us): 12 of them at a quiet talker make it speak.
+    Two people talking at once put their shared bands at a phantom between them: a person lying between two
+    speaking people is not called speaking on the bands."""
+    model = Mixture1D(np.array([0.25, 0.25, 0.25, 0.25]), np.array([-150e-6, 0.0, 150e-6]),
+                      np.array([4e-10, 4e-10, 4e-10]), SUPPORT)
+    itds = np.full(20, -150e-6) + np.linspace(-5e-6, 5e-6, 20)
+    beta = model.responsibilities(itds)[:, :-1]
+    bands = np.concatenate([np.full(60, -150e-6), np.full(12, 148e-6)])
+    speaking, prob, _ = SpeakingTest().decide(beta, itds, model, band_itds=bands)
+    assert speaking.tolist() == [True, False, True]
+    np.testing.assert_array_equal(prob > 0.5, speaking)
+    assert SpeakingTest(frame_rescue=False).decide(beta, itds, model, band_itds=bands)[0].tolist() == [
+        True, False, False]
+    # both outer people speak (the windows): bands at the middle person are a phantom of the two
+    both = np.concatenate([itds, np.full(20, 150e-6)])
+    beta = model.responsibilities(both)[:, :-1]
+    phantom = np.concatenate([np.full(40, -150e-6), np.full(40, 150e-6), np.full(30, 2e-6)])
+    speaking, _, _ = SpeakingTest().decide(beta, both, model, band_itds=phantom)
+    assert speaking.tolist() == [True, False, True]
+    # the same ITDs as single frames (narrower, no phantom there) do call the middle person
+    speaking, _, _ = SpeakingTest().decide(beta, both, model, frame_itds=phantom)
+    assert speaking.tolist() == [True, True, True]
+
+
+def test_vote_takes_each_persons_majority_over_the_window() -> None:
+    """Person 7 speaks in 2 of the 4 results that hold it: not more than half, silent; person 3 in 4 of 5 (a
+    one-result gap): speaking; person 9 in 1 of 2: silent. Probabilities follow the votes they change."""
+    window = [(np.array([3, 7]), np.array([True, True])),
+              (np.array([3, 7, 9]), np.array([False, True, True])),
+              (np.array([7, 3, 9]), np.array([False, True, False])),
+              (np.array([3, 7]), np.array([True, False])),
+              (np.array([3]), np.array([True]))]
+    ids, spk = window[1]
+    voted, prob = vote_speaking(ids, spk, np.array([0.3, 0.8, 0.9]), window)
+    assert voted.tolist() == [True, False, False]
+    np.testing.assert_allclose(prob, [0.8, 0.5, 0.5])
+    np.testing.assert_array_equal(prob > 0.5, voted)
+    alone, _ = vote_speaking(ids, spk, np.array([0.3, 0.8, 0.9]), [window[1]])  # a window of one: unchanged
+    assert alone.tolist() == spk.tolist()
+    with pytest.raises(ValueError, match="one entry per person"):
+        vote_speaking(np.array([1, 2]), np.array([True]), np.array([0.9]), window)
+
+
 @pytest.mark.parametrize("bad", [{"count_by": "loudest"}, {"frame_within_s": 0.0}, {"frame_spread_s": -1e-6},
-                                 {"frame_quantile": 1.0}])
+                                 {"frame_quantile": 1.0}, {"band_spread_s": 0.0}])
 def test_bad_settings_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         SpeakingTest(**bad)
