@@ -128,12 +128,12 @@ class MemoryMonitor:
 
 def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, sample_s: float = 2.0,
         progress_s: float = 30.0, trace: bool = False, part_s: float | None = 60.0,
-        frame_itds: bool = True) -> dict[str, Any]:
+        frame_itds: bool = True, vote_frames: int = 9) -> dict[str, Any]:
     """One run of ``scenario``: the pipeline with the console logging to ``rrd`` (None: no Rerun at all), in parts
     of ``part_s`` seconds as ``avhear run`` writes them (None: one file)."""
     source = open_source(f"sim:{scenario}", realtime=realtime, duration_s=duration_s,
                          progress=lambda m: _say(f"  {m}"))
-    config = PipelineConfig(frame_itds=frame_itds)
+    config = PipelineConfig(frame_itds=frame_itds, vote_frames=vote_frames)
     session = ViewerSession(ViewerTarget(save=rrd, part_s=part_s)) if rrd is not None else None
     console = Console(source.rig, source.mics, recording=session.recording) if session is not None else None
 
@@ -156,7 +156,9 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
         if session is not None:
             session.close(keep_serving=False)
     d = stats.as_dict()
-    imposed_ms = (config.frame_window_s + config.window_s / 2 + config.hop_s) * 1e3
+    # a frame waits for the ITDs of its time frame, then for the later frames its vote needs
+    vote_wait_s = (config.vote_frames // 2) / float(getattr(source, "fps", 30.0))
+    imposed_ms = (config.frame_window_s + config.window_s / 2 + config.hop_s + vote_wait_s) * 1e3
     lat = np.asarray(stats.latencies_s) * 1e3
     return {
         "fps": d["fps"], "results": d["results"], "late_frames": d["late_frames"], "drops": d["drops"],
@@ -178,6 +180,8 @@ def main() -> None:
     parser.add_argument("--skip-fast", action="store_true", help="only the real-time run")
     parser.add_argument("--no-frame-itds", dest="frame_itds", action="store_false",
                         help="without the single frames' ITDs for the speaking test (PipelineConfig.frame_itds)")
+    parser.add_argument("--vote-frames", type=int, default=9,
+                        help="results each speaking state is voted over (PipelineConfig.vote_frames; 1: no vote)")
     parser.add_argument("--sink", choices=("file", "none"), default="file",
                         help="the console logs to an .rrd file (default), or no Rerun at all")
     parser.add_argument("--part-s", type=float, default=60.0,
@@ -193,7 +197,8 @@ def main() -> None:
         rrd = Path(tmp) / "rt.rrd" if args.sink == "file" else None
         part_s = args.part_s or None
         r = run(args.scenario, args.duration, True, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
-                trace=args.tracemalloc, part_s=part_s, frame_itds=args.frame_itds)
+                trace=args.tracemalloc, part_s=part_s, frame_itds=args.frame_itds,
+                vote_frames=args.vote_frames)
         print(f"  results per second {r['fps']:.1f} (target >= 30; the paper 17), {r['results']} results in "
               f"{r['duration_s']:.0f} s, {r['late_frames']} late frames skipped by the source, drops {r['drops']}, "
               f"audio blocks {r['audio_blocks']} (gaps {r['audio_gaps']})")
@@ -213,7 +218,7 @@ def main() -> None:
         if not args.skip_fast:
             rrd = Path(tmp) / "fast.rrd" if args.sink == "file" else None
             f = run(args.scenario, args.duration, False, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
-                    part_s=part_s, frame_itds=args.frame_itds)
+                    part_s=part_s, frame_itds=args.frame_itds, vote_frames=args.vote_frames)
             print(f"as fast as possible: {f['fps']:.1f} results per second, {f['results']} results, drops "
                   f"{f['drops']}")
 

@@ -182,6 +182,8 @@ def test_eval_scenarios_bad_arguments(capsys: pytest.CaptureFixture[str]) -> Non
     assert "--duration" in capsys.readouterr().err
     assert main(["eval", "scenarios", "--itd-method", "nope"]) == 2
     assert "unknown --itd-method" in capsys.readouterr().err
+    assert main(["eval", "scenarios", "--vote-frames", "4"]) == 2
+    assert "vote_frames must be an odd number" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["eval", "scenarios", "--scenario", "S9"])
     assert "invalid choice" in capsys.readouterr().err
@@ -193,3 +195,5 @@ def test_eval_scenarios_frame_itds_switch() -> None:
     parser = build_parser()
     assert parser.parse_args(["eval", "scenarios"]).frame_itds is True
     assert parser.parse_args(["eval", "scenarios", "--no-frame-itds"]).frame_itds is False
+    assert parser.parse_args(["eval", "scenarios"]).vote_frames == 9
+    assert parser.parse_args(["eval", "scenarios", "--vote-frames", "1"]).vote_frames == 1
