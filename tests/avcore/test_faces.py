@@ -202,3 +202,44 @@ def test_yunet_wrapper_scales_its_input_and_reports_full_resolution_boxes(tmp_pa
     det._net.answer = None
     assert det.detect(np.zeros((240, 320), np.uint8)).shape == (0, 4)  # grey input, a new size, no face
     assert calls["size"] == [(320, 240), (160, 120)] and calls["detect"][-1] == (120, 160, 3)
+
+
+def test_tracking_detector_searches_a_lost_face_again_for_a_while():
+    """A face the cascade misses in its window for two frames (a blink of the detector) is searched there again
+    and found in the third, long before the scan's next pass; after ``lost_frames`` misses it is given up (one
+    search per frame while lost); a kept box is never returned."""
+    scene = default_scene(None, moving=False, seed=2)
+    frame = scene.render(0.0).left
+    base = HaarFaceDetector()
+    blind = {"frames": set(), "frame": 0, "searches": 0}
+    search = base.search_near
+
+    def flaky(grey, box, **kwargs):  # type: ignore[no-untyped-def]
+        blind["searches"] += 1
+        if blind["frame"] in blind["frames"] and box[0] < 320:  # the faces on the left half vanish
+            return np.zeros((0, 4))
+        return search(grey, box, **kwargs)
+
+    base.search_near = flaky  # type: ignore[method-assign]
+    tracker = TrackingFaceDetector(base, lost_frames=3)
+    first = tracker.detect(frame)  # a whole scan
+    left = int(np.sum(first[:, 0] < 320))
+    assert left >= 1 and len(first) == 3
+    scan = base.scan
+    base.scan = lambda grey, job: np.zeros((0, 4))  # type: ignore[method-assign]  # no scan to find it again
+    blind["frames"] = {1, 2}
+    counts = []
+    for i in range(1, 4):
+        blind["frame"] = i
+        counts.append(len(tracker.detect(frame)))
+    assert counts == [3 - left, 3 - left, 3]  # missed in frames 1 and 2 (nothing kept), back in frame 3
+    # lost for longer than lost_frames: given up, and searched no more
+    blind["frames"] = set(range(4, 20))
+    for i in range(4, 12):
+        blind["frame"] = i
+        before = blind["searches"]
+        tracker.detect(frame)
+    assert blind["searches"] - before == 3 - left  # only the faces still seen are searched
+    base.scan = scan  # type: ignore[method-assign]
+    with pytest.raises(ValueError, match="lost_frames"):
+        TrackingFaceDetector(lost_frames=-1)
