@@ -405,36 +405,49 @@ class Pipeline:
         hearing = (FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=c.decision_window_s))
                    if c.inference == "face" else MotionGuidedHearing(mics))
         tracker = NearestTracker()
-        frames = self._frame_itds
         while True:
             if self._stop.is_set():
-                if not self._errors:  # stopped by the user: the results waiting for their vote still go out
-                    self._flush_votes()
+                if not self._errors:  # stopped by the user: what the workers have done still goes out
+                    for name in ("vision", "itd"):
+                        self._done[name].wait(self.config.join_timeout_s / 2)
+                    self._finish(sync, hearing, tracker)
                 raise _Stop
             message = self._q_fusion.get(timeout=0.05)
             if message is None:
                 if self._done["vision"].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
-                    for vision, itds in sync.flush():  # the source is over: the last frames get the ITDs there are
-                        self._fuse(hearing, tracker, vision, itds)
-                    self._flush_votes()
+                    self._finish(sync, hearing, tracker)
                     return
                 continue
-            kind, stamp, item = message
-            if kind == "vision":
-                completed = sync.push_primary(stamp, item)
-            elif kind == "itd":
-                completed = sync.push_secondary(stamp, (stamp, item))
-            elif kind == "frame_itds":
-                single, bands = item
-                frames.append((stamp + single.times_s, single.itds_s, stamp + bands.times_s, bands.itds_s))
-                # bounded without vision frames too (a camera that vanished)
-                while frames[0][0][-1] < frames[-1][0][-1] - _FRAME_ITDS_KEEP_S:
-                    frames.popleft()
-                continue
-            else:  # the audio clock moved on without ITDs (silence): frames before it are complete
-                completed = sync.advance(stamp)
-            for vision, itds in completed:
+            for vision, itds in self._handle(message, sync):
                 self._fuse(hearing, tracker, vision, itds)
+
+    def _handle(self, message: tuple[str, float, Any], sync: TimeFrame) -> list:
+        """One message of the fusion queue into the synchroniser; returns the vision frames it completes."""
+        kind, stamp, item = message
+        if kind == "vision":
+            return sync.push_primary(stamp, item)
+        if kind == "itd":
+            return sync.push_secondary(stamp, (stamp, item))
+        if kind == "frame_itds":
+            frames = self._frame_itds
+            single, bands = item
+            frames.append((stamp + single.times_s, single.itds_s, stamp + bands.times_s, bands.itds_s))
+            # bounded without vision frames too (a camera that vanished)
+            while frames[0][0][-1] < frames[-1][0][-1] - _FRAME_ITDS_KEEP_S:
+                frames.popleft()
+            return []
+        return sync.advance(stamp)  # the audio clock moved on without ITDs (silence): frames before it are complete
+
+    def _finish(self, sync: TimeFrame, hearing: FaceGuidedHearing | MotionGuidedHearing,
+                tracker: NearestTracker) -> None:
+        """The source is over or the user stopped: the messages still queued, then the frames still waiting for
+        ITDs (with the ITDs there are), then the results still waiting for their vote."""
+        while (message := self._q_fusion.get(timeout=0)) is not None:
+            for vision, itds in self._handle(message, sync):
+                self._fuse(hearing, tracker, vision, itds)
+        for vision, itds in sync.flush():
+            self._fuse(hearing, tracker, vision, itds)
+        self._flush_votes()
 
     def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, tracker: NearestTracker, vision: tuple,
               itds: list[tuple[float, float]]) -> None:

@@ -279,3 +279,15 @@ def test_vote_fills_a_gap_and_emits_every_frame(monkeypatch: pytest.MonkeyPatch)
     for bad in (0, 4, 2.0):
         with pytest.raises(ValueError, match="vote_frames"):
             PipelineConfig(vote_frames=bad)  # type: ignore[arg-type]
+
+
+def test_a_stop_loses_no_fused_frame() -> None:
+    """Stopped in the middle of a real-time source (Ctrl-C, a duration): every frame the vision worker finished
+    still comes out, the last ones with the ITDs there are and their vote on the neighbours there are."""
+    source = FakeSource(duration_s=3.0, fps=30.0, realtime=True)
+    results: list[FusionResult] = []
+    pipe = Pipeline(source, PipelineConfig(), results.append)
+    stats = pipe.run(duration_s=1.2)
+    assert 20 <= stats.vision_results < 90  # stopped before the end
+    assert len(results) == stats.results == stats.vision_results
+    assert [r.index for r in results] == sorted(r.index for r in results)
