@@ -266,6 +266,8 @@ class ItdStream:
                              f" method {method!r} has none: pass frame_itds=False")
         self._frame_itds: list[ItdTrack] | None = [] if frame_itds else None
         self._band_itds: list[ItdTrack] | None = [] if frame_itds else None
+        if frame_itds:
+            self._impl.keep_band_peaks = True  # type: ignore[attr-defined]
         w, hop = self._framing.window_len, self._framing.hop_len
         self._piece = max(hop, 4096)
         self._buffer = RingBuffer(2, w + self._piece)

@@ -451,9 +451,9 @@ class RobustGccPhat(FrameMethod):
 
     Extra parameter ``band_edges_hz`` ((800, 1600, 2600)): with ``frame_corr_power`` > 0 each frame's correlation is
     the sum of the correlations of the bands these edges cut the spectrum into, and each band's own peak is also
-    kept (``frame_band_itds``, on the lag grid): where two people talk at once, a band may belong to the quieter
-    one (:class:`avcore.speaking.SpeakingTest`, ``band_itds``). The sum is the same product cut in pieces: no
-    extra cost but the bands' peaks.
+    kept (``frame_band_itds``, on the lag grid) when ``keep_band_peaks`` is set (by ``ItdStream(frame_itds=True)``):
+    where two people talk at once, a band may belong to the quieter one (:class:`avcore.speaking.SpeakingTest`,
+    ``band_itds``). The sum is the same product cut in pieces: no extra cost but the bands' peaks.
     """
 
     name = "gcc-phat-robust"
@@ -479,6 +479,7 @@ class RobustGccPhat(FrameMethod):
         cuts = np.searchsorted(self.freqs_hz[:self.n_used], edges)
         cuts = np.unique(np.concatenate([[0], cuts[(cuts > 0) & (cuts < self.n_used)], [self.n_used]]))
         self._bands = list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))  # bin ranges that tile the used bins
+        self.keep_band_peaks = False  # the frames' terms carry each band's peak ("frame_band_itds")
 
     def _terms(self, weights, cross, pow_l, pow_r):
         # the weighted phase transform, weights * cross / |cross|, in one complex product (0 where cross is 0)
@@ -491,11 +492,13 @@ class RobustGccPhat(FrameMethod):
         parts = [flat[:, 2 * a:2 * b] @ self._grid_table[2 * a:2 * b] for a, b in self._bands]  # (m, G) each
         corr = parts[0] if len(parts) == 1 else np.sum(parts, axis=0)
         corr = np.maximum(corr, 0.0) / np.where(total > 0, total, np.inf)[:, None]
-        band_itds = np.stack([self._grid[np.argmax(p, axis=1)] for p in parts], axis=1) / self.samplerate_hz
-        band_weight = np.stack([weights[:, a:b] @ self._fold[a:b] for a, b in self._bands], axis=1)
-        band_itds[~(band_weight > 0)] = np.nan
-        return {"corr": total[:, None] * corr**self.frame_corr_power, "total": total[:, None],
-                "frame_band_itds": band_itds}
+        terms = {"corr": total[:, None] * corr**self.frame_corr_power, "total": total[:, None]}
+        if self.keep_band_peaks:
+            band_itds = np.stack([self._grid[np.argmax(p, axis=1)] for p in parts], axis=1) / self.samplerate_hz
+            band_weight = np.stack([weights[:, a:b] @ self._fold[a:b] for a, b in self._bands], axis=1)
+            band_itds[~(band_weight > 0)] = np.nan
+            terms["frame_band_itds"] = band_itds
+        return terms
 
     def finish_window(self, sums):
         weighted = sums["cross"]
