@@ -105,8 +105,8 @@ class SpeakingTest:
     stretch (none before). Per 0.4 s interval S5's TP rose 85.6 -> 91.1 % (seeds 0-2), its false alarms per speaking
     count 0.47 -> 0.53. Throwaway rescoring of saved runs chose the parts: the bands alone found as many numbers but
     with 2.6 times the false stretches (seeds 0-2: 31 against 12); the vote alone removed false stretches but found
-    no number; the phantom rule costs one number on seeds 0-2 and one on 3-8. Seeds 9-14, never looked at before the
-    choices were made, with the final code (``--scenario S5 --seed 9 10 11 12 13 14``, after the face tracker's
+    no number; the phantom rule costs one number on seeds 0-2 and one on 3-8. Seeds 9-14, used in no choice (they
+    only validated them), with the final code (``--scenario S5 --seed 9 10 11 12 13 14``, after the face tracker's
     lost-face search too): 96.3 % of 268 numbers, 14 false stretches (0.05 per count).
 
     Tried in throwaway rescoring of the same runs and not kept: windows of +-20 and
