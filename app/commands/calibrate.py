@@ -220,11 +220,11 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
             "Audio-visual calibration (paper section 5.3). RECORDING shows one person holding a loudspeaker that "
             "plays white-noise bursts (`avhear calibrate signal`) just below the face, walking a zig-zag across the "
             "whole field of view (about one minute; `avhear simulate calibration` makes one). Each frame with "
-            "exactly one face gives an F3D position, each audio window an ITD; the ITDs are paired with the face of their instant and c1, c0 of "
-            "eq. (itd_up) are fitted so that c1 * A(face) + c0 follows the ITDs. The hand-measured microphone "
-            "positions come from --rig; the faces are located with the recording's own stereo calibration. "
-            "Writes the output rig (the stereo section of --rig, or of the recording, kept), the paper's "
-            "calibration figure as a PNG and an .rrd next to it, and prints the fit."
+            "exactly one face gives an F3D position, each audio window an ITD; the ITDs are paired with the face "
+            "of their instant and c1, c0 of eq. (itd_up) are fitted so that c1 * A(face) + c0 follows the ITDs. "
+            "The hand-measured microphone positions come from --rig; the faces are located with the recording's "
+            "own stereo calibration. Writes the output rig (the stereo section of --rig, or of the recording, "
+            "kept), the paper's calibration figure as a PNG and an .rrd next to it, and prints the fit."
         ),
     )
     p.add_argument("recording", type=Path, metavar="RECORDING", help="recording folder (recordings/FORMAT.md)")
