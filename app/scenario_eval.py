@@ -33,6 +33,10 @@ Per interval of 0.4 s (a second, stricter view)
       detection associated with nobody was judged speaking (``fp_false_face``). TN: silent, detected silent.
       TP % = TP / (TP + FN), as in the paper's table. A speaking state that lasts into the pause after a number
       (the ITD window and the +-0.2 s time frame) costs an FP here whenever the pause covers most of an interval.
+    - Timing reference (``timing_reference``): the same counts for the truth itself, every face found and each
+      spoken number held ``TIMING_REFERENCE_S`` (25 ms) longer at both ends. Its false alarms show how much of
+      this view's FP measures timing, not detection: an interval in which speech fills a little under half of the
+      frames turns into a false alarm with the smallest lag.
 
 Per scenario also (per fused frame): the share of frames in which every visible face was found, the median F3D
 error of the found faces (metres), and the ITD accuracy: the share of the extracted ITDs within 40 us of the true
@@ -78,6 +82,7 @@ __all__ = [
     "FusedFrame",
     "ScenarioScore",
     "SpeakingCounts",
+    "TIMING_REFERENCE_S",
     "UtteranceCounts",
     "calibrate_on_preset",
     "evaluate_scenario",
@@ -89,6 +94,9 @@ INTERVAL_S = 0.4
 """One count of the speaking-state table: a person during 0.4 s (the Delta t of section 7)."""
 ITD_TOLERANCE_S = 40e-6
 """An extracted ITD is accurate when within 40 us of the talker's true ITD."""
+TIMING_REFERENCE_S = 0.025
+"""The timing reference of the per-interval view: the truth itself with each spoken number held this much longer at
+both ends (less than one 32 ms frame of the ITD extractor)."""
 LATERAL_ITD_S = 50e-6
 """Talkers whose true ITD is at least this far from zero count for the pull towards zero."""
 
@@ -194,6 +202,7 @@ class ScenarioScore:
     duration_s: float
     counts: SpeakingCounts = field(default_factory=SpeakingCounts)
     utterances: UtteranceCounts = field(default_factory=UtteranceCounts)
+    timing_reference: SpeakingCounts = field(default_factory=SpeakingCounts)
     n_intervals: int = 0
     n_frames: int = 0
     frames_all_found: int = 0
@@ -241,6 +250,7 @@ class ScenarioScore:
         self.duration_s += other.duration_s
         self.counts.add(other.counts)
         self.utterances.add(other.utterances)
+        self.timing_reference.add(other.timing_reference)
         for name in ("n_intervals", "n_frames", "frames_all_found", "visible_faces", "faces_found", "n_itds"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.f3d_errors_m += other.f3d_errors_m
@@ -256,6 +266,7 @@ class ScenarioScore:
             "n_intervals": self.n_intervals,
             "speaking": self.counts.as_dict(),
             "speaking_per_utterance": self.utterances.as_dict(),
+            "speaking_timing_reference": self.timing_reference.as_dict(),
             "n_frames": self.n_frames,
             "frames_all_faces_found": _clean(self.all_found_share),
             "face_recall": _clean(self.face_recall),
@@ -401,7 +412,6 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
     half = frames_per[:, None] / 2
     visible = vis_votes > half
     speaking = speak_votes > half
-    unseen_talks = np.any(speaking & ~visible, axis=1)
 
     # detections per interval: per person, frames found and frames judged speaking; false faces judged speaking
     found = np.zeros((n_intervals, n_people))
@@ -431,9 +441,32 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
             score.frames_all_found += int(all(g in hit for g in vis))
             score.f3d_errors_m += [float(e) for (g, _), e in zip(match.pairs, match.errors_m) if tr.visible[g]]
 
-    c = score.counts
-    for k in range(n_intervals):
-        for i in range(n_people):
+    score.counts = _interval_counts(visible, speaking, found, judged, false_speaking, results_per)
+    # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends
+    held = _held_speaking(scenario, np.asarray(frame_stamps_s, dtype=np.float64), TIMING_REFERENCE_S)
+    seen = np.array([tr.visible for tr in truths], dtype=bool).reshape(-1, n_people)
+    ref_found, ref_judged = np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people))
+    np.add.at(ref_found, frame_interval, seen)
+    np.add.at(ref_judged, frame_interval, seen & held)
+    score.timing_reference = _interval_counts(visible, speaking, ref_found, ref_judged, np.zeros(n_intervals),
+                                              frames_per)
+
+    frame_period_s = float(np.median(np.diff(frame_stamps_s))) if len(frame_stamps_s) > 1 else 1 / 30
+    half_span = INTERVAL_S / 2 if motion else frame_period_s / 2  # the time one result stands for
+    score.utterances = _utterance_counts(scenario, np.array([r.stamp_s for r in ordered]), states, half_span)
+    score.itd_errors_s, score.itd_true_s, score.n_itds = _itd_errors(scenario, audio, samplerate_hz, mics, config)
+    return score
+
+
+def _interval_counts(visible: np.ndarray, speaking: np.ndarray, found: np.ndarray, judged: np.ndarray,
+                     false_speaking: np.ndarray, results_per: np.ndarray) -> SpeakingCounts:
+    """Count per visible person and interval (see the module docstring). visible, speaking : (K, N) bool, the truth
+    per interval; found, judged : (K, N) results in which each person was found / judged speaking; false_speaking,
+    results_per : (K,) results with a face of nobody judged speaking / all results."""
+    c = SpeakingCounts()
+    unseen_talks = np.any(speaking & ~visible, axis=1)
+    for k in range(visible.shape[0]):
+        for i in range(visible.shape[1]):
             if not visible[k, i]:
                 continue
             is_found = bool(found[k, i] > 0)
@@ -453,12 +486,16 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
         if results_per[k] and false_speaking[k] > results_per[k] / 2:
             c.fp += 1
             c.fp_false_face += 1
+    return c
 
-    frame_period_s = float(np.median(np.diff(frame_stamps_s))) if len(frame_stamps_s) > 1 else 1 / 30
-    half_span = INTERVAL_S / 2 if motion else frame_period_s / 2  # the time one result stands for
-    score.utterances = _utterance_counts(scenario, np.array([r.stamp_s for r in ordered]), states, half_span)
-    score.itd_errors_s, score.itd_true_s, score.n_itds = _itd_errors(scenario, audio, samplerate_hz, mics, config)
-    return score
+
+def _held_speaking(scenario: Scenario, stamps_s: np.ndarray, hold_s: float) -> np.ndarray:
+    """(T, N) bool: who speaks within +- ``hold_s`` of each stamp (each spoken number held longer at both ends)."""
+    out = np.zeros((stamps_s.size, len(scenario.actors)), dtype=bool)
+    for e in scenario.events:
+        if e.kind == "speech":
+            out[:, e.actor] |= (stamps_s > e.start_s - hold_s) & (stamps_s < e.end_s + hold_s)
+    return out
 
 
 def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarray,

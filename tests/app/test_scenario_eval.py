@@ -97,6 +97,31 @@ def test_wrong_states_and_missed_faces_are_counted() -> None:
     assert c.fp == c.fp_false_face == 20 and c.tp == speaking
 
 
+def test_timing_reference_scores_the_truth_held_longer(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The per-interval timing reference counts what a detector that knows the truth, but holds each number
+    TIMING_REFERENCE_S longer at both ends, would score; held 0 s it is the truth's own counts."""
+    import app.scenario_eval as scenario_eval
+
+    scenario = _scenario("S2")
+    speech = [e for e in scenario.events if e.kind == "speech"]
+    speaking, silent = _truth_counts(scenario, np.arange(int(scenario.duration_s * FPS)) / FPS)
+    for hold in (scenario_eval.TIMING_REFERENCE_S, 0.2, 0.0):
+        def held(tr: FrameTruth, hold: float = hold) -> np.ndarray:
+            return np.array([any(e.actor == i and e.start_s - hold < tr.time_s < e.end_s + hold for e in speech)
+                             for i in range(len(scenario.actors))])
+
+        monkeypatch.setattr(scenario_eval, "TIMING_REFERENCE_S", hold)
+        fused, stamps = _frames(scenario, held)
+        score = _score(scenario, fused, stamps)
+        r = score.timing_reference
+        assert (r.tp, r.fn, r.fp, r.tn) == (score.counts.tp, score.counts.fn, score.counts.fp, score.counts.tn)
+        assert r.tp == speaking and r.fn == 0 and r.fp + r.tn == silent
+        if hold == 0.2:
+            assert r.fp > 0  # held as long as the fusion's time frame: pauses turn into false alarms
+        if hold == 0.0:
+            assert r.fp == 0
+
+
 def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap() -> None:
     scenario = _scenario("S5", duration_s=15.0)
     fused, stamps = _frames(scenario, lambda tr: np.zeros_like(tr.speaking))  # nobody ever judged speaking
