@@ -161,6 +161,9 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
     # three seated people, all visible: every person-interval is one of TP, FN, FP, TN
     assert s["tp"] + s["fn"] + s["fp"] + s["tn"] == 3 * 10
     assert s["tp"] + s["fn"] > 0 and s["fn_missed_face"] <= s["fn"] and s["fp_false_face"] == 0
+    ref = row["speaking_timing_reference"]  # the same person-intervals, judged by the truth held 25 ms longer
+    assert ref["tp"] + ref["fn"] == s["tp"] + s["fn"] and ref["fn"] == 0
+    assert ref["tp"] + ref["fn"] + ref["fp"] + ref["tn"] == 3 * 10
     u = row["speaking_per_utterance"]
     # every number said in these 4 s is a TP or an FN (all three people are visible)
     bank = load_clip_bank(16000)
@@ -181,6 +184,7 @@ def test_eval_scenarios_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert "section 7.3" in out and "paper (NAO, published)" in out and "avhear face-guided" in out
     assert "149  (86.6%)" in out  # the paper's S1 row
     assert "Per spoken number" in out and "Front end per scenario" in out and "Targets (issue 5)" in out
+    assert "truth held +-25 ms" in out  # the per-interval timing reference row
 
 
 def test_eval_scenarios_motion_guided(capsys: pytest.CaptureFixture[str]) -> None:
