@@ -377,6 +377,9 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
     t = _targets(scores)
     lines += ["", ("Targets (issue 5): TP >= 95 %; FP/spk at most half the paper's; S4's unseen talker no worse "
               "than S2.")]
+    held = {("per_interval", s.scenario): f"; {reference}: "
+            f"{_rounded(_fp_share(s.timing_reference.fp, s.timing_reference.tp + s.timing_reference.fn))}"
+            for s in scores}
     for view in ("per_spoken_number", "per_interval"):
         rows = t[view]
         assert isinstance(rows, dict)
@@ -385,7 +388,7 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
             lines.append(f"  {view.replace('_', ' '):17s} {name}: TP {'-' if tp is None else f'{100 * tp:5.1f} %'} "
                          f"[{'met' if r['tp_at_least_95'] else 'NOT met'}], FP/spk {r['fp_per_speaking_count']} vs "
                          f"paper {r['paper_fp_per_speaking_count']} "
-                         f"[{'met' if r['fp_at_most_half_paper'] else 'NOT met'}]")
+                         f"[{'met' if r['fp_at_most_half_paper'] else 'NOT met'}]" + held.get((view, name), ""))
     if "s4_unseen_fp_rate" in t:
         lines.append(f"  S4: silent visible people judged speaking while the unseen person talks: "
                      f"{t['s4_unseen_fp_rate']} of their intervals, vs S2's silent people: {t['s2_fp_rate']} "

@@ -185,6 +185,7 @@ def test_eval_scenarios_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert "149  (86.6%)" in out  # the paper's S1 row
     assert "Per spoken number" in out and "Front end per scenario" in out and "Targets (issue 5)" in out
     assert "truth held +-25 ms" in out  # the per-interval timing reference row
+    assert "per interval      S1:" in out and "; truth held +-25 ms: " in out  # and beside the per-interval target
 
 
 def test_eval_scenarios_motion_guided(capsys: pytest.CaptureFixture[str]) -> None:
