@@ -30,6 +30,7 @@ import cv2
 import numpy as np
 
 from app.errors import UserError
+from app.plotting import BLACK, BLUE, FONT, GREEN, GREY, PALE_RED, RED, nice_ticks
 from app.recording import Recording
 from avcore.calibration import CalibrationReport, fit_av_calibration_report
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
@@ -283,23 +284,6 @@ def calibrate_recording(recording: Recording, mics: MicPair, *, method: str = "r
 # ---------------------------------------------------------------------------------------------------------------
 # the figure (paper figure "calibration"), drawn with OpenCV: no plotting library at run time
 
-RED = (40, 40, 214)       # BGR
-PALE_RED = (170, 170, 235)
-BLUE = (180, 119, 31)
-GREEN = (44, 160, 44)
-GREY = (110, 110, 110)
-BLACK = (0, 0, 0)
-FONT = cv2.FONT_HERSHEY_SIMPLEX
-
-
-def _nice_ticks(lo: float, hi: float, target: int = 8) -> np.ndarray:
-    span = max(hi - lo, 1e-12)
-    raw = span / target
-    mag = 10 ** np.floor(np.log10(raw))
-    step = next(m * mag for m in (1, 2, 5, 10) if m * mag >= raw)
-    return np.arange(np.ceil(lo / step) * step, hi + 0.5 * step, step)
-
-
 def draw_calibration_figure(result: CalibrationResult, *, size: tuple[int, int] = (1400, 640)) -> np.ndarray:
     """The paper's figure "calibration" as a BGR image: ITD (microseconds) against time (seconds).
 
@@ -334,11 +318,11 @@ def draw_calibration_figure(result: CalibrationResult, *, size: tuple[int, int] 
         v = top_m + (y_hi - np.clip(np.asarray(y), y_lo, y_hi)) / (y_hi - y_lo) * ph
         return np.stack([u, v], axis=-1).round().astype(np.int32)
 
-    for tick in _nice_ticks(y_lo, y_hi):
+    for tick in nice_ticks(y_lo, y_hi):
         (u0, v), (u1, _) = px(np.array([t_lo, t_hi]), np.array([tick, tick]))
         cv2.line(img, (int(u0), int(v)), (int(u1), int(v)), (235, 235, 235) if tick else (190, 190, 190), 1)
         cv2.putText(img, f"{tick:g}", (8, int(v) + 5), FONT, 0.45, BLACK, 1, cv2.LINE_AA)
-    for tick in _nice_ticks(t_lo, t_hi, 12):
+    for tick in nice_ticks(t_lo, t_hi, 12):
         (u, v0), (_, v1) = px(np.array([tick, tick]), np.array([y_lo, y_hi]))
         cv2.line(img, (int(u), int(v0)), (int(u), int(v1)), (235, 235, 235), 1)
         cv2.putText(img, f"{tick:g}", (int(u) - 10, height - bottom_m + 20), FONT, 0.45, BLACK, 1, cv2.LINE_AA)

@@ -83,6 +83,7 @@ __all__ = [
     "ScenarioScore",
     "SpeakingCounts",
     "TIMING_REFERENCE_S",
+    "Timeline",
     "UtteranceCounts",
     "calibrate_on_preset",
     "evaluate_scenario",
@@ -192,6 +193,24 @@ class UtteranceCounts(_Counts):
         return d
 
 
+@dataclass(frozen=True, eq=False)
+class Timeline:
+    """One run's speaking states over time, for the timeline figure (:mod:`app.eval_figure`).
+
+    stamps_s : (R,) the results' stamps; states : (R, N) per result and person, -1 not found, 0 judged silent,
+    1 judged speaking; half_span_s : the time one result stands for (half a frame; half an interval for the
+    motion-guided variant); missed : the spoken numbers counted FN, as (person, start, end) seconds;
+    false_stretches : the stretches counted FP per spoken number, (person, start, end).
+    """
+
+    scenario: Scenario
+    stamps_s: np.ndarray
+    states: np.ndarray
+    half_span_s: float
+    missed: tuple[tuple[int, float, float], ...]
+    false_stretches: tuple[tuple[int, float, float], ...]
+
+
 @dataclass
 class ScenarioScore:
     """The figures of one scenario (summed or pooled over its seeds)."""
@@ -214,6 +233,7 @@ class ScenarioScore:
     n_itds: int = 0
     speech: str = ""
     faces: str = ""
+    timeline: Timeline | None = field(default=None, repr=False)  # of a single run; None once seeds are merged
 
     @property
     def all_found_share(self) -> float:
@@ -247,6 +267,7 @@ class ScenarioScore:
     def merge(self, other: ScenarioScore) -> None:
         """Add the figures of another seed of the same scenario."""
         self.seeds += other.seeds
+        self.timeline = None
         self.duration_s += other.duration_s
         self.counts.add(other.counts)
         self.utterances.add(other.utterances)
@@ -453,7 +474,9 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
 
     frame_period_s = float(np.median(np.diff(frame_stamps_s))) if len(frame_stamps_s) > 1 else 1 / 30
     half_span = INTERVAL_S / 2 if motion else frame_period_s / 2  # the time one result stands for
-    score.utterances = _utterance_counts(scenario, np.array([r.stamp_s for r in ordered]), states, half_span)
+    stamps = np.array([r.stamp_s for r in ordered])
+    score.utterances, missed, false_stretches = _utterance_counts(scenario, stamps, states, half_span)
+    score.timeline = Timeline(scenario, stamps, states, half_span, tuple(missed), tuple(false_stretches))
     score.itd_errors_s, score.itd_true_s, score.n_itds = _itd_errors(scenario, audio, samplerate_hz, mics, config)
     return score
 
@@ -499,10 +522,14 @@ def _held_speaking(scenario: Scenario, stamps_s: np.ndarray, hold_s: float) -> n
 
 
 def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarray,
-                      half_span_s: float) -> UtteranceCounts:
+                      half_span_s: float) -> tuple[UtteranceCounts, list[tuple[int, float, float]],
+                                                   list[tuple[int, float, float]]]:
     """Count per spoken number (see :class:`UtteranceCounts`). stamps_s : (R,) result stamps; states : (R, N) -1 not
-    found, 0 judged silent, 1 judged speaking; each result covers +- ``half_span_s`` around its stamp."""
+    found, 0 judged silent, 1 judged speaking; each result covers +- ``half_span_s`` around its stamp. Also returns
+    the missed numbers and the false stretches, each as (person, start, end) seconds."""
     out = UtteranceCounts()
+    missed: list[tuple[int, float, float]] = []
+    false_stretches: list[tuple[int, float, float]] = []
     speech = [e for e in scenario.events if e.kind == "speech"]
     for e in speech:
         if not scenario.visible(0.5 * (e.start_s + e.end_s))[e.actor]:
@@ -514,6 +541,7 @@ def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarr
             out.tp += 1
         else:
             out.fn += 1
+            missed.append((e.actor, e.start_s, e.end_s))
             out.fn_missed_face += int(st.size == 0)
             out.fn_overlap += any(o.actor != e.actor and o.start_s < e.end_s and o.end_s > e.start_s for o in speech)
     for i in range(states.shape[1]):
@@ -526,9 +554,11 @@ def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarr
                 continue
             if run:
                 a, b = stamps_s[run[0]] - half_span_s, stamps_s[run[-1]] + half_span_s
-                out.fp += int(not any(s < b and t > a for s, t in own))
+                if not any(s < b and t > a for s, t in own):
+                    out.fp += 1
+                    false_stretches.append((i, float(a), float(b)))
                 run = []
-    return out
+    return out, missed, false_stretches
 
 
 def _itd_errors(scenario: Scenario, audio: np.ndarray, samplerate_hz: float, mics: MicPair,

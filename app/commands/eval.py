@@ -10,6 +10,7 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 
 from app.errors import UserError
 from app.pipeline import PipelineConfig
@@ -96,6 +97,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     sce.add_argument("--vote-frames", type=int, default=9, metavar="N",
                      help="face-guided: each person's speaking state is the majority over N consecutive results "
                           "centred on it (odd; default 9, 0.3 s at 30 FPS); 1: each frame decides alone")
+    sce.add_argument("--timeline", type=Path, default=None, metavar="DIR",
+                     help="also save each run's speaking states over time, beside the truth, as DIR/S1_seed0.png "
+                          "and so on: spoken numbers, misses, false stretches, faces not found")
     sce.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
     sce.set_defaults(func=run_scenarios)
 
@@ -242,6 +246,14 @@ def run_scenarios(args: argparse.Namespace) -> int:
                                       mics=calibration.mics if calibration else None)
             c = score.counts
             _progress(f"{name} seed {seed}: TP {c.tp}, FN {c.fn}, FP {c.fp} ({time.perf_counter() - t0:.0f} s)")
+            if args.timeline is not None and score.timeline is not None:
+                from app.eval_figure import save_timeline
+
+                u = score.utterances
+                path = args.timeline / f"{name}_seed{seed}.png"
+                save_timeline(score.timeline, path, f"{name} seed {seed}, {config.inference}-guided, per spoken "
+                              f"number: TP {u.tp}, FN {u.fn}, FP {u.fp}")
+                _progress(f"{name} seed {seed}: timeline saved to {path}")
             if merged is None:
                 merged = score
             else:
