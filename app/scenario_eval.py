@@ -464,7 +464,7 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
 
     score.counts = _interval_counts(visible, speaking, found, judged, false_speaking, results_per)
     # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends
-    held = _held_speaking(scenario, np.asarray(frame_stamps_s, dtype=np.float64), TIMING_REFERENCE_S)
+    held = scenario.speaking_at(frame_stamps_s, hold_s=TIMING_REFERENCE_S)
     seen = np.array([tr.visible for tr in truths], dtype=bool).reshape(-1, n_people)
     ref_found, ref_judged = np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people))
     np.add.at(ref_found, frame_interval, seen)
@@ -510,15 +510,6 @@ def _interval_counts(visible: np.ndarray, speaking: np.ndarray, found: np.ndarra
             c.fp += 1
             c.fp_false_face += 1
     return c
-
-
-def _held_speaking(scenario: Scenario, stamps_s: np.ndarray, hold_s: float) -> np.ndarray:
-    """(T, N) bool: who speaks within +- ``hold_s`` of each stamp (each spoken number held longer at both ends)."""
-    out = np.zeros((stamps_s.size, len(scenario.actors)), dtype=bool)
-    for e in scenario.events:
-        if e.kind == "speech":
-            out[:, e.actor] |= (stamps_s > e.start_s - hold_s) & (stamps_s < e.end_s + hold_s)
-    return out
 
 
 def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarray,

@@ -273,6 +273,7 @@ class TrackingFaceDetector:
             self._jobs = self.base.scan_jobs(size, max_job_px=self.scan_px_per_frame)
             self._size = size
             self._next = -1
+            self._lost = []  # boxes of another image size
         if self._next < 0:
             boxes = self.base.detect(grey)
             self._next = 0

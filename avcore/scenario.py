@@ -294,13 +294,16 @@ class Scenario:
                 out[e.actor] = True
         return out
 
-    def speaking_at(self, times_s: object) -> np.ndarray:
-        """(T, N) bool: who is speaking at each of ``times_s`` (T,) seconds (e.g. ITD window centres)."""
+    def speaking_at(self, times_s: object, hold_s: float = 0.0) -> np.ndarray:
+        """(T, N) bool: who is speaking at each of ``times_s`` (T,) seconds (e.g. ITD window centres); with
+        ``hold_s`` > 0, each speech event held that much longer at both ends."""
+        if not (math.isfinite(hold_s) and hold_s >= 0):
+            raise ValueError(f"hold_s must be >= 0 seconds, got {hold_s!r}")
         t = np.asarray(times_s, dtype=np.float64).reshape(-1)
         out = np.zeros((t.size, len(self.actors)), dtype=bool)
         for e in self.events:
             if e.kind == "speech":
-                out[:, e.actor] |= (t >= e.start_s) & (t < e.end_s)
+                out[:, e.actor] |= (t >= e.start_s - hold_s) & (t < e.end_s + hold_s)
         return out
 
     def visible(self, t: float) -> np.ndarray:

@@ -240,6 +240,20 @@ def test_tracking_detector_searches_a_lost_face_again_for_a_while():
         before = blind["searches"]
         tracker.detect(frame)
     assert blind["searches"] - before == 3 - left  # only the faces still seen are searched
+    # boxes lost in images of another size are not searched in the new size
     base.scan = scan  # type: ignore[method-assign]
+    tracker.reset()
+    blind["frames"], blind["frame"] = {20}, 19
+    assert len(tracker.detect(frame)) == 3  # a whole scan
+    base.scan = lambda grey, job: np.zeros((0, 4))  # type: ignore[method-assign]
+    blind["frame"] = 20
+    assert len(tracker.detect(frame)) == 3 - left  # the left faces are lost again
+    base.scan = scan  # type: ignore[method-assign]
+    small = np.ascontiguousarray(frame[::2, ::2])
+    found = tracker.detect(small)  # a new size: a whole scan
+    blind["frame"] = 21
+    before = blind["searches"]
+    tracker.detect(small)
+    assert blind["searches"] - before == len(found)
     with pytest.raises(ValueError, match="lost_frames"):
         TrackingFaceDetector(lost_frames=-1)

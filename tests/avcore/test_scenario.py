@@ -53,6 +53,13 @@ def test_s2_people_count_in_turns_without_overlap():
     for t in times[::40]:
         np.testing.assert_array_equal(s.speaking(t), s.speaking_at([t])[0])
         assert s.truth(t).visible.all()
+    # held longer at both ends: speaking just before a number starts and just after it ends
+    first = speech[0]
+    edges = [first.start_s - 0.02, first.end_s + 0.02]
+    assert not s.speaking_at(edges)[:, first.actor].any()
+    assert s.speaking_at(edges, hold_s=0.025)[:, first.actor].all()
+    with pytest.raises(ValueError, match="hold_s"):
+        s.speaking_at(times, hold_s=-0.1)
 
 
 def test_s3_has_one_standing_person_higher_than_in_s2():
