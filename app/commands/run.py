@@ -26,15 +26,17 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--itd-method", default="gcc-phat-robust",
                    help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
                         "correlogram-robust")
-    p.add_argument("--save", type=Path, default=None, metavar="FILE.rrd", help="save the console's data to this file")
-    p.add_argument("--connect", nargs="?", const="", default=None, metavar="URL",
-                   help="send to a running Rerun viewer (default the local one)")
-    p.add_argument("--serve", action="store_true",
-                   help="host the web viewer (bound to 127.0.0.1 unless --bind says otherwise)")
+    where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
+    where.add_argument("--save", type=Path, default=None, metavar="FILE.rrd",
+                       help="save the console's data to this file")
+    where.add_argument("--connect", nargs="?", const="", default=None, metavar="URL",
+                       help="send to a running Rerun viewer (default the local one)")
+    where.add_argument("--serve", action="store_true",
+                       help="host the web viewer (bound to 127.0.0.1 unless --bind says otherwise)")
+    where.add_argument("--headless", action="store_true", help="no viewer and no file: only the summary")
     p.add_argument("--bind", default="127.0.0.1", help="address the web viewer's servers listen on")
     p.add_argument("--grpc-port", type=int, default=9876, help="port of the data server of --serve")
     p.add_argument("--web-port", type=int, default=9090, help="port of the web page of --serve")
-    p.add_argument("--headless", action="store_true", help="no viewer and no file: only the summary")
     p.add_argument("--stats-json", type=Path, default=None, metavar="FILE",
                    help="write the run's figures (fps, latency_ms_p95, drops, overflows) to this file at exit")
     p.add_argument("--fast", action="store_true", help="as fast as possible instead of in real time")

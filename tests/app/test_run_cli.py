@@ -55,6 +55,17 @@ def test_run_bad_sources(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> 
     assert main(["run", "--source", "tape", "--headless"]) == 2
 
 
+def test_one_place_for_the_console_data(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """--headless (no file) with --save used to drop the file silently: the targets now exclude each other."""
+    with pytest.raises(SystemExit) as stop:
+        main(["run", "--source", "sim:S1", "--headless", "--save", str(tmp_path / "x.rrd")])
+    assert stop.value.code == 2
+    assert "argument --save: not allowed with argument --headless" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["demo", "--serve", "--connect"])
+    assert not (tmp_path / "x.rrd").exists()
+
+
 def test_serve_binds_to_localhost(capsys: pytest.CaptureFixture[str]) -> None:
     """--serve hosts the web viewer with the rerun server bound to 127.0.0.1 (checked while it runs)."""
     import socket
