@@ -26,6 +26,7 @@ from typing import Any, Literal, Protocol
 
 import numpy as np
 
+from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
@@ -272,6 +273,8 @@ class Pipeline:
             self.stats.late_frames = int(getattr(self.source, "frames_dropped", 0))  # skipped by a real-time source
         if self._errors:
             name, exc = self._errors[0]
+            if isinstance(exc, UserError):  # a bad recording or device: the message says what to do
+                raise exc
             raise RuntimeError(f"the {name} thread failed: {exc}") from exc
         return self.stats
 
@@ -281,7 +284,8 @@ class Pipeline:
         except _Stop:
             pass
         except BaseException as exc:  # stored and re-raised by run() in the main thread
-            log.exception("%s thread failed", name)
+            if not isinstance(exc, UserError):  # a user's error is reported once, by whoever called run()
+                log.exception("%s thread failed", name)
             self._errors.append((name, exc))
             self._stop.set()
         finally:

@@ -8,6 +8,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from avcore.geometry import MicPair
@@ -215,6 +216,12 @@ def test_stop_is_quick_and_a_worker_error_reaches_the_caller() -> None:
 
     with pytest.raises(RuntimeError, match="fusion thread failed: disk full"):
         Pipeline(FakeSource(duration_s=1.0), PipelineConfig(), boom).run(duration_s=30)
+
+    def unfixable(result: FusionResult) -> None:  # a user's error (a corrupt recording) keeps its own message
+        raise UserError("left.avi: frame 3 cannot be decoded; re-encode it")
+
+    with pytest.raises(UserError, match="^left.avi: frame 3 cannot be decoded; re-encode it$"):
+        Pipeline(FakeSource(duration_s=1.0), PipelineConfig(), unfixable).run(duration_s=30)
 
 
 def test_motion_guided_variant_runs() -> None:

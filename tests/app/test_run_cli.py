@@ -46,6 +46,19 @@ def test_run_replays_a_recording(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert figures["results"] == 60 and figures["bad_frames"] == 0
 
 
+def test_a_video_truncated_mid_replay_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """The frame count in the AVI header still says 60, so the damage shows only at the first missing frame, in
+    the grabber thread: the user gets its message and status 2, not a thread's traceback."""
+    folder = tmp_path / "s1"
+    assert main(["simulate", "S1", "-o", str(folder), "--duration", "2"]) == 0
+    video = folder / "left.avi"
+    video.write_bytes(video.read_bytes()[: video.stat().st_size // 4])
+    capsys.readouterr()
+    assert main(["run", "--source", f"replay:{folder}", "--fast", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "left.avi: frame" in err and "cannot be decoded" in err and "Traceback" not in err
+
+
 def test_run_bad_sources(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     assert main(["run", "--source", "sim:S9", "--headless"]) == 2
     assert "unknown scenario" in capsys.readouterr().err
