@@ -33,6 +33,8 @@ Per interval of 0.4 s (a second, stricter view)
       detection associated with nobody was judged speaking (``fp_false_face``). TN: silent, detected silent.
       TP % = TP / (TP + FN), as in the paper's table. A speaking state that lasts into the pause after a number
       (the ITD window and the +-0.2 s time frame) costs an FP here whenever the pause covers most of an interval.
+      So the FP of people are split: ``fp_partly_spoken`` in intervals where the person speaks in some of the
+      frames (fewer than half), ``fp_wholly_silent`` where they say nothing in any frame.
     - Timing reference (``timing_reference``): the same counts for the truth itself, every face found and each
       spoken number held ``TIMING_REFERENCE_S`` (25 ms) longer at both ends. Its false alarms show how much of
       this view's FP measures timing, not detection: an interval in which speech fills a little under half of the
@@ -144,9 +146,10 @@ class SpeakingCounts(_Counts):
     tn: int = 0
     fn_missed_face: int = 0
     fp_false_face: int = 0
-    # FP in an interval next to one where the same person speaks: the speech smeared over the pause by the ITD
-    # window (W = 150 ms) and the fusion's time frame (+- 0.2 s, section 6)
-    fp_next_to_own_speech: int = 0
+    # FP in an interval in which the same person speaks in some of the frames, but fewer than half: the speech
+    # smeared over the pause by the ITD window (W = 150 ms) and the fusion's time frame (+- 0.2 s, section 6), a
+    # matter of timing; the rest of the FP (``fp_wholly_silent``) fall where the person says nothing at all
+    fp_partly_spoken: int = 0
     # FN in an interval where someone else speaks too (overlapping speech, S5)
     fn_overlap: int = 0
     # silent visible people during intervals in which an unseen person speaks (S4), and how many were judged speaking
@@ -160,6 +163,11 @@ class SpeakingCounts(_Counts):
         return (self.fp - self.fp_false_face) / n if n else math.nan
 
     @property
+    def fp_wholly_silent(self) -> int:
+        """FP of people who say nothing in any frame of the interval (no false face, not partly spoken)."""
+        return self.fp - self.fp_false_face - self.fp_partly_spoken
+
+    @property
     def unseen_fp_rate(self) -> float:
         """Share of silent visible people judged speaking while a person outside the view speaks."""
         n = self.silent_while_unseen_talks
@@ -167,7 +175,8 @@ class SpeakingCounts(_Counts):
 
     def as_dict(self) -> dict[str, Any]:
         d: dict[str, Any] = {name: getattr(self, name) for name in self.__dataclass_fields__}
-        d.update(tp_rate=_clean(self.tp_rate), fp_rate=_clean(self.fp_rate), unseen_fp_rate=_clean(self.unseen_fp_rate))
+        d.update(tp_rate=_clean(self.tp_rate), fp_rate=_clean(self.fp_rate), unseen_fp_rate=_clean(self.unseen_fp_rate),
+                 fp_wholly_silent=self.fp_wholly_silent)
         return d
 
 
@@ -433,6 +442,7 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
     half = frames_per[:, None] / 2
     visible = vis_votes > half
     speaking = speak_votes > half
+    spoke = speak_votes > 0  # in at least one frame
 
     # detections per interval: per person, frames found and frames judged speaking; false faces judged speaking
     found = np.zeros((n_intervals, n_people))
@@ -462,14 +472,14 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
             score.frames_all_found += int(all(g in hit for g in vis))
             score.f3d_errors_m += [float(e) for (g, _), e in zip(match.pairs, match.errors_m) if tr.visible[g]]
 
-    score.counts = _interval_counts(visible, speaking, found, judged, false_speaking, results_per)
+    score.counts = _interval_counts(visible, speaking, spoke, found, judged, false_speaking, results_per)
     # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends
     held = scenario.speaking_at(frame_stamps_s, hold_s=TIMING_REFERENCE_S)
     seen = np.array([tr.visible for tr in truths], dtype=bool).reshape(-1, n_people)
     ref_found, ref_judged = np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people))
     np.add.at(ref_found, frame_interval, seen)
     np.add.at(ref_judged, frame_interval, seen & held)
-    score.timing_reference = _interval_counts(visible, speaking, ref_found, ref_judged, np.zeros(n_intervals),
+    score.timing_reference = _interval_counts(visible, speaking, spoke, ref_found, ref_judged, np.zeros(n_intervals),
                                               frames_per)
 
     frame_period_s = float(np.median(np.diff(frame_stamps_s))) if len(frame_stamps_s) > 1 else 1 / 30
@@ -481,11 +491,12 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
     return score
 
 
-def _interval_counts(visible: np.ndarray, speaking: np.ndarray, found: np.ndarray, judged: np.ndarray,
-                     false_speaking: np.ndarray, results_per: np.ndarray) -> SpeakingCounts:
-    """Count per visible person and interval (see the module docstring). visible, speaking : (K, N) bool, the truth
-    per interval; found, judged : (K, N) results in which each person was found / judged speaking; false_speaking,
-    results_per : (K,) results with a face of nobody judged speaking / all results."""
+def _interval_counts(visible: np.ndarray, speaking: np.ndarray, spoke: np.ndarray, found: np.ndarray,
+                     judged: np.ndarray, false_speaking: np.ndarray, results_per: np.ndarray) -> SpeakingCounts:
+    """Count per visible person and interval (see the module docstring). visible, speaking, spoke : (K, N) bool,
+    the truth per interval (spoke: speaking in at least one frame); found, judged : (K, N) results in which each
+    person was found / judged speaking; false_speaking, results_per : (K,) results with a face of nobody judged
+    speaking / all results."""
     c = SpeakingCounts()
     unseen_talks = np.any(speaking & ~visible, axis=1)
     for k in range(visible.shape[0]):
@@ -502,7 +513,7 @@ def _interval_counts(visible: np.ndarray, speaking: np.ndarray, found: np.ndarra
             else:
                 c.fp += said
                 c.tn += not said
-                c.fp_next_to_own_speech += said and bool(speaking[max(k - 1, 0):k + 2, i].any())
+                c.fp_partly_spoken += said and bool(spoke[k, i])
                 if unseen_talks[k]:
                     c.silent_while_unseen_talks += 1
                     c.fp_while_unseen_talks += said

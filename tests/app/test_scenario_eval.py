@@ -122,6 +122,34 @@ def test_timing_reference_scores_the_truth_held_longer(monkeypatch: pytest.Monke
             assert r.fp == 0
 
 
+def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals() -> None:
+    """An FP falls either in an interval where the person speaks in some (fewer than half) of the frames, a matter
+    of timing, or in one where they say nothing at all; counted here independently of score_run."""
+    scenario = _scenario("S2")
+    speech = [e for e in scenario.events if e.kind == "speech"]
+
+    def held(tr: FrameTruth) -> np.ndarray:  # the truth held 0.2 s longer: false alarms from timing alone
+        return np.array([any(e.actor == i and e.start_s - 0.2 < tr.time_s < e.end_s + 0.2 for e in speech)
+                         for i in range(len(scenario.actors))])
+
+    for judge in (held, lambda tr: ~tr.speaking):
+        fused, stamps = _frames(scenario, judge)
+        c = _score(scenario, fused, stamps).counts
+        k = (stamps / INTERVAL_S + 1e-9).astype(int)
+        partly = wholly = 0
+        for interval in np.unique(k):
+            truths = [scenario.truth(float(t)) for t in stamps[k == interval]]
+            vis = np.mean([tr.visible for tr in truths], axis=0) > 0.5
+            share = np.mean([tr.speaking for tr in truths], axis=0)
+            said = np.mean([judge(tr) for tr in truths], axis=0) > 0.5
+            false_alarm = vis & (share <= 0.5) & said
+            partly += int(np.sum(false_alarm & (share > 0)))
+            wholly += int(np.sum(false_alarm & (share == 0)))
+        assert partly > 0 and wholly + partly == c.fp
+        assert (c.fp_partly_spoken, c.fp_wholly_silent) == (partly, wholly)
+        assert c.as_dict()["fp_wholly_silent"] == wholly
+
+
 def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap() -> None:
     scenario = _scenario("S5", duration_s=15.0)
     fused, stamps = _frames(scenario, lambda tr: np.zeros_like(tr.speaking))  # nobody ever judged speaking
@@ -186,6 +214,7 @@ def test_eval_scenarios_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert "Per spoken number" in out and "Front end per scenario" in out and "Targets (issue 5)" in out
     assert "truth held +-25 ms" in out  # the per-interval timing reference row
     assert "per interval      S1:" in out and "; truth held +-25 ms: " in out  # and beside the per-interval target
+    assert "FP partly spoken" in out and "FP wholly silent" in out and "; FP/spk wholly silent: " in out
 
 
 def test_eval_scenarios_motion_guided(capsys: pytest.CaptureFixture[str]) -> None:
