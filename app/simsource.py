@@ -52,6 +52,7 @@ from avcore.scenario import (
     make_scenario,
     normalise_clip,
     synthetic_clip_bank,
+    trim_quiet_ends,
 )
 from avcore.stereo import StereoRig
 
@@ -231,8 +232,9 @@ def _sleep_until(deadline: float) -> None:
 def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = None, n_voices: int = 3,
                    seed: int = 0) -> ClipBank:
     """The spoken digits of ``data_dir/speech/digits`` grouped by speaker (``{digit}_{speaker}_N.wav``), one voice
-    per speaker with its ten digits; :func:`avcore.scenario.synthetic_clip_bank` when the folder is absent or
-    incomplete. ``data_dir`` defaults to ``../shared/data``."""
+    per speaker with its ten digits, each cut to its audible part (:func:`avcore.scenario.trim_quiet_ends`: the
+    truth's speaking states follow the clips); :func:`avcore.scenario.synthetic_clip_bank` when the folder is absent
+    or incomplete. ``data_dir`` defaults to ``../shared/data``."""
     root = DEFAULT_DATA_DIR if data_dir is None else Path(data_dir)
     folder = root / "speech" / "digits"
     names = sorted(p.name for p in folder.glob("*.wav")) if folder.is_dir() else []
@@ -245,7 +247,8 @@ def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = Non
                 by_speaker.setdefault(parts[1], {}).setdefault(int(parts[0]), clip)
         complete = [s for s in sorted(by_speaker) if sorted(by_speaker[s]) == list(range(10))]
         if complete:
-            voices = tuple(tuple(normalise_clip(by_speaker[s][d]) for d in range(10)) for s in complete)
+            voices = tuple(tuple(normalise_clip(trim_quiet_ends(by_speaker[s][d], samplerate_hz)) for d in range(10))
+                           for s in complete)
             return ClipBank(samplerate_hz, voices, "digits", tuple(complete))
     log.info("no spoken digits under %s: synthetic voiced clips instead", folder)
     return synthetic_clip_bank(samplerate_hz, n_voices=n_voices, seed=seed)

@@ -13,6 +13,7 @@ from avcore.scenario import (
     SoundEvent,
     make_scenario,
     synthetic_clip_bank,
+    trim_quiet_ends,
 )
 
 DURATIONS = synthetic_clip_bank(16000, n_voices=3, seed=0).durations_s
@@ -151,3 +152,19 @@ def test_bad_arguments_are_named():
         make_scenario("S1", clip_durations_s=DURATIONS, duration_s=0.1)
     with pytest.raises(ValueError, match="names actor 3"):
         Scenario("x", "", 5.0, 0, (Actor("a", Path3D.still((0, 0, 1)), 0, 0),), (SoundEvent(3, "speech", 0, 1),))
+
+
+def test_trim_quiet_ends_cuts_only_what_is_30_db_under_the_loudest_frame() -> None:
+    fs = 16000
+    rng = np.random.default_rng(0)
+    word = np.sin(2 * np.pi * 200 * np.arange(4000) / fs)  # 0.25 s, power 0.5
+    faint = 10 ** (-40 / 20) * rng.standard_normal(3200)  # 0.2 s at -37 dB re the word (a fricative left at 8 kHz)
+    weak = 10 ** (-20 / 20) * rng.standard_normal(1600)  # 0.1 s at -17 dB: kept
+    out = trim_quiet_ends(np.concatenate([faint, word, faint]), fs)
+    assert out.size == word.size and np.array_equal(out, word)
+    kept = np.concatenate([faint, weak, word, faint[:800]])
+    out = trim_quiet_ends(kept, fs)
+    assert out.size == weak.size + word.size and np.array_equal(out[:10], weak[:10])
+    assert np.array_equal(trim_quiet_ends(word, fs), word)  # nothing quiet: unchanged
+    assert trim_quiet_ends(np.zeros(100), fs).size == 100  # digital silence or shorter than a frame: unchanged
+    assert trim_quiet_ends(np.ones(50), fs).size == 50
