@@ -336,10 +336,10 @@ class FaceGuidedParams:
         each speaking state into the pauses around it; None (the default): the paper's way. Measured on the
         simulated scenarios (``avhear eval scenarios --seed 0 1 2 [--decision-window 0.1]``, per 0.4 s interval,
         with the frames' and bands' looks and the vote), it trades misses for false alarms rather than removing
-        either: at 0.1 s the false speaking intervals per spoken one fall from 0.65 / 0.85 / 0.60 / 0.50 / 0.91
-        (S1-S5) to 0.12 / 0.18 / 0.24 / 0.18 / 0.36, and TP from 100 / 98 / 97 / 98 / 93 % to 97 / 90 / 89 / 93 /
-        80 %; per spoken number S5 falls from 94.3 to 92.1 % (the digits cut to their audible part,
-        :func:`avcore.scenario.trim_quiet_ends`).
+        either: at 0.1 s the false speaking intervals per spoken one fall from 0.82 / 0.75 / 0.86 / 0.94 / 0.84
+        (S1-S5) to 0.25 / 0.23 / 0.28 / 0.28 / 0.39, and TP from 98 / 97 / 100 / 100 / 92 % to 97 / 90 / 88 / 100 /
+        80 %; per spoken number S5 falls from 97.2 to 93.8 % (seeds 0-2, with the digits cut to their audible part
+        and the voices drawn with the seed).
     """
 
     sigma2_init_s2: float = 1e-9

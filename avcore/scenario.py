@@ -513,7 +513,7 @@ def make_scenario(name: str, *, clip_durations_s: Sequence[Sequence[float]], dur
 
     clip_durations_s : ``ClipBank.durations_s`` of the clips the audio will be made of; the speech timeline is laid
     out with them so that utterances never overlap their own speaker's next one.
-    seed : the same seed and durations give the same scenario (timeline, faces, paths).
+    seed : the same seed and durations give the same scenario (timeline, faces, voices, paths).
     """
     if name not in PRESETS:
         raise ValueError(f"unknown scenario {name!r}; choose one of {', '.join(PRESETS)}")
@@ -523,17 +523,20 @@ def make_scenario(name: str, *, clip_durations_s: Sequence[Sequence[float]], dur
         raise ValueError(f"duration_s must be between 1 and 3600 seconds, got {duration_s!r}")
     rng = np.random.default_rng([seed, PRESETS.index(name)])
     faces = [int(f) for f in rng.permutation(1000)[:3]]
+    # the voices too change with the seed (a stream of their own, so the rest of the draws stay as they were)
+    order = np.random.default_rng([seed, PRESETS.index(name), 1]).permutation(len(durations))
+    voices = [int(order[i % order.size]) for i in range(3)]
     rig = default_rig()
     room = default_acoustic_room(rt60_s)
     seated = [(-0.75, -0.15, 1.9), (0.0, -0.1, 2.4), (0.8, -0.15, 2.0)]
 
     def actor(i: int, path: Path3D, posture: str = "seated") -> Actor:
-        return Actor(f"person{i}", path, voice=i, face=faces[i], shirt_bgr=_SHIRTS[i], posture=posture)
+        return Actor(f"person{i}", path, voice=voices[i], face=faces[i], shirt_bgr=_SHIRTS[i], posture=posture)
 
     events: list[SoundEvent] = []
     if name == "S1":
         actors = [actor(0, Path3D.still((0.05, -0.15, 1.4)))]
-        events = _counting([0], [0], durations, rng, dur, (0.3, 0.7))
+        events = _counting([0], voices[:1], durations, rng, dur, (0.3, 0.7))
     elif name in ("S2", "S3", "S4"):
         positions = list(seated)
         postures = ["seated"] * 3
@@ -543,13 +546,13 @@ def make_scenario(name: str, *, clip_durations_s: Sequence[Sequence[float]], dur
         if name == "S4":
             positions[0] = (-1.6, -0.15, 1.2)  # 53 degrees to the left: outside the 60-degree view
         actors = [actor(i, Path3D.still(p), s) for i, (p, s) in enumerate(zip(positions, postures))]
-        events = _counting([0, 1, 2], [0, 1, 2], durations, rng, dur, (0.25, 0.6))
+        events = _counting([0, 1, 2], voices, durations, rng, dur, (0.25, 0.6))
     elif name == "S5":
         walker = _walk((-1.0, 1.0), -0.6, 3.0, 0.5, dur, t0=float(rng.uniform(0.0, 1.0)))
         actors = [actor(0, Path3D.still((-0.8, -0.15, 1.9))), actor(1, walker, "walking"),
                   actor(2, Path3D.still((0.85, -0.15, 2.0)))]
         for i in range(3):
-            events += _independent(i, i, durations, rng, dur)
+            events += _independent(i, voices[i], durations, rng, dur)
         events += _claps(3, rng, dur)
     else:  # calibration
         actors = [Actor("person0", _zigzag(rig, dur, rng), voice=0, face=faces[0], shirt_bgr=_SHIRTS[0],

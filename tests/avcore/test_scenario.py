@@ -168,3 +168,18 @@ def test_trim_quiet_ends_cuts_only_what_is_30_db_under_the_loudest_frame() -> No
     assert np.array_equal(trim_quiet_ends(word, fs), word)  # nothing quiet: unchanged
     assert trim_quiet_ends(np.zeros(100), fs).size == 100  # digital silence or shorter than a frame: unchanged
     assert trim_quiet_ends(np.ones(50), fs).size == 50
+
+
+def test_the_voices_change_with_the_seed_and_stay_for_a_seed() -> None:
+    six = synthetic_clip_bank(16000, n_voices=6, seed=0).durations_s
+    casts = {tuple(a.voice for a in make_scenario("S2", clip_durations_s=six, seed=s).actors) for s in range(8)}
+    assert len(casts) > 3 and all(len(set(c)) == 3 and max(c) < 6 for c in casts)  # three different people each
+    again = make_scenario("S5", clip_durations_s=six, seed=4)
+    same = make_scenario("S5", clip_durations_s=six, seed=4)
+    assert [a.voice for a in again.actors] == [a.voice for a in same.actors]
+    # each speech event is as long as its speaker's clip
+    for e in again.events:
+        if e.kind == "speech":
+            assert e.end_s - e.start_s == pytest.approx(six[again.actors[e.actor].voice][e.clip])
+    one = synthetic_clip_bank(16000, n_voices=1, seed=0).durations_s  # fewer voices than people: they share
+    assert {a.voice for a in make_scenario("S2", clip_durations_s=one, seed=1).actors} == {0}
