@@ -223,17 +223,18 @@ def trim_quiet_ends(x: np.ndarray, samplerate_hz: float, below_db: float = 30.0,
     The spoken digits are recorded at 8 kHz, which keeps little of a fricative's energy (mostly above 4 kHz): the
     /s/ of a "six" or "seven" is left as a lead-in 30-40 dB under the vowel, up to 0.3 s long (and the /ks/ of "six"
     as a tail). Played into the room from the presets' 1.4-3.2 m, that lies at or under the robot's fan at the
-    microphones (the loudest frames of the speech reach 27-31 dB above the fan's floor: S1, S2 and S5, seed 0), so no
-    listener and no method could hear it, yet the truth would call it speech. The clip, and with it the truth's
-    speaking state, runs from the first to the last frame within ``below_db`` of the loudest.
+    microphones (the loudest frames of the speech reach 27-31 dB above the fan's floor in S1, S2 and S5, seed 0: a
+    throwaway measurement of 32 ms frames), so no listener and no method could hear it, yet the truth would call it
+    speech. The clip, and with it the truth's speaking state, runs from the first to the last whole frame within
+    ``below_db`` of the loudest (a clip shorter than one frame is returned as it is).
     """
     n = max(int(round(frame_s * samplerate_hz)), 1)
     frames = x[: x.size // n * n].reshape(-1, n)
     if frames.shape[0] == 0:
         return x
     power = np.mean(frames**2, axis=1)
-    loud = np.flatnonzero(power >= power.max() * 10.0 ** (-below_db / 10.0))
-    return x[loud[0] * n: min((loud[-1] + 1) * n, x.size)] if loud.size else x
+    loud = np.flatnonzero(power >= power.max() * 10.0 ** (-below_db / 10.0))  # never empty: the loudest is in it
+    return x[loud[0] * n:(loud[-1] + 1) * n]
 
 
 def normalise_clip(x: np.ndarray) -> np.ndarray:
