@@ -13,6 +13,7 @@ from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.live import LiveConfig
 from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.results import ResultsWriter
 from app.sources import open_source
 from app.viewer import ViewerSession, ViewerTarget, display_available
 
@@ -40,6 +41,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--stats-json", type=Path, default=None, metavar="FILE",
                    help="write the run's figures (fps, latency_ms_p95, drops, overflows) to this file at exit")
     p.add_argument("--fast", action="store_true", help="as fast as possible instead of in real time")
+    p.add_argument("--results-jsonl", type=Path, default=None, metavar="FILE",
+                   help="write every fused result to FILE as one JSON line, as it is produced (schema: README)")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -109,12 +112,15 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                          rig_path=getattr(args, "rig", None), live=live,
                          progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
     config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)
+    results = ResultsWriter(args.results_jsonl) if args.results_jsonl is not None else None
     session = ViewerSession(target)
     rec = session.recording
     console = Console(source.rig, source.mics, recording=rec) if rec is not None else None
     pipeline: Pipeline | None = None
 
     def on_result(result: FusionResult) -> None:
+        if results is not None:
+            results.write(result)
         if console is None:
             return
         assert pipeline is not None
@@ -146,6 +152,8 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         session.close(keep_serving=False)
         raise
     finally:
+        if results is not None:
+            results.close()
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
     summary: dict[str, Any] = stats.as_dict()

@@ -1,0 +1,100 @@
+"""The results file: every fused result as one JSON line (``--results-jsonl FILE``), the headless log that tests and
+other programs read, and the payload the bus publishes on ``avhear/results``.
+
+Schema of one line (one fused result; fields may be added, never renamed):
+
+```
+{"stamp_s": float,            # capture time of the vision result, seconds on the source's clock
+ "index": int,                # frame number of the (middle) left image
+ "mode": "face" | "motion",   # Algorithm 2 (faces) or Algorithm 1 (HM3D points)
+ "n_itds": int,               # ITDs in its time frame
+ "latency_s": float | null,   # result time minus capture stamp (null for a replay as fast as possible)
+ "people": [{"id": int,                 # stable while the person is tracked
+             "position_m": [x, y, z],   # scene frame (DESIGN.md: x right, y down, z forward), metres
+             "speaking": bool,
+             "probability": float,      # in [0, 1], above 0.5 exactly when speaking
+             "itd_mean_s": float,       # the person's mean in ITD space
+             "box_px": [x, y, w, h]     # face-guided only: the face box in the left image, pixels
+            }, ...]}
+```
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from app.errors import UserError
+
+__all__ = ["ResultsWriter", "result_record"]
+
+
+def _num(x: Any) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def result_record(result: Any) -> dict[str, Any]:
+    """One :class:`app.pipeline.FusionResult` as the JSON-ready dict of the module's schema."""
+    out = result.output
+    face = result.boxes is not None
+    positions = np.asarray(result.xyz if face else out.positions, dtype=float).reshape(-1, 3)
+    people = []
+    for n, pid in enumerate(np.asarray(result.person_ids).ravel()):
+        person: dict[str, Any] = {
+            "id": int(pid),
+            "position_m": [round(float(v), 4) for v in positions[n]],
+            "speaking": bool(out.speaking[n]),
+            "probability": round(float(out.probability[n]), 4),
+            "itd_mean_s": _num(out.itd_means[n]),
+        }
+        if face:
+            person["box_px"] = [int(v) for v in np.asarray(result.boxes[n]).ravel()[:4]]
+        people.append(person)
+    return {
+        "stamp_s": round(float(result.stamp_s), 6),
+        "index": int(result.index),
+        "mode": "face" if face else "motion",
+        "n_itds": int(np.asarray(result.itds_s).size),
+        "latency_s": _num(result.latency_s),
+        "people": people,
+    }
+
+
+class ResultsWriter:
+    """Writes results to a JSON-lines file as they come, one flushed line each, so that any stop keeps them.
+
+    The file is opened (parent folders created) at construction, before the run, so that an unwritable path is a
+    :class:`UserError` at once rather than after the work.
+    """
+
+    def __init__(self, path: Path | str) -> None:
+        self.path = Path(path)
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file: IO[str] | None = self.path.open("w", encoding="utf-8")
+        except OSError as exc:
+            raise UserError(f"cannot write the results file {self.path}: {exc.strerror or exc}; "
+                            "choose another --results-jsonl path") from exc
+        self.written = 0
+
+    def write(self, result: Any) -> None:
+        if self._file is None:
+            raise ValueError(f"the results file {self.path} is closed")
+        self._file.write(json.dumps(result_record(result), separators=(",", ":")) + "\n")
+        self._file.flush()
+        self.written += 1
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+    def __enter__(self) -> ResultsWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,49 @@
+"""`--results-jsonl`: every fused result as one JSON line, in the README's schema, kept however the run stops."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from app.cli import main
+
+
+def _lines(path: Path) -> list[dict]:
+    return [json.loads(line) for line in path.read_text().splitlines()]
+
+
+def test_demo_writes_one_line_per_result(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out, stats = tmp_path / "deep" / "results.jsonl", tmp_path / "stats.json"
+    assert main(["demo", "--duration", "2", "--fast", "--headless", "--results-jsonl", str(out),
+                 "--stats-json", str(stats)]) == 0
+    rows = _lines(out)
+    assert len(rows) == json.loads(stats.read_text())["results"] > 40
+    stamps = [r["stamp_s"] for r in rows]
+    assert stamps == sorted(stamps)
+    assert {r["mode"] for r in rows} == {"face"}
+    people = [p for r in rows for p in r["people"]]
+    assert people, "the simulated room has people in view"
+    for p in people:
+        assert set(p) >= {"id", "position_m", "speaking", "probability", "itd_mean_s", "box_px"}
+        assert len(p["position_m"]) == 3 and 0.5 < p["position_m"][2] < 6  # in front of the rig, metres
+        assert 0.0 <= p["probability"] <= 1.0 and (p["probability"] > 0.5) == p["speaking"]
+    assert any(p["speaking"] for p in people) and not all(p["speaking"] for p in people)
+    assert sum(r["n_itds"] for r in rows) > 0
+
+
+def test_motion_guided_results_have_positions(tmp_path: Path) -> None:
+    out = tmp_path / "results.jsonl"
+    assert main(["demo", "--duration", "2", "--fast", "--headless", "--motion", "--results-jsonl", str(out)]) == 0
+    rows = _lines(out)
+    assert rows and {r["mode"] for r in rows} == {"motion"}
+    assert all("box_px" not in p for r in rows for p in r["people"])
+
+
+def test_an_unwritable_results_path_fails_before_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    assert main(["demo", "--duration", "2", "--fast", "--headless", "--results-jsonl", str(blocker / "r.jsonl")]) == 2
+    captured = capsys.readouterr()
+    assert "results file" in captured.err and "Traceback" not in captured.err
+    assert "results in" not in captured.out  # refused before the work, not after it
