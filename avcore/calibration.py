@@ -64,13 +64,7 @@ The fitted correction c1, c0 absorbs what the room and the ITD extractor do to t
 must meet the extractor as speech does. The default extractor (``gcc-phat-robust``) weights onsets, where the direct
 sound leads its reflections (precedence): speech is all onsets, continuous noise has none, and continuous noise's
 ITDs are pulled further towards zero by the reflections. Bursts of syllable length at a syllable rate give the
-extractor onsets as speech does. Measured with ``avhear eval scenarios --seed 0 1 2`` (which first fits c1, c0
-on the ``calibration`` preset, seed 0) with the extractor of commit 237d553, and with ``--scenario S5`` on the
-same code with the preset's noise put back as one continuous event (as before it): continuous noise gives c1 = 0.704,
-the bursts c1 = 0.811. With the bursts the talkers to the side are no longer pulled towards zero (S5's median
-pull: -14.1 -> -0.1 us), S5's TP per 0.4 s interval rises from 74.7 to 78.8 %, its false speaking stretches fall
-from 13 to 9 per 138 spoken numbers, and its TP per spoken number falls from 88.4 to 86.2 % (3 numbers, all in
-overlapping speech). With the bursts S1-S4 are at 100 % per spoken number.
+extractor onsets as speech does (measured: docs/experiments.md, "The calibration signal").
 """
 
 

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avcore._packed_em import Packed, run_em, run_fusion
+from avcore._packed_em import _Z2_CLIP, Packed, run_em, run_fusion
 from avcore._validate import as_samples
 
 __all__ = [
@@ -51,7 +51,6 @@ __all__ = [
 ]
 
 US = 1e6  # internal unit: microseconds per second
-_Z2_CLIP = 1400.0  # exp(-700) ~ 1e-304: Gaussian kernels never underflow to exactly zero
 
 
 class ConvergenceWarning(UserWarning):
