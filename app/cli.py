@@ -8,10 +8,16 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 from collections.abc import Sequence
 
 from app.errors import UserError
+
+# OpenCV and its FFmpeg back-end print their own warnings (a camera index that does not exist, a codec's notes) to the
+# terminal; the command line reports what matters itself. Set before anything imports cv2; a user's setting wins.
+os.environ.setdefault("OPENCV_LOG_LEVEL", "ERROR")
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
 
 COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.eval",
@@ -36,6 +42,22 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; returns its exit status: 0, 2 for a user's mistake (one line, no traceback), 130 when
+    interrupted. Called as the console script (``argv`` None), it ends the process itself when a Rerun viewer
+    stopped answering, since Rerun would then block the interpreter's exit for ever."""
+    try:
+        status = _main(argv)
+    except KeyboardInterrupt:  # also while the command modules are still being imported
+        print("avhear: interrupted", file=sys.stderr)
+        status = 130
+    if argv is None and "app.viewer" in sys.modules and sys.modules["app.viewer"].viewer_abandoned():
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    return status
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     level = logging.WARNING - 10 * min(args.verbose, 2)
@@ -45,9 +67,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UserError as exc:
         print(f"avhear: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("avhear: interrupted", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

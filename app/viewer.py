@@ -13,7 +13,9 @@ import socket
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,7 +24,8 @@ import rerun as rr
 from app.errors import UserError
 from layouts.blueprint import APPLICATION_ID, default_blueprint
 
-__all__ = ["ViewerSession", "ViewerTarget", "display_available", "rerun_executable"]
+__all__ = ["ViewerSession", "ViewerTarget", "check_viewer", "display_available", "rerun_executable",
+           "viewer_abandoned"]
 
 
 def rerun_executable() -> str | None:
@@ -74,15 +77,24 @@ def stop_process_group(proc: subprocess.Popen, timeout_s: float = 3.0) -> None:
             os.killpg(proc.pid, sig)
         except ProcessLookupError:  # the whole group is gone
             break
-        try:
-            proc.wait(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            continue
-        try:
-            os.killpg(proc.pid, 0)  # a child that outlived the launcher?
-        except ProcessLookupError:
+        if _group_gone(proc, timeout_s):
             break
     proc.wait(timeout=timeout_s)
+
+
+def _group_gone(proc: subprocess.Popen, timeout_s: float) -> bool:
+    """Wait until no process of ``proc``'s group is left (the launcher reaped here, its children by their new
+    parent), at most ``timeout_s``. Waiting for the launcher alone returns while the viewer binary still exits."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        proc.poll()  # reap the launcher, our child, so that it leaves the group
+        try:
+            os.killpg(proc.pid, 0)
+        except ProcessLookupError:
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(0.02)
 
 
 def _wait_for_port(host: str, port: int, timeout_s: float) -> bool:
@@ -95,6 +107,53 @@ def _wait_for_port(host: str, port: int, timeout_s: float) -> bool:
                 return True
         time.sleep(0.1)
     return False
+
+
+DEFAULT_VIEWER_URL = "rerun+http://127.0.0.1:9876/proxy"
+_ABANDONED: list[rr.RecordingStream] = []  # streams whose viewer stopped answering, never dropped
+FLUSH_TIMEOUT_S = 5.0  # at most this long to hand the last data to a viewer or file at the end of a run
+
+
+def check_viewer(url: str) -> None:
+    """Raise :class:`UserError` unless something accepts connections at the viewer ``url`` (``rerun+http://host:port
+    /proxy``; "" for the default local viewer). Rerun's own connect never fails: with nobody listening it buffers
+    until the end of the run and then waits for ever to flush."""
+    from urllib.parse import urlsplit
+
+    url = url or DEFAULT_VIEWER_URL
+    parts = urlsplit(url)
+    if not parts.scheme.startswith("rerun") or not parts.hostname:
+        raise UserError(f"--connect {url!r} is not a Rerun viewer URL: use rerun+http://HOST:PORT/proxy "
+                        f"(default {DEFAULT_VIEWER_URL})")
+    try:
+        port = parts.port or 9876
+    except ValueError as exc:
+        raise UserError(f"--connect {url!r}: {exc}") from exc
+    if not _wait_for_port(parts.hostname, port, 1.0):
+        raise UserError(f"no Rerun viewer at {url}: start one with `rerun`, or use --save FILE.rrd")
+
+
+def viewer_abandoned() -> bool:
+    """Whether a viewer stopped answering during this process: Rerun then blocks any later call, and its exit hook,
+    for ever, so the command line ends the process at once (:func:`app.cli.main`)."""
+    return bool(_ABANDONED)
+
+
+def _bounded(fn: Callable[[], object], timeout_s: float) -> bool:
+    """Run ``fn`` in a daemon thread; whether it returned without an error within ``timeout_s``."""
+    ok: list[bool] = []
+
+    def call() -> None:
+        try:
+            fn()
+            ok.append(True)
+        except Exception:  # noqa: BLE001 - rerun raises its own error type on a flush timeout
+            pass
+
+    worker = threading.Thread(target=call, name="avhear-viewer-flush", daemon=True)
+    worker.start()
+    worker.join(timeout_s)
+    return bool(ok)
 
 
 class ViewerSession:
@@ -119,6 +178,7 @@ class ViewerSession:
             rec.save(str(target.save), default_blueprint=blueprint)
             self.parts.append(target.save)
         elif target.connect is not None:
+            check_viewer(target.connect)
             rec.connect_grpc(target.connect or None, default_blueprint=blueprint)
         elif target.serve:
             rec.connect_grpc(self._start_server(), default_blueprint=blueprint)
@@ -177,7 +237,7 @@ class ViewerSession:
     def close(self, *, keep_serving: bool = True) -> None:
         """Flush and disconnect; with a web viewer, serve until Ctrl-C (unless ``keep_serving`` is False)."""
         if self.recording is not None:
-            self.recording.flush()
+            flushed = _bounded(lambda: self.recording.flush(timeout_sec=FLUSH_TIMEOUT_S), FLUSH_TIMEOUT_S + 1)
             if self.server is not None and keep_serving:
                 print(f"avhear: the web viewer is at {self.web_url} ... Ctrl-C stops it", file=sys.stderr,
                       flush=True)
@@ -186,6 +246,12 @@ class ViewerSession:
                         time.sleep(0.5)
                 except KeyboardInterrupt:
                     pass
-            self.recording.disconnect()
+            if not (flushed and _bounded(self.recording.disconnect, FLUSH_TIMEOUT_S)):
+                # Rerun's gRPC client waits for ever for a viewer that stopped answering, in disconnect and again
+                # in its exit hook: give up on the last data rather than hang the user's terminal
+                print(f"avhear: warning: the viewer did not take the last data within {FLUSH_TIMEOUT_S:.0f} s; "
+                      "some of it may be missing", file=sys.stderr, flush=True)
+                rr.unregister_shutdown()
+                _ABANDONED.append(self.recording)  # dropping the stream would wait for the viewer too
             self.recording = None
         self._stop_server()

@@ -12,32 +12,35 @@ from typing import Any
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.live import LiveConfig
+from app.options import MAX_SIMULATED_S, count, duration, port
+from app.paths import output_file
 from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from app.results import ResultsWriter
 from app.sources import open_source
-from app.viewer import ViewerSession, ViewerTarget, display_available
+from app.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
+from avcore.itd import METHODS as ITD_METHODS
+from avcore.scenario import PRESETS
 
 DEMO_RRD = Path("recordings/demo.rrd")
 
 
-def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--duration", type=float, default=None, metavar="SECONDS",
-                   help="stop after this much stream time (default: the whole source)")
+def _common(p: argparse.ArgumentParser, *, duration_help: str) -> None:
+    p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS", help=duration_help)
     p.add_argument("--motion", action="store_true", help="motion-guided inference (HM3D points, Algorithm 1)")
-    p.add_argument("--itd-method", default="gcc-phat-robust",
+    p.add_argument("--itd-method", default="gcc-phat-robust", choices=sorted(ITD_METHODS),
                    help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
                         "correlogram-robust")
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
     where.add_argument("--save", type=Path, default=None, metavar="FILE.rrd",
                        help="save the console's data to this file")
     where.add_argument("--connect", nargs="?", const="", default=None, metavar="URL",
-                       help="send to a running Rerun viewer (default the local one)")
+                       help="send to a running Rerun viewer (default the local one, rerun+http://127.0.0.1:9876/proxy)")
     where.add_argument("--serve", action="store_true",
                        help="host the web viewer (bound to 127.0.0.1 unless --bind says otherwise)")
     where.add_argument("--headless", action="store_true", help="no viewer and no file: only the summary")
     p.add_argument("--bind", default="127.0.0.1", help="address the web viewer's servers listen on")
-    p.add_argument("--grpc-port", type=int, default=9876, help="port of the data server of --serve")
-    p.add_argument("--web-port", type=int, default=9090, help="port of the web page of --serve")
+    p.add_argument("--grpc-port", type=port, default=9876, help="port of the data server of --serve")
+    p.add_argument("--web-port", type=port, default=9090, help="port of the web page of --serve")
     p.add_argument("--stats-json", type=Path, default=None, metavar="FILE",
                    help="write the run's figures (fps, latency_ms_p95, drops, overflows) to this file at exit")
     p.add_argument("--fast", action="store_true", help="as fast as possible instead of in real time")
@@ -50,22 +53,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                           description="Runs the simulated room (three people counting in turns, scenario S2 by "
                           "default) through the real pipeline and shows it in the Rerun viewer; without a display "
                           f"it saves {DEMO_RRD} and says how to open it.")
-    demo.add_argument("--scenario", default="S2", help="S1..S5 or calibration (default S2)")
-    demo.add_argument("--seed", type=int, default=0)
-    _common(demo)
+    demo.add_argument("--scenario", default="S2", choices=PRESETS, help="S1..S5 or calibration (default S2)")
+    demo.add_argument("--seed", type=count(0), default=0, help="seed of the simulated room")
+    _common(demo, duration_help=f"seconds of the simulated room to run (default 20, at most {MAX_SIMULATED_S:g})")
     demo.set_defaults(func=run_demo, duration=20.0)
     run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER or live")
     run.add_argument("--source", default="sim:S2", help="sim:S1..S5|calibration, replay:FOLDER or live")
-    run.add_argument("--seed", type=int, default=0, help="seed of a simulated source")
+    run.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
     run.add_argument("--rig", default=None, help="rig YAML of a live source (stereo + microphones)")
     run.add_argument("--cameras", nargs="+", default=["0", "1"],
                      help="live: two camera indices/paths, or one with --side-by-side")
     run.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
     run.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
-    run.add_argument("--audio-channels", type=int, default=2, help="live: channels of the input stream")
-    run.add_argument("--mic-channels", type=int, nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"),
+    run.add_argument("--audio-channels", type=count(1, 64), default=2, help="live: channels of the input stream")
+    run.add_argument("--mic-channels", type=count(0, 63), nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"),
                      help="live: the left and right microphone channels (0-based)")
-    _common(run)
+    _common(run, duration_help="stop after this many seconds of stream (default: the whole source; a live source "
+                               "until Ctrl-C)")
     run.set_defaults(func=run_source)
 
 
@@ -106,13 +110,40 @@ def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
     return ViewerTarget(save=DEMO_RRD if demo else Path("recordings/run.rrd"))
 
 
+def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) -> None:
+    """Everything the run will write or reach, checked before the (possibly long) preparation and run."""
+    if spec.startswith("sim:") and args.duration is not None and args.duration > MAX_SIMULATED_S:
+        raise UserError(f"--duration {args.duration:g}: the simulated room runs at most {MAX_SIMULATED_S:g} s "
+                        "(it renders the whole scenario's audio in memory); for longer runs, repeat or use a recording")
+    if target.save is not None:
+        output_file(target.save, "--save")
+    if args.stats_json is not None:
+        output_file(args.stats_json, "--stats-json")
+    if target.connect is not None:
+        check_viewer(target.connect)
+
+
 def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None = None) -> int:
+    _check_outputs(spec, args, target)
+    results = ResultsWriter(args.results_jsonl) if args.results_jsonl is not None else None
+    try:
+        return _run_checked(spec, args, target, live, results)
+    finally:
+        if results is not None:
+            results.close()
+
+
+def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None,
+                 results: ResultsWriter | None) -> int:
     print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
     source = open_source(spec, realtime=not args.fast, duration_s=args.duration, seed=getattr(args, "seed", 0),
                          rig_path=getattr(args, "rig", None), live=live,
                          progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+    meta = getattr(getattr(source, "stream", None), "meta", None)
+    if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
+        print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
+              f"{meta.get('speech')} speech", file=sys.stderr, flush=True)
     config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)
-    results = ResultsWriter(args.results_jsonl) if args.results_jsonl is not None else None
     session = ViewerSession(target)
     rec = session.recording
     console = Console(source.rig, source.mics, recording=rec) if rec is not None else None
@@ -141,32 +172,44 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         console.log(frame)
 
     pipeline = Pipeline(source, config, on_result)
+    terminated = threading.Event()
+
+    def on_sigterm(*_: object) -> None:
+        terminated.set()
+        pipeline.stop()
+
     previous = signal.getsignal(signal.SIGTERM)
     if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda *_: pipeline.stop())
+        signal.signal(signal.SIGTERM, on_sigterm)
     print(f"avhear: running {spec} ({config.inference}-guided) ... Ctrl-C stops", file=sys.stderr, flush=True)
     try:
         # a simulated source is as long as asked; a live one runs for --duration of wall time
         stats = pipeline.run(duration_s=args.duration if live is not None else None)
     except BaseException:
         session.close(keep_serving=False)
+        if results is not None:
+            print(f"avhear: {results.written} results kept in {results.path}", file=sys.stderr, flush=True)
         raise
     finally:
-        if results is not None:
-            results.close()
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
+    stats.interrupted = stats.interrupted or terminated.is_set()
     summary: dict[str, Any] = stats.as_dict()
     print(f"avhear: {stats.summary()}")
     if args.stats_json is not None:
-        args.stats_json.parent.mkdir(parents=True, exist_ok=True)
         args.stats_json.write_text(json.dumps(summary, indent=2))
+    if results is not None:
+        print(f"avhear: {results.written} results in {results.path}")
     if len(session.parts) > 1:
         pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
         print(f"avhear: the console's data is in {len(session.parts)} parts, {session.parts[0]} to "
               f"{session.parts[-1]}; open them together with: rerun {pattern}")
     elif target.save is not None:
         print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
+    if stats.interrupted:
+        print("avhear: interrupted", file=sys.stderr)
+        session.close(keep_serving=False)
+        return 130
     # an interactive user keeps the web viewer until Ctrl-C; a script or CI run ends here
     session.close(keep_serving=sys.stdin is not None and sys.stdin.isatty())
     return 0
