@@ -41,6 +41,7 @@ class LiveConfig:
     samplerate_hz, n_channels : the input stream; channels : the (left, right) microphone channels (0-based).
     block_frames : samples per callback.
     max_failed_reads : consecutive failed grabs before the camera counts as gone.
+    max_silent_s : seconds without an audio block before the input counts as gone.
     """
 
     left: int | str = 0
@@ -53,6 +54,7 @@ class LiveConfig:
     channels: tuple[int, int] = (0, 1)
     block_frames: int = 512
     max_failed_reads: int = 30
+    max_silent_s: float = 2.0
 
     def __post_init__(self) -> None:
         if self.side_by_side == (self.right is not None):
@@ -164,9 +166,13 @@ class LiveSource:
             while not stop.is_set():
                 item = blocks.get(timeout=0.1)
                 if item is None:
+                    # PortAudio calls back every block_frames samples (32 ms by default) while the device is there;
+                    # errors in its thread do not reach here, so a silent callback is how a vanished device shows
                     silent_s += 0.1
-                    if silent_s > 5.0 and not stream.active:
-                        raise DeviceError("the audio input stopped: was the device unplugged?")
+                    if silent_s >= cfg.max_silent_s:
+                        state = "stopped" if not stream.active else f"sent nothing for {silent_s:.1f} s"
+                        raise DeviceError(f"the audio input {cfg.audio_device!r} {state}: was the device "
+                                          "unplugged? (list the devices with 'python -m sounddevice')")
                     continue
                 silent_s = 0.0
                 samples = item[1]

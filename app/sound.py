@@ -4,9 +4,12 @@ from __future__ import annotations
 import importlib
 from types import ModuleType
 
+from app.errors import UserError
 
-class DeviceError(RuntimeError):
-    """A capture device is missing, busy or unusable; the message says what to do."""
+
+class DeviceError(UserError, RuntimeError):
+    """A capture device is missing, busy, unusable or gone; the message says what to do. A user's problem: the
+    command line prints it as one line (exit status 2), also when a pipeline thread raised it."""
 
 
 _INSTALL_HINT = (

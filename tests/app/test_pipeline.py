@@ -207,9 +207,9 @@ def test_stop_is_quick_and_a_worker_error_reaches_the_caller() -> None:
     pipe = Pipeline(source, PipelineConfig(), None)
     timer = threading.Timer(0.5, pipe.stop)
     timer.start()
-    t0 = time.perf_counter()
     pipe.run()
-    assert time.perf_counter() - t0 < 3.0
+    assert pipe.stats.frames < 50  # stopped with the source's 20 s (200 frames) far from over
+    assert not [t for t in threading.enumerate() if t.name.startswith("avhear-")]  # every worker joined
 
     def boom(result: FusionResult) -> None:
         raise OSError("disk full")
