@@ -83,7 +83,11 @@ class PipelineConfig:
         consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
         thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
-    *_queue : queue lengths (items); a full queue drops its oldest item.
+    *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
+        possible waits for room instead).
+    max_audio_lead_s : a replay as fast as possible: the ITD worker waits while the audio it extracts is more than
+        this far ahead of the last frame vision took, so that no buffer downstream has to drop what vision has not
+        used yet (ITDs run far faster than vision). Must exceed the time frame, a window and the vote's wait.
     """
 
     inference: Literal["face", "motion"] = "face"
@@ -99,16 +103,21 @@ class PipelineConfig:
     frame_queue: int = 4
     audio_queue: int = 256
     fusion_queue: int = 1024
+    max_audio_lead_s: float = 2.0
     join_timeout_s: float = 2.0
 
     def __post_init__(self) -> None:
         if self.inference not in ("face", "motion"):
             raise ValueError(f"inference must be 'face' or 'motion', got {self.inference!r}")
-        for name in ("window_s", "hop_s", "frame_window_s", "interval_s"):
+        for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
         if self.decision_window_s is not None and not self.decision_window_s > 0:
             raise ValueError(f"decision_window_s must be > 0 seconds or None, got {self.decision_window_s!r}")
+        least = max(self.frame_window_s, self.interval_s) + self.window_s + self.hop_s
+        if self.max_audio_lead_s <= least:
+            raise ValueError(f"max_audio_lead_s must exceed the time frame plus a window ({least:g} s), got "
+                             f"{self.max_audio_lead_s!r}")
         if not (isinstance(self.vote_frames, int) and self.vote_frames >= 1 and self.vote_frames % 2 == 1):
             raise ValueError(f"vote_frames must be an odd number of results >= 1 (1: no vote), got "
                              f"{self.vote_frames!r}")
@@ -189,8 +198,10 @@ class PipelineStats:
 
     def summary(self) -> str:
         d = self.as_dict()
-        return (f"{d['results']} results in {d['duration_s']} s ({d['fps']} per s), latency p95 "
-                f"{d['latency_ms_p95']} ms, {d['itds']} ITDs, drops {sum(d['drops'].values())}, "
+        latency = ("latency p95 n/a (as fast as possible)" if d["latency_ms_p95"] is None
+                   else f"latency p95 {d['latency_ms_p95']} ms")
+        return (f"{d['results']} results in {d['duration_s']} s ({d['fps']} per s), {latency}, "
+                f"{d['itds']} ITDs, drops {sum(d['drops'].values())}, "
                 f"audio overflows {d['overflows']}, late frames skipped {d['late_frames']}, bad frames "
                 f"{d['bad_frames']}")
 
@@ -229,6 +240,10 @@ class Pipeline:
         self._fused = 0  # vision frames fused (results emitted lag them by the vote)
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
         self._backpressure = not getattr(source, "realtime", True)
+        self._vision_clock: float | None = None  # stamp of the last frame vision took (the ITD worker's pace)
+        self._first_audio_stamp: float | None = None
+        self._sync: TimeFrame | None = None  # the fusion thread's synchroniser, for its drop counts
+        self._frame_itds_cut = 0  # single-frame ITDs dropped unused (real time: vision far behind or gone)
 
     # -- control ---------------------------------------------------------------------------------------------
 
@@ -269,6 +284,12 @@ class Pipeline:
                     log.warning("thread %s did not stop within %.1f s", t.name, self.config.join_timeout_s)
             self.stats.ended_s = time.perf_counter()
             self.stats.drops = {q.name: q.dropped for q in (self._q_frames, self._q_audio, self._q_fusion)}
+            sync = self._sync
+            self.stats.drops.update({
+                "itds_unmatched": sync.dropped_secondaries if sync is not None else 0,  # TimeFrame's cap
+                "frames_unmatched": sync.dropped_primaries if sync is not None else 0,
+                "frame_itds": self._frame_itds_cut,
+            })
             self.stats.overflows = int(getattr(self.source, "overflows", 0))  # audio overflows of a live input
             self.stats.late_frames = int(getattr(self.source, "frames_dropped", 0))  # skipped by a real-time source
         if self._errors:
@@ -334,6 +355,7 @@ class Pipeline:
         n = 0
         while True:
             frame = self._take(self._q_frames, "grabber")
+            self._vision_clock = frame.stamp_s
             t0 = time.perf_counter()
             if not _good_frame(frame, rig):
                 self.stats.bad_frames += 1
@@ -345,7 +367,7 @@ class Pipeline:
                     log.debug("bad frame %d: %s", frame.index, exc)
                     self.stats.bad_frames += 1
                     continue
-                self._q_fusion.put(("vision", frame.stamp_s, (frame.stamp_s, frame, faces.boxes, faces.points)))
+                self._offer(self._q_fusion, ("vision", frame.stamp_s, (frame.stamp_s, frame, faces.boxes, faces.points)))
             else:
                 interval.append(frame)
                 if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
@@ -353,7 +375,7 @@ class Pipeline:
                 points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
                 mid = interval[len(interval) // 2]
                 stamp = 0.5 * (interval[0].stamp_s + interval[-1].stamp_s)
-                self._q_fusion.put(("vision", stamp, (stamp, mid, None, points)))
+                self._offer(self._q_fusion, ("vision", stamp, (stamp, mid, None, points)))
                 interval = []
             n += 1
             self.stats.vision_results = n
@@ -371,6 +393,7 @@ class Pipeline:
         n = 0
         while True:
             block = self._take(self._q_audio, "audio")
+            self._wait_for_vision(block.stamp_s)
             t0 = time.perf_counter()
             samples = np.asarray(block.samples, dtype=np.float64)
             if samples.ndim != 2 or samples.shape[1] <= max(left, right):
@@ -392,20 +415,36 @@ class Pipeline:
             if frame_itds:  # before the windows' ITDs, which complete vision frames (frames run ahead of windows)
                 frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
                 if len(frames):
-                    self._q_fusion.put(("frame_itds", start_s, (frames, bands)))
+                    self._offer(self._q_fusion, ("frame_itds", start_s, (frames, bands)))
             for t, itd in zip(track.times_s, track.itds_s):
-                self._q_fusion.put(("itd", start_s + float(t), float(itd)))
+                self._offer(self._q_fusion, ("itd", start_s + float(t), float(itd)))
             self.stats.itds += len(track)
             # the audio clock: windows centred before this time are all extracted
-            self._q_fusion.put(("clock", expected_s - c.window_s / 2, None))
+            self._offer(self._q_fusion, ("clock", expected_s - c.window_s / 2, None))
             n += 1
             self.stats.audio_blocks = n
             self._timed("itd", t0, n)
 
+    def _wait_for_vision(self, stamp: float) -> None:
+        """A replay as fast as possible: hold the audio at ``stamp`` until vision has taken the frames up to
+        ``stamp - max_audio_lead_s`` (or has none left), so that the ITDs wait in this thread, not in a buffer
+        that would have to drop them. Real time: never wait."""
+        if not self._backpressure:
+            return
+        lead = self.config.max_audio_lead_s
+        if self._first_audio_stamp is None:
+            self._first_audio_stamp = stamp
+        first = self._first_audio_stamp
+        while not self._stop.is_set() and not self._done["vision"].is_set():
+            seen = self._vision_clock if self._vision_clock is not None else first
+            if stamp - seen <= lead:
+                return
+            time.sleep(0.005)
+
     def _fusion_loop(self) -> None:
         c = self.config
         mics = self.source.mics
-        sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
+        sync = self._sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
         hearing = (FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=c.decision_window_s))
                    if c.inference == "face" else MotionGuidedHearing(mics))
         tracker = NearestTracker()
@@ -438,7 +477,7 @@ class Pipeline:
             frames.append((stamp + single.times_s, single.itds_s, stamp + bands.times_s, bands.itds_s))
             # bounded without vision frames too (a camera that vanished)
             while frames[0][0][-1] < frames[-1][0][-1] - _FRAME_ITDS_KEEP_S:
-                frames.popleft()
+                self._frame_itds_cut += len(frames.popleft()[1])
             return []
         return sync.advance(stamp)  # the audio clock moved on without ITDs (silence): frames before it are complete
 

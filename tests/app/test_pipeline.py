@@ -298,3 +298,51 @@ def test_a_stop_loses_no_fused_frame() -> None:
     assert 20 <= stats.vision_results < 90  # stopped before the end
     assert len(results) == stats.results == stats.vision_results
     assert [r.index for r in results] == sorted(r.index for r in results)
+
+
+class _SlowDetector:
+    """Wraps the face detector, taking ``delay_s`` more per image: vision far slower than the ITD worker."""
+
+    def __init__(self, delay_s: float) -> None:
+        from avcore.faces import TrackingFaceDetector
+
+        self.inner, self.delay_s = TrackingFaceDetector(), delay_s
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self.inner, name)
+
+    def detect(self, image: np.ndarray) -> np.ndarray:
+        time.sleep(self.delay_s)
+        return self.inner.detect(image)
+
+
+def test_a_fast_replay_loses_no_itds_when_vision_is_slow(monkeypatch: pytest.MonkeyPatch) -> None:
+    """As fast as possible, the ITD worker would run ahead of a slow vision thread and the synchroniser's buffer
+    (capped here at 150 ITDs, 3 s of them) would drop the oldest: every result must still get its ITDs, and the
+    drops, if any, must be counted."""
+    import functools
+
+    import app.pipeline as pipeline_module
+
+    monkeypatch.setattr(pipeline_module, "TimeFrame", functools.partial(pipeline_module.TimeFrame,
+                                                                        max_secondaries=150))
+    source = FakeSource(duration_s=6.0, fps=10.0)
+    results: list[FusionResult] = []
+    pipe = Pipeline(source, PipelineConfig(vote_frames=1), results.append, detector=_SlowDetector(0.03))
+    pipe.run(duration_s=60)
+    assert len(results) == 60
+    n_itds = [r.itds_s.size for r in results[3:-3]]  # the ends have half a time frame
+    assert min(n_itds) >= 15  # +-0.2 s at a 20 ms hop: about 20 windows, all passing the talker's energy gate
+    assert not any(pipe.stats.drops.values()), pipe.stats.drops
+
+
+def test_real_time_and_as_fast_as_possible_give_the_same_results() -> None:
+    runs = {}
+    for realtime in (True, False):
+        source = FakeSource(duration_s=3.0, fps=10.0, realtime=realtime)
+        results: list[FusionResult] = []
+        Pipeline(source, PipelineConfig(), results.append).run(duration_s=60)
+        runs[realtime] = [(round(r.stamp_s - source.t0, 6), r.person_ids.tolist(), r.output.speaking.tolist())
+                          for r in results]
+    assert len(runs[True]) == 30
+    assert runs[True] == runs[False]

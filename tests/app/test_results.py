@@ -47,3 +47,19 @@ def test_an_unwritable_results_path_fails_before_the_run(tmp_path: Path, capsys:
     captured = capsys.readouterr()
     assert "results file" in captured.err and "Traceback" not in captured.err
     assert "results in" not in captured.out  # refused before the work, not after it
+
+
+def test_a_recording_gives_the_same_results_in_real_time_and_as_fast_as_possible(tmp_path: Path) -> None:
+    folder = tmp_path / "s2"
+    assert main(["simulate", "S2", "-o", str(folder), "--duration", "4"]) == 0
+    states = {}
+    for mode in ("realtime", "fast"):
+        out = tmp_path / f"{mode}.jsonl"
+        flags = ["--fast"] if mode == "fast" else []
+        assert main(["run", "--source", f"replay:{folder}", "--headless", "--results-jsonl", str(out), *flags]) == 0
+        rows = _lines(out)  # real time is stamped on the monotonic clock, a fast replay from 0
+        states[mode] = [(round(r["stamp_s"] - rows[0]["stamp_s"], 3), [(p["id"], p["speaking"]) for p in r["people"]])
+                        for r in rows]
+    assert len(states["fast"]) >= 110  # 4 s at 30 FPS
+    assert any(s for _, people in states["fast"] for _, s in people)
+    assert states["realtime"] == states["fast"]

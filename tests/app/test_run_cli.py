@@ -26,7 +26,8 @@ def test_demo_writes_the_console_to_an_rrd(tmp_path: Path, capsys: pytest.Captur
     assert "results in" in out and f"rerun {rrd}" in out
     figures = json.loads(stats.read_text())
     assert figures["results"] >= 80  # 3 s at 30 FPS, nothing lost when replayed as fast as possible
-    assert figures["drops"] == {"frames": 0, "audio": 0, "fusion": 0}
+    assert set(figures["drops"]) >= {"frames", "audio", "fusion", "itds_unmatched", "frame_itds"}
+    assert not any(figures["drops"].values())
     assert figures["itds"] > 20 and figures["latency_ms_p95"] is None  # undefined as fast as possible
     ents = _entities(rrd)
     image = [e for e in ents if e.endswith("/image")]
