@@ -9,7 +9,9 @@ import argparse
 import importlib
 import logging
 import os
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from app.errors import UserError
@@ -45,6 +47,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; returns its exit status: 0, 2 for a user's mistake (one line, no traceback), 130 when
     interrupted. Called as the console script (``argv`` None), it ends the process itself when a Rerun viewer
     stopped answering, since Rerun would then block the interpreter's exit for ever."""
+    if argv is None and threading.current_thread() is threading.main_thread():
+        # SIGTERM stops a command as Ctrl-C does (a command that writes installs its own handler meanwhile)
+        signal.signal(signal.SIGTERM, _interrupt)
     try:
         status = _main(argv)
     except KeyboardInterrupt:  # also while the command modules are still being imported
@@ -55,6 +60,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.flush()
         os._exit(status)
     return status
+
+
+def _interrupt(signum: int, _frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _main(argv: Sequence[str] | None) -> int:

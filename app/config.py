@@ -139,6 +139,22 @@ def rig_from_dict(data: object, path: Path | str = "<rig>") -> RigConfig:
     return RigConfig(stereo=stereo, microphones=mics)
 
 
+MICROPHONES_HINT = ("add the measured microphone positions to it, in metres in the scene frame (x right, y down, z "
+                     "forward, origin midway between the cameras), e.g.\n  microphones:\n    left_m: [-0.06, 0.0, 0.0]"
+                     "\n    right_m: [0.06, 0.0, 0.0]\n(avhear calibrate av then fits c1 and c0)")
+
+
+def require_live_rig(path: str | Path) -> RigConfig:
+    """The rig of a live run or recording: both sections present, or a :class:`UserError` that says how to add the
+    missing one (``calibrate stereo`` writes only the stereo section)."""
+    rig = load_rig(Path(path))
+    if rig.stereo is None:
+        raise UserError(f"{path} has no 'stereo' section: make one with avhear calibrate stereo")
+    if rig.microphones is None:
+        raise UserError(f"{path} has no 'microphones' section: {MICROPHONES_HINT}")
+    return rig
+
+
 def rig_to_dict(rig: RigConfig) -> dict[str, Any]:
     """A :class:`RigConfig` as plain lists and numbers, in the layout :func:`rig_from_dict` reads."""
     out: dict[str, Any] = {}

@@ -33,6 +33,7 @@ import json
 import logging
 import math
 import struct
+import threading
 import wave
 from collections.abc import Callable
 from pathlib import Path
@@ -219,16 +220,21 @@ class RecordingWriter:
 
 
 def write_recording(folder: str | Path, source: StreamSource, *, video: str = "avi", overwrite: bool = False,
-                    progress: Callable[[int, int], None] | None = None) -> Path:
+                    progress: Callable[[int, int], None] | None = None,
+                    stop: threading.Event | None = None) -> Path:
     """Write everything ``source`` streams (as fast as possible) into a recording folder; returns the folder.
 
     progress : called as ``progress(frames_written, n_frames)`` after every frame.
+    stop : when set, writing ends after the current item (a complete frame or audio block) and the folder is
+        closed as a whole recording of what was written (the events file keeps every event, some past the end).
     """
     rig = RigConfig(stereo=source.stereo, microphones=source.mics)
     meta = dict(getattr(source, "meta", {}) or {})
     with RecordingWriter(folder, rig=rig, fps=source.fps, samplerate_hz=source.samplerate_hz,
                          n_channels=source.n_channels, video=video, meta=meta, overwrite=overwrite) as writer:
         for item in source.stream(realtime=False):
+            if stop is not None and stop.is_set():
+                break
             if isinstance(item, StereoFrame):
                 writer.add_frame(item)
                 if progress:

@@ -5,9 +5,8 @@ import importlib
 import threading
 import time
 from collections.abc import Iterator
-from pathlib import Path
 
-from app.config import load_rig
+from app.config import require_live_rig
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.live import LiveConfig, LiveSource
@@ -89,10 +88,6 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
     if kind == "live":
         if rig_path is None:
             raise UserError("a live run needs the rig calibration: --rig rig.yaml (avhear calibrate stereo makes one)")
-        rig = load_rig(Path(rig_path))
-        if rig.stereo is None:
-            raise UserError(f"{rig_path} has no 'stereo' section: run avhear calibrate stereo first")
-        if rig.microphones is None:
-            raise UserError(f"{rig_path} has no 'microphones' section: add the measured microphone positions")
+        rig = require_live_rig(rig_path)
         return LiveSource(live or LiveConfig(), rig.stereo, rig.microphones)
     raise UserError(f"unknown source {spec!r}: use sim:S2, replay:FOLDER or live")

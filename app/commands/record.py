@@ -2,16 +2,20 @@
 from __future__ import annotations
 
 import argparse
-import signal
+import functools
+import shutil
 import sys
 import threading
 from pathlib import Path
 
-from app.config import load_rig
+from app.config import require_live_rig
 from app.errors import UserError
 from app.live import LiveConfig, LiveSource
+from app.options import count, duration, positive
+from app.paths import output_dir
 from app.recorder import record
 from app.recording import RecordingWriter
+from app.signals import stop_on_signals
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -24,12 +28,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--cameras", nargs="+", default=["0", "1"], help="two camera indices/paths, or one with "
                    "--side-by-side")
     p.add_argument("--side-by-side", action="store_true")
-    p.add_argument("--fps", type=float, default=30.0)
+    p.add_argument("--fps", type=functools.partial(positive, maximum=240.0), default=30.0,
+                   help="frames per second asked of the cameras (default 30)")
     p.add_argument("--audio-device", default=None, help="sounddevice input (index or name)")
-    p.add_argument("--audio-channels", type=int, default=2, help="channels of the input stream (all are kept)")
-    p.add_argument("--mic-channels", type=int, nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"))
-    p.add_argument("--samplerate", type=int, default=16000)
-    p.add_argument("--duration", type=float, default=None, metavar="SECONDS", help="stop after this long")
+    p.add_argument("--audio-channels", type=count(1, 64), default=2,
+                   help="channels of the input stream (all are kept)")
+    p.add_argument("--mic-channels", type=count(0, 63), nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"))
+    p.add_argument("--samplerate", type=count(8000, 192000), default=16000)
+    p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS", help="stop after this long")
     p.add_argument("--video", choices=("avi", "png"), default="avi", help="MJPG video or PNG image sequences")
     p.add_argument("--force", action="store_true", help="replace a recording already in the folder")
     p.set_defaults(func=run)
@@ -40,9 +46,7 @@ def _device(text: str) -> int | str:
 
 
 def run(args: argparse.Namespace) -> int:
-    rig = load_rig(Path(args.rig))
-    if rig.stereo is None or rig.microphones is None:
-        raise UserError(f"{args.rig} needs both a 'stereo' and a 'microphones' section")
+    rig = require_live_rig(args.rig)
     cams = [_device(c) for c in args.cameras]
     try:
         config = LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
@@ -52,18 +56,28 @@ def run(args: argparse.Namespace) -> int:
                             channels=tuple(args.mic_channels))
     except ValueError as exc:
         raise UserError(str(exc)) from exc
+    if (args.output / "frames.csv").exists() and not args.force:
+        raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
+    fresh = not args.output.exists()
+    output_dir(args.output, "-o")
     source = LiveSource(config, rig.stereo, rig.microphones)
     writer = RecordingWriter(args.output, rig=rig, fps=args.fps, samplerate_hz=args.samplerate,
                              n_channels=args.audio_channels, video=args.video, overwrite=args.force,
                              channels={"left": args.mic_channels[0], "right": args.mic_channels[1]},
                              meta={"kind": "live", "cameras": [str(c) for c in cams]})
-    stop = threading.Event()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
     print(f"avhear: recording to {args.output} ... Ctrl-C stops", file=sys.stderr, flush=True)
-    stats = record(source, writer, duration_s=args.duration, stop=stop)
+    with stop_on_signals(threading.Event()) as stop:
+        stats = record(source, writer, duration_s=args.duration, stop=stop)
+    if not stats.frames and stats.errors:
+        if fresh:  # the devices failed before anything was captured: leave no empty recording behind
+            shutil.rmtree(args.output, ignore_errors=True)
+        raise UserError(f"nothing recorded: {stats.errors[0]}")
     print(f"avhear: {stats.frames} frames and {stats.audio_blocks} audio blocks in {stats.duration_s:.1f} s "
           f"written to {args.output} (audio overflows {source.overflows})")
     for error in stats.errors:
-        print(f"avhear: the recording ended early: {error}", file=sys.stderr)
+        print(f"avhear: the recording ended early: {error}; kept {stats.frames} frames in {args.output}",
+              file=sys.stderr)
+    if getattr(stop, "signal", None) is not None:
+        print(f"avhear: interrupted; kept {stats.frames} frames in {args.output}", file=sys.stderr)
+        return 130
     return 0 if stats.frames else 2

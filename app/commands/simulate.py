@@ -1,4 +1,4 @@
-"""`avhear simulate`: write a simulated-room scenario as a raw recording folder (issue 5, sections 1-2).
+"""`avhear simulate`: write a simulated-room scenario as a raw recording folder.
 
 ``avhear simulate S2 -o recordings/s2/`` renders the preset (the paper's section 7.3 scenarios S1-S5, or the
 section 5.3 ``calibration``) with real faces and spoken digits from ``../shared/data`` when present, drawn faces and
@@ -8,12 +8,17 @@ stamps, rig YAML, ground truth, sound events).
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+import threading
 import time
 from pathlib import Path
 
 from app.errors import UserError
+from app.options import MAX_SIMULATED_S, count, duration, positive
+from app.paths import output_dir
 from app.recording import write_recording
+from app.signals import stop_on_signals
 from app.simsource import SimSource
 from avcore.scenario import DEFAULT_DURATION_S, PRESETS
 
@@ -29,12 +34,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("scenario", choices=PRESETS, metavar="SCENARIO", help=f"one of {', '.join(PRESETS)}")
     p.add_argument("-o", "--output", required=True, type=Path, help="recording folder to write")
-    p.add_argument("--duration", type=_positive, default=None, metavar="S",
+    p.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="S",
                    help="seconds of scenario (default: " +
                         ", ".join(f"{k} {v:g}" for k, v in DEFAULT_DURATION_S.items()) + ")")
-    p.add_argument("--seed", type=int, default=0, help="random seed: the same seed gives the same recording")
-    p.add_argument("--fps", type=_positive, default=30.0, help="camera frames per second (default 30)")
-    p.add_argument("--rt60", type=_positive, default=0.4, metavar="S", help="reverberation time, seconds (0.4)")
+    p.add_argument("--seed", type=count(0), default=0, help="random seed: the same seed gives the same recording")
+    p.add_argument("--fps", type=positive, default=30.0, help="camera frames per second (default 30)")
+    p.add_argument("--rt60", type=positive, default=0.4, metavar="S", help="reverberation time, seconds (0.4)")
     p.add_argument("--video", choices=("avi", "png"), default="avi",
                    help="avi: MJPG video per camera (compact); png: lossless image sequences (large)")
     p.add_argument("--data", type=Path, default=None, metavar="DIR",
@@ -43,20 +48,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-    return value
-
-
 def run(args: argparse.Namespace) -> int:
     out = sys.stdout
     if (args.output / "frames.csv").exists() and not args.force:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
+    fresh = not args.output.exists()
+    output_dir(args.output, "-o")
+    if fresh:  # checked writable; created again by the writer, so an interrupted preparation leaves nothing
+        args.output.rmdir()
     t0 = time.perf_counter()
     print(f"simulating {args.scenario} ...", file=out, flush=True)
     try:
@@ -80,7 +79,13 @@ def run(args: argparse.Namespace) -> int:
             print(f"  frames {done}/{total} ({100 * done / total:.0f} %)", file=out, flush=True)
 
     t1 = time.perf_counter()
-    write_recording(args.output, source, video=args.video, overwrite=args.force, progress=progress)
+    with stop_on_signals(threading.Event()) as stop:
+        write_recording(args.output, source, video=args.video, overwrite=args.force, progress=progress, stop=stop)
+    if stop.is_set():
+        kept = json.loads((args.output / "recording.json").read_text())["n_frames"]
+        print(f"avhear: interrupted; kept {kept} of {source.n_frames} frames in {args.output} (it replays: avhear "
+              f"run --source replay:{args.output})", file=sys.stderr, flush=True)
+        return 130
     elapsed = time.perf_counter() - t0
     fps = source.n_frames / max(time.perf_counter() - t1, 1e-9)
     print(f"wrote {args.output}: {source.n_frames} stereo frames at {source.fps:g} FPS, "
