@@ -19,6 +19,11 @@ def output_file(path: Path | str, option: str) -> Path:
     path = Path(path)
     if path.is_dir():
         raise UserError(f"{option} {path} is a folder: give a file name")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise UserError(f"cannot write {option} {path}: {parent} is a file, not a folder; choose another path")
+            break
     existed = path.exists()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

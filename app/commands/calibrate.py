@@ -20,6 +20,8 @@ import numpy as np
 
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
+from app.options import count, duration
+from app.paths import output_file
 from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
 from avcore.itd import METHODS as ITD_METHODS
 from avcore.stereo import calibrate_stereo, find_chessboard
@@ -119,6 +121,8 @@ def _corners_mosaic(images: list[np.ndarray], corners: list[np.ndarray | None], 
 
 
 def run_stereo(args: argparse.Namespace) -> int:
+    output_file(args.output, "-o")
+    output_file(args.corners_image or args.output.with_name(args.output.stem + "_corners.png"), "--corners-image")
     lefts = _expand(args.left, "--left")
     rights = _expand(args.right, "--right")
     if len(lefts) != len(rights):
@@ -265,6 +269,11 @@ def run_av(args: argparse.Namespace) -> int:
         raise UserError(f"{args.recording}: no such recording folder; record the calibration sequence (a person "
                         "carrying a loudspeaker playing `avhear calibrate signal`'s white-noise bursts in a zig-zag "
                         f"across the view), or simulate one with `avhear simulate calibration -o {args.recording}`")
+    output_file(args.output, "-o")
+    figure = args.figure or args.output.with_name(args.output.stem + "_av_calibration.png")
+    output_file(figure, "--figure")
+    if not args.no_rrd:
+        output_file(figure.with_suffix(".rrd"), "the figure's .rrd (--no-rrd to skip it)")
     recording = open_recording(args.recording)
     mics = rig.microphones
     n_frames = len(recording.frame_stamps_s)
@@ -317,7 +326,6 @@ def run_av(args: argparse.Namespace) -> int:
                  else ""))
     save_rig(args.output, RigConfig(stereo=stereo, microphones=rep.mics), header=header)
     print(f"\nwrote {args.output}")
-    figure = args.figure or args.output.with_name(args.output.stem + "_av_calibration.png")
     save_calibration_figure(result, figure)
     print(f"wrote {figure} (extracted ITDs red, faces before blue, after green)")
     if not args.no_rrd:
@@ -344,11 +352,11 @@ def add_signal_parser(kinds: argparse._SubParsersAction) -> None:
         ),
     )
     p.add_argument("-o", "--output", required=True, type=Path, help="WAV file to write (mono, 16-bit)")
-    p.add_argument("--duration", type=_positive_float, default=90.0, help="seconds (default 90)")
-    p.add_argument("--samplerate", type=int, default=48000, help="hertz (default 48000)")
+    p.add_argument("--duration", type=duration(3600.0), default=90.0, help="seconds (default 90, at most 3600)")
+    p.add_argument("--samplerate", type=count(8000, 192000), default=48000, help="hertz (default 48000)")
     p.add_argument("--level", type=float, default=-18.0, metavar="DBFS",
                    help="RMS level of the bursts, dB below full scale (default -18)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
+    p.add_argument("--seed", type=count(0), default=0, help="seed of the noise (default 0)")
     p.set_defaults(func=run_signal)
 
 
@@ -361,14 +369,16 @@ def run_signal(args: argparse.Namespace) -> int:
         raise UserError(f"avhear calibrate signal: {exc}") from exc
     if args.output.suffix.lower() != ".wav":
         raise UserError(f"{args.output}: the output must be a .wav file")
-    if not args.output.parent.exists():
-        raise UserError(f"{args.output.parent}: no such folder")
+    output_file(args.output, "-o")
     pcm = np.round(signal * 32767).astype("<i2")
-    with wave.open(str(args.output), "wb") as f:
-        f.setnchannels(1)
-        f.setsampwidth(2)
-        f.setframerate(args.samplerate)
-        f.writeframes(pcm.tobytes())
+    try:
+        with open(args.output, "wb") as raw, wave.open(raw, "wb") as f:
+            f.setnchannels(1)
+            f.setsampwidth(2)
+            f.setframerate(args.samplerate)
+            f.writeframes(pcm.tobytes())
+    except OSError as exc:
+        raise UserError(f"cannot write {args.output}: {exc.strerror or exc}") from None
     on, off = CALIBRATION_BURST_S
     print(f"wrote {args.output}: {args.duration:g} s at {args.samplerate} Hz, {on * 1000:.0f} ms bursts every "
           f"{on + off:.1f} s at {args.level:g} dBFS RMS")

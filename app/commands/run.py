@@ -12,7 +12,7 @@ from typing import Any
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.live import LiveConfig
-from app.options import MAX_SIMULATED_S, count, duration, port
+from app.options import MAX_DURATION_S, MAX_SIMULATED_S, count, duration, port
 from app.paths import output_file
 from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from app.results import ResultsWriter
@@ -24,8 +24,8 @@ from avcore.scenario import PRESETS
 DEMO_RRD = Path("recordings/demo.rrd")
 
 
-def _common(p: argparse.ArgumentParser, *, duration_help: str) -> None:
-    p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS", help=duration_help)
+def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: float = MAX_DURATION_S) -> None:
+    p.add_argument("--duration", type=duration(max_duration_s), default=None, metavar="SECONDS", help=duration_help)
     p.add_argument("--motion", action="store_true", help="motion-guided inference (HM3D points, Algorithm 1)")
     p.add_argument("--itd-method", default="gcc-phat-robust", choices=sorted(ITD_METHODS),
                    help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
@@ -55,7 +55,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                           f"it saves {DEMO_RRD} and says how to open it.")
     demo.add_argument("--scenario", default="S2", choices=PRESETS, help="S1..S5 or calibration (default S2)")
     demo.add_argument("--seed", type=count(0), default=0, help="seed of the simulated room")
-    _common(demo, duration_help=f"seconds of the simulated room to run (default 20, at most {MAX_SIMULATED_S:g})")
+    _common(demo, duration_help=f"seconds of the simulated room to run (default 20, at most {MAX_SIMULATED_S:g})",
+            max_duration_s=MAX_SIMULATED_S)
     demo.set_defaults(func=run_demo, duration=20.0)
     run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER or live")
     run.add_argument("--source", default="sim:S2", help="sim:S1..S5|calibration, replay:FOLDER or live")
