@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import argparse
 import json
+from contextlib import ExitStack
 import signal
 import sys
 import threading
 from pathlib import Path
 from typing import Any
 
+from app.bus.publisher import ResultPublisher
+from app.bus.session import BusOptions, add_bus_arguments, open_session
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.live import LiveConfig
@@ -46,6 +49,9 @@ def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: f
     p.add_argument("--fast", action="store_true", help="as fast as possible instead of in real time")
     p.add_argument("--results-jsonl", type=Path, default=None, metavar="FILE",
                    help="write every fused result to FILE as one JSON line, as it is produced (schema: README)")
+    p.add_argument("--publish", action="store_true",
+                   help="publish every result on the bus (Zenoh) as ROS4HRI messages and JSON (README: the bus)")
+    add_bus_arguments(p)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -126,16 +132,20 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
 
 def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None = None) -> int:
     _check_outputs(spec, args, target)
-    results = ResultsWriter(args.results_jsonl) if args.results_jsonl is not None else None
-    try:
-        return _run_checked(spec, args, target, live, results)
-    finally:
-        if results is not None:
-            results.close()
+    with ExitStack() as stack:
+        results = stack.enter_context(ResultsWriter(args.results_jsonl)) if args.results_jsonl is not None else None
+        publisher = None
+        if args.publish:
+            options = BusOptions.from_args(args)
+            session = open_session(options)
+            stack.callback(session.close)
+            publisher = ResultPublisher(session, namespace=options.namespace)
+            stack.callback(publisher.close)
+        return _run_checked(spec, args, target, live, results, publisher)
 
 
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None,
-                 results: ResultsWriter | None) -> int:
+                 results: ResultsWriter | None, publisher: ResultPublisher | None) -> int:
     print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
     source = open_source(spec, realtime=not args.fast, duration_s=args.duration, seed=getattr(args, "seed", 0),
                          rig_path=getattr(args, "rig", None), live=live,
@@ -153,6 +163,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, live
     def on_result(result: FusionResult) -> None:
         if results is not None:
             results.write(result)
+        if publisher is not None:
+            publisher.publish(result)
         if console is None:
             return
         assert pipeline is not None
@@ -201,6 +213,10 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, live
         args.stats_json.write_text(json.dumps(summary, indent=2))
     if results is not None:
         print(f"avhear: {results.written} results in {results.path}")
+    if publisher is not None:
+        publisher.close()
+        print(f"avhear: {publisher.published} results published on the bus ({publisher.dropped} dropped by a slow "
+              "bus)")
     if len(session.parts) > 1:
         pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
         print(f"avhear: the console's data is in {len(session.parts)} parts, {session.parts[0]} to "

@@ -1,0 +1,152 @@
+"""The contract with robot software: topic names, frames and message types of what avhear publishes, in one place.
+
+Keys are ROS 2 topic names without the leading slash, as zenoh-bridge-ros2dds and rmw_zenoh map them, optionally
+under a namespace (``NS/humans/voices/tracked``); payloads are CDR exactly as ROS 2 serialises them (little-endian,
+4-byte encapsulation header), built and read by rosbags' typestore (no ROS installation needed).
+
+ROS4HRI (REP-155, "ROS for Human-Robot Interaction"):
+
+- section "Faces": ``/humans/faces/tracked`` (hri_msgs/IdsList, the faces seen now) and
+  ``/humans/faces/<face_id>/roi`` (sensor_msgs/RegionOfInterest, the face's box in the image);
+- section "Voices": ``/humans/voices/tracked`` (hri_msgs/IdsList) and ``/humans/voices/<voice_id>/is_speaking``
+  (std_msgs/Bool);
+- section "Person identification": ``/humans/candidate_matches`` (hri_msgs/IdsMatch, e.g. a face and a voice that
+  belong together, FACE = 2, VOICE = 4);
+- section "Frames": each face and voice has a TF frame ``face_<id>`` / ``voice_<id>`` (tf2_msgs/TFMessage on
+  ``/tf``).
+
+avhear's ids: a tracked person ``N`` (stable while tracked, :class:`avcore.tracking.NearestTracker`) has the face
+id ``fN`` (face-guided runs only) and the voice id ``vN``: the voice is the sound coming from that person's place,
+so a face and its voice are matched with confidence 1.0. Frames: ``face_fN`` and ``voice_vN`` are children of
+:data:`RIG_FRAME` (``avhear_rig``): the scene frame of DESIGN.md (origin midway between the two camera centres,
+x right, y down, z forward, metres: the optical-frame convention), with identity rotation. Headers carry the
+result's capture stamp on the source's clock (``time.monotonic()`` for live input, the recording's own clock for a
+replay), the same ``stamp_s`` as the JSON.
+
+Message definitions not in rosbags' ROS 2 Humble store are declared here from their sources:
+
+- ``hri_msgs/msg/IdsList`` and ``hri_msgs/msg/IdsMatch``: github.com/ros4hri/hri_msgs, commit dd03e79c0670
+  (2023-12-18), ``msg/IdsList.msg`` and ``msg/IdsMatch.msg`` (comments left out; ``Header`` written as
+  ``std_msgs/Header``, which is what ROS 2 resolves it to);
+- ``avhear_msgs/msg/AudioBlock``: avhear's own, for the sensor stream (see its definition below).
+"""
+from __future__ import annotations
+
+import json
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+__all__ = [
+    "AUDIO_BLOCK", "FACE", "RESULTS_KEY", "RIG_FRAME", "VOICE", "Topics", "decode", "encode", "face_id", "typestore",
+    "voice_id",
+]
+
+RIG_FRAME = "avhear_rig"
+RESULTS_KEY = "avhear/results"  # the JSON of app.results, one message per result
+FACE, VOICE = 2, 4  # hri_msgs/IdsMatch id types
+
+IDS_LIST = "hri_msgs/msg/IdsList"
+IDS_MATCH = "hri_msgs/msg/IdsMatch"
+AUDIO_BLOCK = "avhear_msgs/msg/AudioBlock"
+
+_DEFINITIONS = {
+    IDS_LIST: "std_msgs/Header header\nstring[] ids\n",
+    IDS_MATCH: ("int8 UNSET=0\nint8 PERSON=1\nint8 FACE=2\nint8 BODY=3\nint8 VOICE=4\n"
+                "string id1\nint8 id1_type\nstring id2\nint8 id2_type\nfloat32 confidence\n"),
+    # One block of multichannel audio. header.stamp: capture time of the block's first sample; first_sample: its
+    # index since the stream started, so that a lost block shows as a jump; samples: interleaved frames of
+    # n_channels float32 values in [-1, 1]. audio_common_msgs/AudioDataStamped carries bytes without their
+    # format or sample index, so a receiver could neither decode nor detect a gap on its own.
+    AUDIO_BLOCK: "std_msgs/Header header\nuint32 samplerate_hz\nuint16 n_channels\nuint64 first_sample\n"
+                 "float32[] samples\n",
+}
+
+
+@lru_cache(maxsize=1)
+def typestore() -> Any:
+    """ROS 2 Humble's message types plus the definitions above."""
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    for name, text in _DEFINITIONS.items():
+        store.register(get_types_from_msg(text, name))
+    return store
+
+
+def encode(message: Any, typename: str) -> bytes:
+    """CDR bytes, little-endian, with the encapsulation header, as ROS 2 publishes them."""
+    return bytes(typestore().serialize_cdr(message, typename))
+
+
+def decode(payload: bytes, typename: str) -> Any:
+    """The message of CDR bytes; raises ValueError when they do not decode as ``typename``."""
+    try:
+        return typestore().deserialize_cdr(payload, typename)
+    except Exception as exc:  # noqa: BLE001 - rosbags raises several types for bad bytes
+        raise ValueError(f"a {typename} payload of {len(payload)} bytes does not decode: {exc}") from exc
+
+
+def face_id(person: int) -> str:
+    return f"f{int(person)}"
+
+
+def voice_id(person: int) -> str:
+    return f"v{int(person)}"
+
+
+class Topics:
+    """Builds the messages of one result, with their keys under ``namespace``."""
+
+    def __init__(self, namespace: str = "") -> None:
+        ns = namespace.strip("/")
+        self.prefix = f"{ns}/" if ns else ""
+        t = typestore().types
+        self._t = t
+
+    def key(self, topic: str) -> str:
+        return self.prefix + topic
+
+    def _header(self, stamp_s: float, frame_id: str = RIG_FRAME) -> Any:
+        t = self._t
+        sec = int(np.floor(stamp_s))
+        nanosec = min(int(round((stamp_s - sec) * 1e9)), 999_999_999)
+        return t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
+                                        frame_id=frame_id)
+
+    def _transform(self, header: Any, child: str, xyz: list[float]) -> Any:
+        t = self._t
+        return t["geometry_msgs/msg/TransformStamped"](
+            header=header, child_frame_id=child,
+            transform=t["geometry_msgs/msg/Transform"](
+                translation=t["geometry_msgs/msg/Vector3"](x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])),
+                rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+
+    def messages(self, record: dict[str, Any]) -> list[tuple[str, bytes]]:
+        """(key, payload) of every message of one result, given as its :func:`app.results.result_record`."""
+        t = self._t
+        header = self._header(record["stamp_s"])
+        people = record["people"]
+        face = record["mode"] == "face"
+        out: list[tuple[str, bytes]] = []
+        voices = [voice_id(p["id"]) for p in people]
+        out.append((self.key("humans/voices/tracked"), encode(t[IDS_LIST](header=header, ids=voices), IDS_LIST)))
+        for p, vid in zip(people, voices):
+            out.append((self.key(f"humans/voices/{vid}/is_speaking"),
+                        encode(t["std_msgs/msg/Bool"](data=bool(p["speaking"])), "std_msgs/msg/Bool")))
+        transforms = [self._transform(header, f"voice_{vid}", p["position_m"]) for p, vid in zip(people, voices)]
+        if face:
+            faces = [face_id(p["id"]) for p in people]
+            out.append((self.key("humans/faces/tracked"), encode(t[IDS_LIST](header=header, ids=faces), IDS_LIST)))
+            for p, fid, vid in zip(people, faces, voices):
+                x, y, w, h = (max(int(v), 0) for v in p["box_px"])
+                roi = t["sensor_msgs/msg/RegionOfInterest"](x_offset=x, y_offset=y, height=h, width=w,
+                                                            do_rectify=False)  # a box in the rectified image
+                out.append((self.key(f"humans/faces/{fid}/roi"), encode(roi, "sensor_msgs/msg/RegionOfInterest")))
+                match = t[IDS_MATCH](id1=fid, id1_type=FACE, id2=vid, id2_type=VOICE, confidence=1.0)
+                out.append((self.key("humans/candidate_matches"), encode(match, IDS_MATCH)))
+                transforms.append(self._transform(header, f"face_{fid}", p["position_m"]))
+        out.append((self.key("tf"), encode(t["tf2_msgs/msg/TFMessage"](transforms=transforms),
+                                           "tf2_msgs/msg/TFMessage")))
+        out.append((self.key(RESULTS_KEY), json.dumps(record, separators=(",", ":")).encode()))
+        return out
