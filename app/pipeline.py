@@ -148,6 +148,12 @@ class FusionResult:
     latency_s: float
     person_ids: np.ndarray
 
+    def as_dict(self) -> dict[str, Any]:
+        """The result as one line of the results file (schema: :mod:`app.results`)."""
+        from app.results import result_record
+
+        return result_record(self)
+
 
 @dataclass
 class PipelineStats:

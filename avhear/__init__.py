@@ -1,0 +1,74 @@
+"""avhear's Python API for programs in the same process.
+
+```python
+import avhear
+
+for result in avhear.results("sim:S2", duration_s=5):   # or "replay:recordings/NAME", or "live" with rig_path=
+    for person in result.as_dict()["people"]:            # the schema of the results file (README)
+        if person["speaking"]:
+            print(f"{result.stamp_s:6.2f} s: person {person['id']} speaks at {person['position_m']} m")
+```
+
+Each result is an :class:`app.pipeline.FusionResult` (``stamp_s``, ``person_ids``, ``xyz``, ``output.speaking``,
+``output.probability``, ... and ``as_dict()``). The pipeline runs in threads while you iterate; leaving the loop
+(``break``, an exception, or closing the iterator) stops it.
+"""
+from __future__ import annotations
+
+import queue
+import threading
+from collections.abc import Iterator
+
+__all__ = ["results"]
+
+
+def results(source: str = "sim:S2", *, duration_s: float | None = None, realtime: bool = False, seed: int = 0,
+            motion: bool = False, rig_path: str | None = None, max_waiting: int = 64) -> Iterator:
+    """Fused results of ``source`` (``sim:S1..S5``, ``replay:FOLDER`` or ``live`` with ``rig_path``), in order.
+
+    realtime : deliver at the source's pace (a live source always is); False replays as fast as the pipeline goes.
+    max_waiting : results held for a consumer slower than the pipeline; the pipeline waits for room (a live
+        source then drops frames at its input, counted in the pipeline's statistics).
+    """
+    from app.pipeline import Pipeline, PipelineConfig
+    from app.sources import open_source
+
+    src = open_source(source, realtime=realtime or source == "live", duration_s=duration_s, seed=seed,
+                      rig_path=rig_path)
+    waiting: queue.Queue = queue.Queue(maxsize=max_waiting)
+    stop = threading.Event()
+    end = object()
+
+    def hand_over(result: object) -> None:
+        while not stop.is_set():
+            try:
+                waiting.put(result, timeout=0.1)
+                return
+            except queue.Full:
+                continue
+
+    pipeline = Pipeline(src, PipelineConfig(inference="motion" if motion else "face"), hand_over)
+    failure: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            pipeline.run(duration_s=duration_s if source == "live" else None)
+        except BaseException as exc:  # handed to the consumer
+            failure.append(exc)
+        finally:
+            hand_over(end)
+
+    worker = threading.Thread(target=run, name="avhear-api", daemon=True)
+    worker.start()
+    try:
+        while True:
+            item = waiting.get()
+            if item is end:
+                break
+            yield item
+        if failure:
+            raise failure[0]
+    finally:
+        stop.set()
+        pipeline.stop()
+        worker.join(5.0)
