@@ -27,6 +27,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.simulate",
     "app.commands.run",
     "app.commands.record",
+    "app.commands.sensors",
 )
 
 

@@ -17,7 +17,7 @@ from typing import Any
 
 from app.errors import UserError
 
-__all__ = ["BusOptions", "DEFAULT_LISTEN", "add_bus_arguments", "open_session"]
+__all__ = ["BusOptions", "DEFAULT_LISTEN", "add_bus_arguments", "bus_source", "open_session"]
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 _ENDPOINT = re.compile(r"^(tcp|udp|tls|quic|ws|unixsock-stream)/(\[[0-9a-fA-F:]+\]|[^/:\s\[\]]+):(\d{1,5})(#.*)?$")
@@ -83,6 +83,9 @@ def _config(options: BusOptions) -> Any:
         config.insert_json5("listen/endpoints", json.dumps(list(options.listen)))
     if options.connect:
         config.insert_json5("connect/endpoints", json.dumps(list(options.connect)))
+        if options.config is None:  # a robot that comes back is reached again within a second
+            config.insert_json5("connect/retry", json.dumps({"period_init_ms": 250, "period_max_ms": 1000,
+                                                             "period_increase_factor": 2}))
     return config
 
 
@@ -98,3 +101,13 @@ def open_session(options: BusOptions) -> Any:
         hint = (f"is {where} in use (another avhear, or a Zenoh router: then join it with --bus-connect)? "
                 "Choose another with --bus-listen" if where else "check the endpoints and the configuration file")
         raise UserError(f"cannot open the Zenoh session ({_one_line(exc)}); {hint}") from None
+
+
+def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:
+    """The robot's sensors as a pipeline source (``--source bus``), with ``--rig``, ``--left-key`` ... if given."""
+    from app.bus.source import BusSource
+    from app.config import require_live_rig
+
+    rig = require_live_rig(args.rig) if getattr(args, "rig", None) else None
+    return BusSource(session, namespace=options.namespace, rig=rig, left_key=getattr(args, "left_key", None),
+                     right_key=getattr(args, "right_key", None), audio_key=getattr(args, "audio_key", None))

@@ -3,12 +3,14 @@ from __future__ import annotations
 
 import argparse
 import functools
+from contextlib import ExitStack
 import shutil
 import sys
 import threading
 from pathlib import Path
 
-from app.config import require_live_rig
+from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
+from app.config import RigConfig, require_live_rig
 from app.errors import UserError
 from app.live import LiveConfig, LiveSource
 from app.options import count, duration, positive
@@ -24,7 +26,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "microphone into the raw recording format (recordings/FORMAT.md), replayable with "
                        "avhear run --source replay:FOLDER. Ctrl-C stops and keeps everything captured.")
     p.add_argument("-o", "--output", type=Path, required=True, help="the recording folder to write")
-    p.add_argument("--rig", required=True, help="rig YAML (stereo + microphones), from avhear calibrate stereo")
+    p.add_argument("--source", choices=("live", "bus"), default="live",
+                   help="live devices (default), or a robot's `avhear sensors` on the bus")
+    p.add_argument("--rig", default=None, help="rig YAML (stereo + microphones), from avhear calibrate stereo; "
+                   "with --source bus, the robot's unless given")
     p.add_argument("--cameras", nargs="+", default=["0", "1"], help="two camera indices/paths, or one with "
                    "--side-by-side")
     p.add_argument("--side-by-side", action="store_true")
@@ -38,6 +43,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS", help="stop after this long")
     p.add_argument("--video", choices=("avi", "png"), default="avi", help="MJPG video or PNG image sequences")
     p.add_argument("--force", action="store_true", help="replace a recording already in the folder")
+    add_bus_arguments(p)
     p.set_defaults(func=run)
 
 
@@ -46,6 +52,11 @@ def _device(text: str) -> int | str:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.source == "bus":
+        return _record_bus(args)
+    if args.rig is None:
+        raise UserError("a live recording needs the rig calibration: --rig rig.yaml (avhear calibrate stereo "
+                        "makes one)")
     rig = require_live_rig(args.rig)
     cams = [_device(c) for c in args.cameras]
     try:
@@ -77,6 +88,34 @@ def run(args: argparse.Namespace) -> int:
     for error in stats.errors:
         print(f"avhear: the recording ended early: {error}; kept {stats.frames} frames in {args.output}",
               file=sys.stderr)
+    if getattr(stop, "signal", None) is not None:
+        print(f"avhear: interrupted; kept {stats.frames} frames in {args.output}", file=sys.stderr)
+        return 130
+    return 0 if stats.frames else 2
+
+
+def _record_bus(args: argparse.Namespace) -> int:
+    """The robot's sensors from the bus into the same raw recording format, as received (stamps included)."""
+    if (args.output / "frames.csv").exists() and not args.force:
+        raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
+    options = BusOptions.from_args(args)
+    with ExitStack() as stack:
+        session = open_session(options)
+        stack.callback(session.close)
+        source = bus_source(session, options, args)
+        stack.callback(source.close)
+        samplerate, n_channels = source.audio_format()
+        output_dir(args.output, "-o")
+        writer = RecordingWriter(args.output, rig=RigConfig(source.rig, source.mics), fps=args.fps,
+                                 samplerate_hz=int(samplerate), n_channels=n_channels, video=args.video,
+                                 overwrite=args.force, channels={"left": source.channels[0],
+                                                                 "right": source.channels[1]},
+                                 meta={"kind": "bus", "keys": list(source.keys)})
+        print(f"avhear: recording the bus to {args.output} ... Ctrl-C stops", file=sys.stderr, flush=True)
+        with stop_on_signals(threading.Event()) as stop:
+            stats = record(source, writer, duration_s=args.duration, stop=stop)
+    print(f"avhear: {stats.frames} frames and {stats.audio_blocks} audio blocks in {stats.duration_s:.1f} s "
+          f"written to {args.output} ({source.gaps} gaps, {source.bad_payloads} payloads that did not decode)")
     if getattr(stop, "signal", None) is not None:
         print(f"avhear: interrupted; kept {stats.frames} frames in {args.output}", file=sys.stderr)
         return 130

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from app.bus.publisher import ResultPublisher
-from app.bus.session import BusOptions, add_bus_arguments, open_session
+from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.live import LiveConfig
@@ -65,9 +65,17 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             max_duration_s=MAX_SIMULATED_S)
     demo.set_defaults(func=run_demo, duration=20.0)
     run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER or live")
-    run.add_argument("--source", default="sim:S2", help="sim:S1..S5|calibration, replay:FOLDER or live")
+    run.add_argument("--source", default="sim:S2",
+                     help="sim:S1..S5|calibration, replay:FOLDER, live, or bus (a robot's `avhear sensors`)")
+    run.add_argument("--left-key", default=None, metavar="KEY",
+                     help="bus: key of the left camera (sensor_msgs/CompressedImage, rectified; default: avhear "
+                          "sensors')")
+    run.add_argument("--right-key", default=None, metavar="KEY", help="bus: key of the right camera")
+    run.add_argument("--audio-key", default=None, metavar="KEY", help="bus: key of the audio (avhear_msgs/AudioBlock)")
     run.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
-    run.add_argument("--rig", default=None, help="rig YAML of a live source (stereo + microphones)")
+    run.add_argument("--rig", default=None,
+                     help="rig YAML of a live source (stereo + microphones); with --source bus it overrides the "
+                          "robot's")
     run.add_argument("--cameras", nargs="+", default=["0", "1"],
                      help="live: two camera indices/paths, or one with --side-by-side")
     run.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
@@ -134,22 +142,28 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
     _check_outputs(spec, args, target)
     with ExitStack() as stack:
         results = stack.enter_context(ResultsWriter(args.results_jsonl)) if args.results_jsonl is not None else None
-        publisher = None
-        if args.publish:
-            options = BusOptions.from_args(args)
+        publisher = session = None
+        options = BusOptions.from_args(args)
+        if args.publish or spec == "bus":
             session = open_session(options)
             stack.callback(session.close)
+        if args.publish:
             publisher = ResultPublisher(session, namespace=options.namespace)
             stack.callback(publisher.close)
-        return _run_checked(spec, args, target, live, results, publisher)
+        print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
+        if spec == "bus":
+            source = bus_source(session, options, args)
+            stack.callback(source.close)
+        else:
+            source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
+                                 seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
+                                 progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+        return _run_checked(spec, args, target, source, results, publisher, wall_time=live is not None or
+                            spec == "bus")
 
 
-def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None,
-                 results: ResultsWriter | None, publisher: ResultPublisher | None) -> int:
-    print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
-    source = open_source(spec, realtime=not args.fast, duration_s=args.duration, seed=getattr(args, "seed", 0),
-                         rig_path=getattr(args, "rig", None), live=live,
-                         progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, source: Any,
+                 results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
     meta = getattr(getattr(source, "stream", None), "meta", None)
     if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
@@ -196,8 +210,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, live
         signal.signal(signal.SIGTERM, on_sigterm)
     print(f"avhear: running {spec} ({config.inference}-guided) ... Ctrl-C stops", file=sys.stderr, flush=True)
     try:
-        # a simulated source is as long as asked; a live one runs for --duration of wall time
-        stats = pipeline.run(duration_s=args.duration if live is not None else None)
+        # a simulated source is as long as asked; a live or bus one runs for --duration of wall time
+        stats = pipeline.run(duration_s=args.duration if wall_time else None)
     except BaseException:
         session.close(keep_serving=False)
         if results is not None:
@@ -209,6 +223,9 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, live
     stats.interrupted = stats.interrupted or terminated.is_set()
     summary: dict[str, Any] = stats.as_dict()
     print(f"avhear: {stats.summary()}")
+    if spec == "bus":
+        print(f"avhear: from the bus: {source.gaps} gaps while the robot was away, {source.bad_payloads} payloads "
+              "that did not decode (skipped)")
     if args.stats_json is not None:
         args.stats_json.write_text(json.dumps(summary, indent=2))
     if results is not None:

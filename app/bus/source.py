@@ -1,0 +1,181 @@
+"""The laptop side (``avhear run --source bus``): the robot's cameras and microphones from the bus as a pipeline
+source, with the robot's rig (asked of its queryable) unless the user gives one.
+
+Subscriber callbacks run in Zenoh's threads and only decode and hand over (bounded queues that drop the oldest
+item, counted); the pipeline's grabber pairs the two cameras by stamp (ApproximateTime, as for two live cameras).
+A payload that does not decode is counted in ``bad_payloads`` and skipped. When the robot stops publishing, the
+source says so once, counts the gap, and goes on as soon as frames come again (Zenoh reconnects by itself).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+
+from app.bus.messages import AUDIO_BLOCK, decode
+from app.bus.sensors import AUDIO_KEY, LEFT_KEY, RIG_KEY, RIGHT_KEY, _stamp, frame_from_messages
+from app.config import RigConfig, rig_from_dict
+from app.errors import UserError
+from app.events import AudioBlock, StereoFrame
+from app.queues import DropOldestQueue
+from avcore.sync import ApproximateTime
+
+log = logging.getLogger(__name__)
+
+__all__ = ["BusSource"]
+
+
+class BusSource:
+    """A pipeline source fed by the bus (see module docstring).
+
+    left_key, right_key, audio_key : keys of the two rectified camera streams (sensor_msgs/CompressedImage) and the
+        audio (avhear_msgs/AudioBlock); default: those of ``avhear sensors`` under ``namespace``.
+    rig : the rig calibration; None asks the robot's queryable (``avhear sensors`` answers), waiting
+        ``rig_timeout_s``.
+    gap_s : seconds without a camera frame after which the robot counts as gone (until frames come again).
+    """
+
+    realtime = True
+
+    def __init__(self, session: Any, *, namespace: str = "", rig: RigConfig | None = None,
+                 left_key: str | None = None, right_key: str | None = None, audio_key: str | None = None,
+                 rig_timeout_s: float = 10.0, gap_s: float = 1.0, queue_size: int = 64) -> None:
+        ns = namespace.strip("/")
+        prefix = f"{ns}/" if ns else ""
+        self.session = session
+        self.keys = (left_key or prefix + LEFT_KEY, right_key or prefix + RIGHT_KEY, audio_key or prefix + AUDIO_KEY)
+        self.gap_s = gap_s
+        self.bad_payloads = 0
+        self.gaps = 0
+        self._samplerate: float | None = None
+        self._n_channels: int | None = None
+        self.channels: tuple[int, int] = (0, 1)
+        if rig is None:
+            rig, self._samplerate, self.channels = self._ask_rig(prefix + RIG_KEY, rig_timeout_s)
+        if rig.stereo is None or rig.microphones is None:
+            raise UserError("the rig needs a 'stereo' and a 'microphones' section (give --rig with both)")
+        self.rig, self.mics = rig.stereo, rig.microphones
+        self._images: DropOldestQueue[tuple[int, float, Any]] = DropOldestQueue(queue_size, "bus-images")
+        self._audio: DropOldestQueue[AudioBlock] = DropOldestQueue(4 * queue_size, "bus-audio")
+        self._pairing = ApproximateTime(2, queue_size=4, max_interval_s=0.02)
+        self._blocks = 0
+        self._last_stamp = [-np.inf, -np.inf]
+        self._subscribers = [
+            session.declare_subscriber(self.keys[0], lambda s: self._on_image(0, s)),
+            session.declare_subscriber(self.keys[1], lambda s: self._on_image(1, s)),
+            session.declare_subscriber(self.keys[2], self._on_audio),
+        ]
+
+    def _ask_rig(self, key: str, timeout_s: float) -> tuple[RigConfig, float, tuple[int, int]]:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            for reply in self.session.get(key, timeout=1.0):
+                if reply.ok is None:
+                    continue
+                try:
+                    info = json.loads(reply.ok.payload.to_bytes())
+                    return (rig_from_dict(info["rig"], f"the robot's rig ({key})"), float(info["samplerate_hz"]),
+                            tuple(int(c) for c in info["channels"]))
+                except (ValueError, KeyError, TypeError) as exc:
+                    raise UserError(f"the robot's rig on {key} does not read: {exc}") from None
+            time.sleep(0.2)
+        raise UserError(f"no robot answered on {key} within {timeout_s:g} s: start `avhear sensors` there (and "
+                        "reach it with --bus-connect), or give its rig with --rig")
+
+    # -- Zenoh's threads: decode and hand over ---------------------------------------------------------------
+
+    def _on_image(self, side: int, sample: Any) -> None:
+        try:
+            msg = decode(sample.payload.to_bytes(), "sensor_msgs/msg/CompressedImage")
+        except ValueError:
+            self.bad_payloads += 1
+            return
+        self._images.put((side, _stamp(msg.header), msg))
+
+    def _on_audio(self, sample: Any) -> None:
+        try:
+            msg = decode(sample.payload.to_bytes(), AUDIO_BLOCK)
+            samples = np.asarray(msg.samples, dtype=np.float32).reshape(-1, int(msg.n_channels))
+        except ValueError:
+            self.bad_payloads += 1
+            return
+        if self._samplerate is None:
+            self._samplerate = float(msg.samplerate_hz)
+        self._n_channels = int(msg.n_channels)
+        self._audio.put(AudioBlock(self._blocks, int(msg.first_sample), _stamp(msg.header), samples,
+                                   int(msg.samplerate_hz)))
+        self._blocks += 1
+
+    # -- the Source contract -----------------------------------------------------------------------------------
+
+    @property
+    def samplerate_hz(self) -> float:
+        """From the robot's rig answer, or from the first audio block (the pipeline reads it after that block)."""
+        if self._samplerate is None:
+            raise RuntimeError("the audio format is not known before the first audio block")
+        return self._samplerate
+
+    def audio_format(self, timeout_s: float = 10.0) -> tuple[float, int]:
+        """(samplerate_hz, n_channels) of the robot's audio, from its first block (waiting up to ``timeout_s``)."""
+        deadline = time.monotonic() + timeout_s
+        while self._n_channels is None:
+            if time.monotonic() > deadline:
+                raise UserError(f"no audio on {self.keys[2]} within {timeout_s:g} s: is the robot's microphone "
+                                "published there (--audio-key)?")
+            time.sleep(0.02)
+        return self.samplerate_hz, self._n_channels
+
+    @property
+    def overflows(self) -> int:
+        return self._audio.dropped
+
+    @property
+    def frames_dropped(self) -> int:
+        return self._images.dropped + sum(self._pairing.dropped_counts)
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
+        index = 0
+        last = time.monotonic()
+        away = False
+        while not stop.is_set():
+            item = self._images.get(timeout=0.05)
+            now = time.monotonic()
+            if item is None:
+                if not away and now - last > self.gap_s:
+                    away = True
+                    self.gaps += 1
+                    log.warning("no camera frames from the robot for %.1f s: waiting for it", now - last)
+                continue
+            if away:
+                log.warning("the robot's sensors are back after %.1f s", now - last)
+                away = False
+            last = now
+            side, stamp, msg = item
+            if stamp < self._last_stamp[side]:  # the robot's stream started again on another clock
+                self._pairing.reset()
+                self._last_stamp = [-np.inf, -np.inf]
+            self._last_stamp[side] = stamp
+            for left, right in self._pairing.push(side, stamp, msg):
+                try:
+                    frame = frame_from_messages(index, left, right)
+                except ValueError:
+                    self.bad_payloads += 1
+                    continue
+                yield frame
+                index += 1
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
+        while not stop.is_set():
+            block = self._audio.get(timeout=0.05)
+            if block is not None:
+                yield block
+
+    def close(self) -> None:
+        for sub in self._subscribers:
+            sub.undeclare()
+        self._subscribers = []

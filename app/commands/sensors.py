@@ -1,0 +1,67 @@
+"""`avhear sensors`: the robot side of the bus. Publishes a source's cameras and microphones and serves its rig
+(app.bus.sensors), so that `avhear run --source bus` can run the method on another machine, as the paper's system
+ran on a laptop beside NAO."""
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+import time
+
+from app.bus.sensors import SensorPublisher
+from app.bus.session import BusOptions, add_bus_arguments, open_session
+from app.errors import UserError
+from app.live import LiveConfig
+from app.options import count, duration
+from app.signals import stop_on_signals
+from app.sources import open_source
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sensors", help="publish cameras and microphones on the bus (the robot side)",
+                       description="Publishes both cameras (sensor_msgs/CompressedImage, JPEG) and the audio "
+                       "(avhear_msgs/AudioBlock) of a source on Zenoh in real time, and answers the laptop's query "
+                       "for the rig. On the laptop: avhear run --source bus --bus-connect tcp/ROBOT:7447.")
+    p.add_argument("--source", default="sim:S2", help="live, sim:S1..S5|calibration or replay:FOLDER")
+    p.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
+    p.add_argument("--rig", default=None, help="live: rig YAML (stereo + microphones)")
+    p.add_argument("--cameras", nargs="+", default=["0", "1"], help="live: two camera indices/paths")
+    p.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
+    p.add_argument("--audio-channels", type=count(1, 64), default=2, help="live: channels of the input stream")
+    p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS",
+                   help="stop after this many seconds (default: the end of the source, or Ctrl-C)")
+    p.add_argument("--jpeg-quality", type=count(10, 100), default=90, help="JPEG quality of the images (90)")
+    add_bus_arguments(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.source == "bus":
+        raise UserError("avhear sensors publishes a source on the bus: give live, sim:S2 or replay:FOLDER")
+    live = None
+    if args.source == "live":
+        cams = [int(c) if c.isdigit() else c for c in args.cameras]
+        device = args.audio_device
+        live = LiveConfig(left=cams[0], right=cams[1] if len(cams) > 1 else 1,
+                          audio_device=int(device) if device and device.isdigit() else device,
+                          n_channels=args.audio_channels)
+    options = BusOptions.from_args(args)
+    session = open_session(options)
+    try:
+        source = open_source(args.source, realtime=True, duration_s=args.duration if live is None else None,
+                             seed=args.seed, rig_path=args.rig, live=live,
+                             progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+        publisher = SensorPublisher(session, source, namespace=options.namespace, jpeg_quality=args.jpeg_quality)
+        print(f"avhear: publishing {args.source} on the bus ... Ctrl-C stops", file=sys.stderr, flush=True)
+        start = time.monotonic()
+        with stop_on_signals(threading.Event()) as stop:
+            publisher.run(stop, duration_s=args.duration)
+        elapsed = max(time.monotonic() - start, 1e-9)
+        publisher.close()
+    finally:
+        session.close()
+    print(f"avhear: published {publisher.frames} stereo frames and {publisher.audio_blocks} audio blocks in "
+          f"{elapsed:.1f} s ({publisher.bytes / elapsed / 1e6:.2f} MB/s)")
+    if publisher.errors:
+        raise UserError(f"the sensors stopped: {publisher.errors[0]}")
+    return 130 if getattr(stop, "signal", None) is not None else 0

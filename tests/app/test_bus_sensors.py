@@ -1,0 +1,135 @@
+"""The robot side and the laptop side as real processes over 127.0.0.1: `avhear sensors` publishes a simulated
+room's cameras and microphones, `avhear run --source bus` runs the pipeline on them and publishes the results."""
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+
+from app.bus.messages import decode
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _avhear(*args: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "app", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=ROOT)
+
+
+def _listening_session(port: int):  # noqa: ANN202
+    import zenoh
+
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
+    return zenoh.open(config)
+
+
+def test_sensors_to_run_to_a_subscriber_and_the_robot_coming_back() -> None:
+    robot, laptop, test = _free_port(), _free_port(), _free_port()
+    received: list[bytes] = []
+    voices: list[bytes] = []
+    lock = threading.Lock()
+
+    def keep(into: list[bytes]):  # noqa: ANN202
+        def on_sample(sample) -> None:  # noqa: ANN001
+            with lock:
+                into.append(sample.payload.to_bytes())
+        return on_sample
+
+    with _listening_session(test) as session:
+        session.declare_subscriber("avhear/results", keep(received))
+        session.declare_subscriber("humans/voices/tracked", keep(voices))
+        first = _avhear("sensors", "--source", "sim:S2", "--duration", "6", "--bus-listen", f"tcp/127.0.0.1:{robot}")
+        run = _avhear("run", "--source", "bus", "--publish", "--headless", "--duration", "14",
+                      "--bus-listen", f"tcp/127.0.0.1:{laptop}", "--bus-connect", f"tcp/127.0.0.1:{robot}",
+                      "--bus-connect", f"tcp/127.0.0.1:{test}")
+        assert first.wait(timeout=60) == 0, first.stderr.read()
+        time.sleep(2.0)  # the robot is away
+        with lock:
+            before = len(received)
+        second = _avhear("sensors", "--source", "sim:S2", "--duration", "5", "--bus-listen", f"tcp/127.0.0.1:{robot}")
+        assert second.wait(timeout=60) == 0, second.stderr.read()
+        out, err = run.communicate(timeout=60)
+        time.sleep(0.3)
+    assert run.returncode == 0, err
+    assert "Traceback" not in err
+    assert "the robot's sensors are back" in err
+    assert "0 payloads that did not decode" in out
+    gaps = int(out.split("from the bus: ")[1].split(" gaps")[0])
+    assert gaps >= 1
+    with lock:
+        results = [json.loads(p) for p in received]
+        tracked = [decode(p, "hri_msgs/msg/IdsList") for p in voices]
+    assert before > 60 and len(results) > before + 60  # results before the gap, and again after it
+    assert len(tracked) == len(results)
+    assert any(p["speaking"] for r in results for p in r["people"])
+    stamps = np.array([r["stamp_s"] for r in results])
+    assert np.all(np.diff(stamps) > 0)
+
+
+def test_an_undecodable_payload_is_counted_and_skipped(tmp_path: Path) -> None:
+    import zenoh
+
+    from app.bus.sensors import LEFT_KEY, RIGHT_KEY, image_message
+    from app.bus.source import BusSource
+    from app.config import RigConfig
+    from avcore.geometry import MicPair
+    from avcore.stereo import StereoRig
+
+    port = _free_port()
+    rig = RigConfig(StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12), MicPair())
+    with _listening_session(port) as robot:
+        config = zenoh.Config()
+        config.insert_json5("mode", '"peer"')
+        config.insert_json5("scouting/multicast/enabled", "false")
+        config.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
+        with zenoh.open(config) as laptop:
+            source = BusSource(laptop, rig=rig)
+            time.sleep(0.5)  # the subscriptions reach the robot's session
+            image = np.full((48, 64, 3), 90, np.uint8)
+            robot.put(LEFT_KEY, b"\x00\x01\x00\x00garbage")
+            for k in range(3):
+                robot.put(LEFT_KEY, image_message(image, 1.0 + k / 30, "l"))
+                robot.put(RIGHT_KEY, image_message(image, 1.0 + k / 30, "r"))
+            stop = threading.Event()
+            frames = []
+            threading.Timer(2.0, stop.set).start()
+            for frame in source.frames(stop):
+                frames.append(frame)
+                if len(frames) == 3:
+                    stop.set()
+            source.close()
+    assert source.bad_payloads == 1
+    assert [f.index for f in frames] == [0, 1, 2]
+    assert frames[0].left.shape == (48, 64, 3) and frames[1].stamp_s == frames[1].right_stamp_s
+
+
+def test_record_the_bus(tmp_path: Path) -> None:
+    robot = _free_port()
+    sensors = _avhear("sensors", "--source", "sim:S1", "--duration", "8", "--bus-listen", f"tcp/127.0.0.1:{robot}")
+    out = tmp_path / "rec"
+    record = subprocess.run([sys.executable, "-m", "app", "record", "--source", "bus", "-o", str(out),
+                             "--duration", "3", "--bus-connect", f"tcp/127.0.0.1:{robot}",
+                             "--bus-listen", f"tcp/127.0.0.1:{_free_port()}"], capture_output=True, text=True,
+                            cwd=ROOT, timeout=60)
+    sensors.wait(timeout=60)
+    assert record.returncode == 0, record.stderr
+    from app.recording import open_recording
+
+    rec = open_recording(out)
+    assert rec.n_frames > 60 and rec.n_samples > 2 * 16000
+    assert json.loads((out / "recording.json").read_text())["source"]["kind"] == "bus"
