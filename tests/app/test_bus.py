@@ -118,3 +118,45 @@ def test_bus_mistakes_are_one_line(tmp_path: Path, argv: list[str], message: str
     assert done.returncode == 2
     assert message in done.stderr and "Traceback" not in done.stderr
     assert len([line for line in done.stderr.splitlines() if "error" in line]) == 1
+
+
+def test_a_slow_bus_never_stalls_the_pipeline() -> None:
+    """The publisher's session takes 50 ms per message: publish() hands over without waiting, so the oldest
+    results are dropped and counted, and what is published is whole."""
+    from app.bus.publisher import ResultPublisher
+
+    class SlowPublisher:
+        def __init__(self, sent: list[str], key: str) -> None:
+            self.sent, self.key = sent, key
+
+        def put(self, payload: bytes) -> None:
+            time.sleep(0.05)
+            self.sent.append(self.key)
+
+        def undeclare(self) -> None:
+            pass
+
+    class SlowSession:
+        def __init__(self) -> None:
+            self.sent: list[str] = []
+
+        def declare_publisher(self, key: str) -> SlowPublisher:
+            return SlowPublisher(self.sent, key)
+
+    class Result:  # what result_record reads of a FusionResult
+        def __init__(self, k: int) -> None:
+            import numpy as np
+
+            self.stamp_s, self.index, self.boxes, self.latency_s = k / 30, k, None, float("nan")
+            self.xyz, self.itds_s, self.person_ids = np.zeros((0, 3)), np.zeros(3), np.array([1])
+            self.output = type("Out", (), {"positions": np.zeros((1, 3)), "speaking": np.array([True]),
+                                           "probability": np.array([0.9]), "itd_means": np.array([1e-4])})()
+
+    session = SlowSession()
+    publisher = ResultPublisher(session, queue_size=4)
+    for k in range(40):
+        publisher.publish(Result(k))
+    publisher.close(timeout_s=10)
+    # a publish() that waited for the slow session would have lost nothing: dropping is the proof it did not wait
+    assert publisher.dropped > 0 and publisher.published + publisher.dropped == 40
+    assert session.sent.count("avhear/results") == publisher.published
