@@ -1,0 +1,96 @@
+"""The bus on loopback: VGA stereo at 30 FPS and 16 kHz audio from `avhear sensors` to `avhear run --source bus`,
+against the same pipeline in one process.
+
+    python benchmarks/bus.py                   # 60 s of the simulated room S2
+    python benchmarks/bus.py --duration 30
+
+Three real processes for the bus (sensors, run, nothing else) and one for the reference (`avhear run --source
+sim:S2` in real time). Printed: frames published and fused (lost = published - fused - the source's own late
+frames), results per second, latency from capture stamp to result (p50, p95; both sides share the machine's
+monotonic clock, so the bus's share is the difference from one process), megabytes per second on the bus, and the
+CPU time of each process (user + system, as a share of one core over the run).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _start(*args: str) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "app", *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=ROOT)
+
+
+def _finish(proc: subprocess.Popen) -> tuple[str, float, float]:
+    """stdout, CPU seconds (user + system) and wall seconds of a child, read with wait4."""
+    start = getattr(proc, "started", time.monotonic())
+    _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    out = proc.stdout.read() if proc.stdout else ""
+    if proc.returncode != 0:
+        raise SystemExit(f"{proc.args} failed: {proc.stderr.read() if proc.stderr else ''}")
+    return out, usage.ru_utime + usage.ru_stime, time.monotonic() - start
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--duration", type=float, default=60.0)
+    p.add_argument("--scenario", default="S2")
+    args = p.parse_args()
+    d = args.duration
+    with tempfile.TemporaryDirectory() as tmp:
+        one = Path(tmp) / "one.json"
+        ref = _start("run", "--source", f"sim:{args.scenario}", "--duration", str(d), "--headless",
+                     "--stats-json", str(one))
+        ref.started = time.monotonic()
+        _, ref_cpu, ref_wall = _finish(ref)
+        robot = _free_port()
+        stats = Path(tmp) / "bus.json"
+        sensors = _start("sensors", "--source", f"sim:{args.scenario}", "--duration", str(d + 8),
+                         "--bus-listen", f"tcp/127.0.0.1:{robot}")
+        sensors.started = time.monotonic()
+        time.sleep(6.0)  # the simulated room is prepared before it publishes
+        run = _start("run", "--source", "bus", "--headless", "--duration", str(d), "--stats-json", str(stats),
+                     "--bus-connect", f"tcp/127.0.0.1:{robot}", "--bus-listen", f"tcp/127.0.0.1:{_free_port()}")
+        run.started = time.monotonic()
+        _, run_cpu, run_wall = _finish(run)
+        sensors_out, sensors_cpu, sensors_wall = _finish(sensors)
+        a, b = json.loads(one.read_text()), json.loads(stats.read_text())
+    published = int(sensors_out.split("published ")[1].split(" stereo")[0])
+    mb_s = float(sensors_out.split("(")[-1].split(" MB/s")[0])
+    print(f"\n{d:g} s of {args.scenario} (640x480 stereo at 30 FPS, 16 kHz audio), loopback")
+    print(f"{'':34s} {'one process':>14s} {'over the bus':>14s}")
+    rows = [
+        ("results per second", a["fps"], b["fps"]),
+        ("frames fused (30 FPS x duration)", f"{a['frames']} / {round(30 * d)}", f"{b['frames']} / {round(30 * d)}"),
+        ("latency p50 (ms)", a["latency_ms_p50"], b["latency_ms_p50"]),
+        ("latency p95 (ms)", a["latency_ms_p95"], b["latency_ms_p95"]),
+        ("late frames skipped", a["late_frames"], b["late_frames"]),
+        ("drops (all counters)", sum(a["drops"].values()), sum(b["drops"].values())),
+        ("CPU, method side (% of a core)", round(100 * ref_cpu / ref_wall), round(100 * run_cpu / run_wall)),
+        ("CPU, sensors side (% of a core)", "", round(100 * sensors_cpu / sensors_wall)),
+    ]
+    for name, x, y in rows:
+        print(f"{name:34s} {str(x):>14s} {str(y):>14s}")
+    print(f"bus: {published} stereo frames published during the sensors' {d + 8:g} s, {mb_s:.2f} MB/s; "
+          f"latency added by the bus at p95: {b['latency_ms_p95'] - a['latency_ms_p95']:+.1f} ms")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
