@@ -31,11 +31,12 @@ import numpy as np
 
 from app.errors import UserError
 from app.plotting import BLACK, BLUE, FONT, GREEN, GREY, PALE_RED, RED, nice_ticks
+from app.pipeline import DEFAULT_ITD_METHOD
 from app.recording import Recording
 from avcore.calibration import CalibrationReport, fit_av_calibration_report
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.geometry import MicPair
-from avcore.itd import ItdTrack, extract_itds
+from avcore.itd import ItdTrack, extract_itds, geometry_options
 
 __all__ = [
     "CalibrationPairs",
@@ -155,7 +156,7 @@ def locate_recording_faces(recording: Recording, *, detector: FaceDetector | Non
     return FaceTrack(stamps[:n], counts[:n], points[:n])
 
 
-def extract_recording_itds(recording: Recording, mics: MicPair, *, method: str = "gcc-phat-robust",
+def extract_recording_itds(recording: Recording, mics: MicPair, *, method: str = DEFAULT_ITD_METHOD,
                            window_s: float = 0.15, hop_s: float = 0.02, energy_threshold: float = 1e-3) -> ItdTrack:
     """The ITDs (section 5.1) of the recording's left and right channels, window centres on the recording's clock.
 
@@ -168,8 +169,7 @@ def extract_recording_itds(recording: Recording, mics: MicPair, *, method: str =
         return ItdTrack.empty()
     samples = np.concatenate(blocks, axis=0)
     samples = np.nan_to_num(samples, nan=0.0, posinf=0.0, neginf=0.0)
-    extra = ({"mic_distance_m": mics.distance_m, "speed_of_sound": mics.speed_of_sound}
-             if method.endswith("-robust") else {})
+    extra = geometry_options(method, mics.distance_m, mics.speed_of_sound)
     if samples.shape[0] < int(round(window_s * recording.samplerate_hz)):
         return ItdTrack.empty()
     track = extract_itds(samples[:, left], samples[:, right], recording.samplerate_hz, method=method,
@@ -238,7 +238,7 @@ def _too_few_pairs_message(faces: FaceTrack, itds: ItdTrack, pairs: CalibrationP
 
 
 def calibrate_recording(recording: Recording, mics: MicPair, *, method: str = "robust",
-                        refine_positions: bool = False, itd_method: str = "gcc-phat-robust",
+                        refine_positions: bool = False, itd_method: str = DEFAULT_ITD_METHOD,
                         window_s: float = 0.15, hop_s: float = 0.02, energy_threshold: float = 1e-3,
                         max_gap_s: float | None = None, detector: FaceDetector | None = None,
                         progress: Callable[[int, int], None] | None = None) -> CalibrationResult:

@@ -266,6 +266,16 @@ class ConsoleFrame:
                    output.model, person_ids, None, diagnostics or {})
 
     @classmethod
+    def from_result(cls, result: Any, diagnostics: Mapping[str, float] | None = None) -> ConsoleFrame:
+        """From the pipeline's :class:`app.pipeline.FusionResult`, face- or motion-guided (boxes or none)."""
+        if result.boxes is not None:
+            return cls.from_face_guided(result.stamp_s, result.index, result.image, result.boxes, result.xyz,
+                                        result.itds_s, result.output, person_ids=result.person_ids,
+                                        diagnostics=diagnostics)
+        return cls.from_motion_guided(result.stamp_s, result.index, result.image, result.xyz, result.itds_s,
+                                      result.output, person_ids=result.person_ids, diagnostics=diagnostics)
+
+    @classmethod
     def from_motion_guided(cls, stamp_s: float, frame: int, image: np.ndarray | None, points_xyz: np.ndarray,
                            itds_s: np.ndarray, output: Any, *, person_ids: np.ndarray | None = None,
                            diagnostics: Mapping[str, float] | None = None) -> ConsoleFrame:

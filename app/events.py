@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avcore.scenario import FrameTruth
+from avcore.evaluation import FrameTruth
 
 __all__ = ["AudioBlock", "StereoFrame"]
 

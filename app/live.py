@@ -8,6 +8,7 @@ mapped onto the monotonic clock.
 """
 from __future__ import annotations
 
+import argparse
 import logging
 import threading
 import time
@@ -18,7 +19,10 @@ from typing import Any
 import cv2
 import numpy as np
 
+from app.contract import SourceBase
+from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
+from app.options import count
 from app.queues import DropOldestQueue
 from app.sound import DeviceError, load_sounddevice
 from avcore.geometry import MicPair
@@ -27,7 +31,7 @@ from avcore.sync import ApproximateTime
 
 log = logging.getLogger(__name__)
 
-__all__ = ["LiveConfig", "LiveSource"]
+__all__ = ["LiveConfig", "LiveSource", "add_device_arguments", "live_config"]
 
 
 @dataclass(frozen=True)
@@ -41,7 +45,9 @@ class LiveConfig:
     samplerate_hz, n_channels : the input stream; channels : the (left, right) microphone channels (0-based).
     block_frames : samples per callback.
     max_failed_reads : consecutive failed grabs before the camera counts as gone.
-    max_silent_s : seconds without an audio block before the input counts as gone.
+    max_silent_s : seconds without an audio block from a running stream before the input counts as gone (a
+        PulseAudio input may take a few seconds to deliver its first block); a stream that PortAudio stopped counts
+        as gone after a few blocks' time.
     """
 
     left: int | str = 0
@@ -54,7 +60,7 @@ class LiveConfig:
     channels: tuple[int, int] = (0, 1)
     block_frames: int = 512
     max_failed_reads: int = 30
-    max_silent_s: float = 2.0
+    max_silent_s: float = 5.0
 
     def __post_init__(self) -> None:
         if self.side_by_side == (self.right is not None):
@@ -65,7 +71,36 @@ class LiveConfig:
                              f"got {self.channels}")
 
 
-class LiveSource:
+def add_device_arguments(p: argparse.ArgumentParser, *, recording: bool = False) -> None:
+    """The live devices' options, the same for ``run``, ``record`` and ``sensors``."""
+    p.add_argument("--cameras", nargs="+", default=["0", "1"],
+                   help="live: two camera indices/paths, or one with --side-by-side")
+    p.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
+    p.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
+    p.add_argument("--audio-channels", type=count(1, 64), default=2,
+                   help="live: channels of the input stream" + (" (all are kept)" if recording else ""))
+    p.add_argument("--mic-channels", type=count(0, 63), nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"),
+                   help="live: the left and right microphone channels (0-based)")
+
+
+def _device(text: str) -> int | str:
+    return int(text) if text.isdigit() else text
+
+
+def live_config(args: argparse.Namespace, **extra: Any) -> LiveConfig:
+    """The :class:`LiveConfig` of :func:`add_device_arguments`' options (``extra``: fps, samplerate_hz ...); a bad
+    combination is a :class:`UserError`."""
+    cams = [_device(c) for c in args.cameras]
+    try:
+        return LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
+                          side_by_side=args.side_by_side,
+                          audio_device=_device(args.audio_device) if args.audio_device else None,
+                          n_channels=args.audio_channels, channels=tuple(args.mic_channels), **extra)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+class LiveSource(SourceBase):
     """Cameras and microphones for :class:`app.pipeline.Pipeline` (see module docstring)."""
 
     realtime = True
@@ -169,7 +204,7 @@ class LiveSource:
                     # PortAudio calls back every block_frames samples (32 ms by default) while the device is there;
                     # errors in its thread do not reach here, so a silent callback is how a vanished device shows
                     silent_s += 0.1
-                    if silent_s >= cfg.max_silent_s:
+                    if silent_s >= (cfg.max_silent_s if stream.active else 0.3):
                         state = "stopped" if not stream.active else f"sent nothing for {silent_s:.1f} s"
                         raise DeviceError(f"the audio input {cfg.audio_device!r} {state}: was the device "
                                           "unplugged? (list the devices with 'python -m sounddevice')")

@@ -20,19 +20,19 @@ import logging
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal, Protocol
+from typing import Any, Literal
 
 import numpy as np
 
+from app.contract import Source
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
-from avcore.geometry import MicPair
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
-from avcore.itd import ItdStream
+from avcore.itd import ItdStream, geometry_options, gives_frame_itds
 from avcore.motion import harris_motion_points
 from avcore.speaking import vote_speaking
 from avcore.stereo import StereoRig
@@ -41,26 +41,12 @@ from avcore.tracking import NearestTracker
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FusionResult", "Pipeline", "PipelineConfig", "PipelineStats", "Source"]
+__all__ = ["DEFAULT_ITD_METHOD", "FusionResult", "Pipeline", "PipelineConfig", "PipelineStats", "Source"]
 
 
-class Source(Protocol):
-    """What the pipeline needs from cameras + microphones, a recording or the simulator.
-
-    ``frames`` and ``audio`` are blocking iterators paced by the source (real time, or as fast as possible for a
-    replay); they end when the source is exhausted or ``stop`` is set. ``channels`` are the (left, right) channel
-    numbers of the audio blocks. A source with ``realtime = False`` (a replay as fast as possible) gets
-    back-pressure instead of drops: nothing of a recording is lost.
-    """
-
-    rig: StereoRig
-    mics: MicPair
-    samplerate_hz: float
-    channels: tuple[int, int]
-
-    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]: ...
-
-    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]: ...
+DEFAULT_ITD_METHOD = "gcc-phat-robust"
+"""The application's ITD extractor (the most accurate in reverberant rooms, ``benchmarks/itd_accuracy.py``); the
+paper's is ``"correlogram"``, the default of :func:`avcore.itd.extract_itds`."""
 
 
 @dataclass(frozen=True)
@@ -91,7 +77,7 @@ class PipelineConfig:
     """
 
     inference: Literal["face", "motion"] = "face"
-    itd_method: str = "gcc-phat-robust"
+    itd_method: str = DEFAULT_ITD_METHOD
     window_s: float = 0.15
     hop_s: float = 0.02
     energy_threshold: float = 1e-3
@@ -245,7 +231,7 @@ class Pipeline:
         self._waiting = 0  # results of _voting not emitted yet
         self._fused = 0  # vision frames fused (results emitted lag them by the vote)
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
-        self._backpressure = not getattr(source, "realtime", True)
+        self._backpressure = not source.realtime
         self._vision_clock: float | None = None  # stamp of the last frame vision took (the ITD worker's pace)
         self._first_audio_stamp: float | None = None
         self._sync: TimeFrame | None = None  # the fusion thread's synchroniser, for its drop counts
@@ -296,8 +282,8 @@ class Pipeline:
                 "frames_unmatched": sync.dropped_primaries if sync is not None else 0,
                 "frame_itds": self._frame_itds_cut,
             })
-            self.stats.overflows = int(getattr(self.source, "overflows", 0))  # audio overflows of a live input
-            self.stats.late_frames = int(getattr(self.source, "frames_dropped", 0))  # skipped by a real-time source
+            self.stats.overflows = int(self.source.overflows)  # audio lost at the input
+            self.stats.late_frames = int(self.source.frames_dropped)  # skipped by a real-time source
         if self._errors:
             name, exc = self._errors[0]
             if isinstance(exc, UserError):  # a bad recording or device: the message says what to do
@@ -391,10 +377,9 @@ class Pipeline:
         c = self.config
         src = self.source
         left, right = src.channels
-        extra = ({"mic_distance_m": src.mics.distance_m, "speed_of_sound": src.mics.speed_of_sound}
-                 if c.itd_method.endswith("-robust") else {})
+        extra = geometry_options(c.itd_method, src.mics.distance_m, src.mics.speed_of_sound)
         stream: ItdStream | None = None
-        frame_itds = c.frame_itds and c.inference == "face" and c.itd_method == "gcc-phat-robust"
+        frame_itds = c.frame_itds and c.inference == "face" and gives_frame_itds(c.itd_method)
         start_s = expected_s = 0.0
         n = 0
         while True:

@@ -45,7 +45,7 @@ import numpy as np
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
 from app.simsource import AudioBlock, StereoFrame, StreamSource
-from avcore.scenario import FrameTruth
+from avcore.evaluation import FrameTruth
 
 __all__ = ["RecordingError", "RecordingWriter", "Recording", "open_recording", "write_recording", "FORMAT"]
 

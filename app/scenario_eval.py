@@ -1,6 +1,6 @@
 """The scenario evaluation of the paper's section 7.3 ("Results on NAO") on the simulated room.
 
-Each scenario S1-S5 (:mod:`avcore.scenario`) is simulated and replayed as fast as possible (nothing lost) through
+Each scenario S1-S5 (:mod:`sim.scenario`) is simulated and replayed as fast as possible (nothing lost) through
 the real :class:`~app.pipeline.Pipeline`: face detection and F3D on the rendered stereo frames (section 5.2), ITD
 extraction on the simulated microphone signals (section 4), and face-guided fusion (Algorithm 2, section 5.4) or,
 when asked, motion-guided fusion (Algorithm 1). The fused results are scored against the simulator's truth.
@@ -69,8 +69,8 @@ from app.sources import StreamAdapter, open_source
 from avcore.calibration import fit_av_calibration_report
 from avcore.evaluation import TAU_LOC_M, match_clusters
 from avcore.geometry import MicPair
-from avcore.itd import extract_itds
-from avcore.scenario import Scenario
+from avcore.itd import extract_itds, geometry_options
+from sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
 
@@ -567,8 +567,7 @@ def _itd_errors(scenario: Scenario, audio: np.ndarray, samplerate_hz: float, mic
                 config: PipelineConfig) -> tuple[list[float], list[float], int]:
     """Extracted minus true ITD and the true ITD (seconds) of every window in which exactly one person sounds, and it
     is speech; and the number of ITDs extracted in all. Same extractor and settings as the pipeline's ITD worker."""
-    extra = ({"mic_distance_m": mics.distance_m, "speed_of_sound": mics.speed_of_sound}
-             if config.itd_method.endswith("-robust") else {})
+    extra = geometry_options(config.itd_method, mics.distance_m, mics.speed_of_sound)
     track = extract_itds(audio[:, 0], audio[:, 1], samplerate_hz, method=config.itd_method,
                          window_s=config.window_s, hop_s=config.hop_s, energy_threshold=config.energy_threshold,
                          max_itd_s=1.2 * mics.max_itd_s, **extra)

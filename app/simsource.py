@@ -2,13 +2,13 @@
 
 The embedded default source (DESIGN.md, "What users get"): a :class:`SimSource` delivers what a real rig delivers --
 640x480 left/right frames at ``fps`` (15-30) and 16 kHz two-channel audio in blocks of ``block_size`` samples, each
-stamped on one clock -- from a scenario of :mod:`avcore.scenario` (the paper's section 7.3 presets S1-S5 and the
+stamped on one clock -- from a scenario of :mod:`sim.scenario` (the paper's section 7.3 presets S1-S5 and the
 section 5.3 calibration), with the ground truth of every frame.
 
 Audio is computed once, when the source is made (the whole scenario: image-source room impulse responses from
-:mod:`avcore.roomsim`, one per still sound source and one per ``max_step_m`` of a moving one, cross-faded; the
+:mod:`sim.roomsim`, one per still sound source and one per ``max_step_m`` of a moving one, cross-faded; the
 robot's fan; 16-bit quantisation as a sound card does). Frames are rendered on demand by
-:class:`avcore.render.StereoSceneRenderer`; a frame whose scene did not change (nobody moved or nodded) reuses the
+:class:`sim.render.StereoSceneRenderer`; a frame whose scene did not change (nobody moved or nodded) reuses the
 previous rendering with fresh sensor noise, so still scenes cost little.
 
 Streams (shared with :class:`app.recording.Recording`, see :class:`StreamSource`): ``stream()`` yields frames and
@@ -36,15 +36,15 @@ from scipy.signal import fftconvolve
 from app.events import AudioBlock, StereoFrame
 from avcore.faces import HaarFaceDetector
 from avcore.geometry import MicPair
-from avcore.render import (
+from sim.render import (
     FaceTexture,
     Person,
     StereoSceneRenderer,
     drawn_face_texture,
     load_face_textures,
 )
-from avcore.roomsim import DEFAULT_DATA_DIR, Room, fan_noise, load_speech
-from avcore.scenario import (
+from sim.roomsim import Room, fan_noise, load_speech, resolve_data_dir
+from sim.scenario import (
     SOURCE_OFFSETS_M,
     ClipBank,
     FrameTruth,
@@ -69,8 +69,8 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-PRA_DELAY_SAMPLES = 40   # pyroomacoustics' global delay in its responses (avcore.roomsim.Room.impulse_responses)
-FAN_POSITION_M = (0.02, -0.04, -0.06)  # the fan inside the head, behind the microphones (as avcore.roomsim)
+PRA_DELAY_SAMPLES = 40   # pyroomacoustics' global delay in its responses (sim.roomsim.Room.impulse_responses)
+FAN_POSITION_M = (0.02, -0.04, -0.06)  # the fan inside the head, behind the microphones (as sim.roomsim)
 REFERENCE_DISTANCE_M = 1.0
 NOD_HZ = 2.0
 
@@ -232,10 +232,10 @@ def _sleep_until(deadline: float) -> None:
 def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = None, n_voices: int = 3,
                    seed: int = 0) -> ClipBank:
     """The spoken digits of ``data_dir/speech/digits`` grouped by speaker (``{digit}_{speaker}_N.wav``), one voice
-    per speaker with its ten digits, each cut to its audible part (:func:`avcore.scenario.trim_quiet_ends`: the
-    truth's speaking states follow the clips); :func:`avcore.scenario.synthetic_clip_bank` when the folder is absent
-    or incomplete. ``data_dir`` defaults to ``../shared/data``."""
-    root = DEFAULT_DATA_DIR if data_dir is None else Path(data_dir)
+    per speaker with its ten digits, each cut to its audible part (:func:`sim.scenario.trim_quiet_ends`: the
+    truth's speaking states follow the clips); :func:`sim.scenario.synthetic_clip_bank` when the folder is absent
+    or incomplete. ``data_dir`` defaults to :func:`sim.roomsim.resolve_data_dir`."""
+    root = resolve_data_dir(data_dir)
     folder = root / "speech" / "digits"
     names = sorted(p.name for p in folder.glob("*.wav")) if folder.is_dir() else []
     clips = load_speech(samplerate_hz, "digits", root) if names else None
@@ -257,7 +257,7 @@ def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = Non
 def load_textures(data_dir: str | Path | None = None) -> tuple[list[FaceTexture], str]:
     """Face textures cut from ``data_dir/faces`` (kept only where OpenCV's detector finds them), or five drawn faces
     when the folder is absent. Returns the textures and "faces" or "drawn"."""
-    root = DEFAULT_DATA_DIR if data_dir is None else Path(data_dir)
+    root = resolve_data_dir(data_dir)
     try:
         textures = load_face_textures(root / "faces", detector=HaarFaceDetector())
     except FileNotFoundError:
@@ -434,7 +434,7 @@ class _FrameCache:
 
 
 class SimSource(StreamSource):
-    """A scenario of :mod:`avcore.scenario` as a stream of frames and audio blocks with ground truth.
+    """A scenario of :mod:`sim.scenario` as a stream of frames and audio blocks with ground truth.
 
     Parameters
     ----------
@@ -501,7 +501,7 @@ class SimSource(StreamSource):
     def from_preset(cls, name: str, *, duration_s: float | None = None, seed: int = 0, fps: float = 30.0,
                     data_dir: str | Path | None = None, block_size: int = 512, rt60_s: float = 0.4,
                     progress: Callable[[str], None] | None = None) -> SimSource:
-        """A preset of :data:`avcore.scenario.PRESETS` with real faces and digits from ``data_dir`` (default
+        """A preset of :data:`sim.scenario.PRESETS` with real faces and digits from ``data_dir`` (default
         ``../shared/data``; drawn faces and synthetic clips when it is absent)."""
         bank = load_clip_bank(16000, data_dir, seed=seed)
         scenario = make_scenario(name, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,

@@ -7,18 +7,19 @@ import time
 from collections.abc import Iterator
 
 from app.config import require_live_rig
+from app.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.live import LiveConfig, LiveSource
 from app.recording import open_recording
 from app.simsource import SimSource, StreamSource
 from avcore.geometry import MicPair
-from avcore.scenario import PRESETS
+from sim.scenario import PRESETS
 
 __all__ = ["StreamAdapter", "open_source"]
 
 
-class StreamAdapter:
+class StreamAdapter(SourceBase):
     """A :class:`~app.simsource.StreamSource` (the simulator or a recording) as a pipeline source.
 
     realtime : deliver at capture pace on ``time.monotonic()`` (a live-like demo), or as fast as possible (then
@@ -63,6 +64,12 @@ class StreamAdapter:
             if stop.is_set():
                 return
             yield block
+
+    def close(self) -> None:
+        """Close a replayed recording's files (the simulator holds none)."""
+        close = getattr(self.stream, "close", None)
+        if close is not None:
+            close()
 
 
 def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, seed: int = 0,

@@ -30,10 +30,34 @@ import numpy as np
 
 from avcore._validate import as_points
 
-__all__ = ["TAU_LOC_M", "MatchResult", "match_clusters", "EvalTotals"]
+__all__ = [
+    "FrameTruth", "TAU_LOC_M", "MatchResult", "match_clusters", "EvalTotals"]
 
 TAU_LOC_M = 0.35
 """The paper's matching threshold tau_loc (section 7), metres."""
+
+
+@dataclass(frozen=True, eq=False)
+class FrameTruth:
+    """The ground truth of one instant, for ``N`` actors (what a simulator or an annotator knows; recordings carry
+    it in truth.csv).
+
+    time_s : seconds from the scenario's start; positions_m : (N, 3) face centres, scene frame, metres;
+    visible : (N,) bool -- the whole face box projects inside both images and no nearer person hides its centre;
+    speaking : (N,) bool -- a speech event of the actor covers the instant (at the source, not at the microphones);
+    sounding : (N,) bool -- any sound of the actor (speech, clap, loudspeaker noise);
+    boxes_left : (N, 4) float -- the face box (x, y, w, h) projected into the left image, pixels (NaN behind the rig);
+    itds_s : (N,) float -- the ITD of eq. (itd) of each actor's mouth (its loudspeaker for "noise"), seconds.
+    """
+
+    time_s: float
+    positions_m: np.ndarray
+    visible: np.ndarray
+    speaking: np.ndarray
+    sounding: np.ndarray
+    boxes_left: np.ndarray
+    itds_s: np.ndarray
+    names: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, eq=False)

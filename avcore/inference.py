@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from avcore._packed_em import Packed, class_sums, log_likelihoods, run_em, run_fusion
+from avcore._packed_em import _Z2_CLIP, Packed, class_sums, log_likelihoods, run_em, run_fusion
 from avcore._validate import as_points, as_samples
 from avcore.geometry import MicPair
 from avcore.mixture import (
@@ -333,13 +333,8 @@ class FaceGuidedParams:
     decision_window_s : when :meth:`FaceGuidedHearing.step` is given the ITDs' times, the speaking test counts
         only the ITDs whose windows are centred within +- this of the frame's stamp, while EM fits on all the ITDs
         of the time frame. The paper decides on the whole time frame (the pipeline's +-0.2 s), which stretches
-        each speaking state into the pauses around it; None (the default): the paper's way. Measured on the
-        simulated scenarios (``avhear eval scenarios --seed 0 1 2 [--decision-window 0.1]``, per 0.4 s interval,
-        with the frames' and bands' looks and the vote), it trades misses for false alarms rather than removing
-        either: at 0.1 s the false speaking intervals per spoken one fall from 0.82 / 0.75 / 0.86 / 0.94 / 0.84
-        (S1-S5) to 0.25 / 0.23 / 0.28 / 0.28 / 0.39, and TP from 98 / 97 / 100 / 100 / 92 % to 97 / 90 / 88 / 100 /
-        80 %; per spoken number S5 falls from 97.2 to 93.8 % (seeds 0-2, with the digits cut to their audible part
-        and the voices drawn with the seed).
+        each speaking state into the pauses around it; None (the default): the paper's way. A shorter window
+        trades misses for false alarms rather than removing either (docs/experiments.md, "The decision window").
     """
 
     sigma2_init_s2: float = 1e-9
@@ -429,7 +424,7 @@ class FaceGuidedHearing:
         beta = np.zeros((k, n + 1))
         if k and n:
             w, mu, var, beta, n_iter = self._em(a, w, mu, var)
-        model = Mixture1D._trusted(w, mu, var, self.support)
+        model = Mixture1D.unchecked(w, mu, var, self.support)
         bbar = beta[:, :-1].sum(axis=0)
         frame_itds = None if frame_itds_s is None else as_samples(frame_itds_s, "frame_itds_s")
         band_itds = None if band_itds_s is None else as_samples(band_itds_s, "band_itds_s")
@@ -454,7 +449,7 @@ class FaceGuidedHearing:
         for it in range(1, p.em.max_iter + 1):
             if it == 1 or not fixed:
                 d = a[:, None] - mu[None, :]
-                kern[:, :-1] = np.exp(-0.5 * np.minimum(d * d / var, 1400.0)) / np.sqrt(2.0 * np.pi * var)
+                kern[:, :-1] = np.exp(-0.5 * np.minimum(d * d / var, _Z2_CLIP)) / np.sqrt(2.0 * np.pi * var)
             dens = kern * w
             tot = dens.sum(axis=1)
             beta = dens / tot[:, None]

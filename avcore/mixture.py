@@ -132,9 +132,10 @@ class Mixture1D:
         object.__setattr__(self, "support", _check_support(self.support))
 
     @classmethod
-    def _trusted(cls, weights: np.ndarray, means: np.ndarray, variances: np.ndarray,
-                 support: tuple[float, float]) -> Mixture1D:
-        """Build without validation: for arrays the fitting code itself made (a hot path)."""
+    def unchecked(cls, weights: np.ndarray, means: np.ndarray, variances: np.ndarray,
+                  support: tuple[float, float]) -> Mixture1D:
+        """Build without validation, for arrays that avcore's fitting code itself made and checked (a hot path: the
+        face-guided EM and the candidate models build one per iteration). Anything else: the constructor."""
         obj = object.__new__(cls)
         object.__setattr__(obj, "weights", weights)
         object.__setattr__(obj, "means", means)
@@ -259,7 +260,7 @@ def unpack(p: Packed, c: int, support: tuple[float, float]) -> Mixture1D:
     """Model ``c`` of a batch, back in seconds."""
     wg, mu, var, wo = p.model(c)
     weights = np.append(wg, wo)
-    return Mixture1D._trusted(weights / weights.sum(), mu / US, var / (US * US), support)
+    return Mixture1D.unchecked(weights / weights.sum(), mu / US, var / (US * US), support)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -419,7 +420,7 @@ def split_at_mean(model: Mixture1D, index: int) -> Mixture1D:
     means = np.concatenate([np.delete(model.means, index), [model.means[index] - shift, model.means[index] + shift]])
     variances = np.concatenate([np.delete(model.variances, index), [var, var]])
     g = np.concatenate([np.delete(model.weights[:-1], index), [half, half]])
-    return Mixture1D._trusted(np.append(g, model.weights[-1]), means, variances, model.support)
+    return Mixture1D.unchecked(np.append(g, model.weights[-1]), means, variances, model.support)
 
 
 def _seed_model(data: BinnedSamples, support: tuple[float, float], outlier_weight: float) -> Mixture1D:
@@ -468,7 +469,7 @@ class _ResidualGrid:
         width = self.sd_s / self.STEP_S * np.sqrt(2.0 * np.pi)  # grid steps under a Gaussian of unit peak
         weight = float(np.clip(excess[i] * width / self.total, 0.02, 0.5))
         weights = np.concatenate([model.weights[:-1] * (1.0 - weight), [weight], [model.weights[-1] * (1.0 - weight)]])
-        return Mixture1D._trusted(weights, np.append(model.means, self.grid[i]), np.append(model.variances, self.sd_s**2),
+        return Mixture1D.unchecked(weights, np.append(model.means, self.grid[i]), np.append(model.variances, self.sd_s**2),
                          model.support)
 
 
@@ -509,7 +510,7 @@ def initial_models(
     for n in range(1, min(n_prev, n_max) + 1):
         g = base.weights[:n]
         g = g * (1.0 - base.weights[-1]) / g.sum() if g.sum() > 0 else np.full(n, (1.0 - base.weights[-1]) / n)
-        models.append(Mixture1D._trusted(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n], support))
+        models.append(Mixture1D.unchecked(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n], support))
     if n_max <= n_prev:
         return models
     if n_prev == 0:

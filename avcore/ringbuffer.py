@@ -1,4 +1,4 @@
-"""Multichannel audio ring buffer and microphone channel selection.
+"""Multichannel audio ring buffer.
 
 The audio callback appends blocks of any size; the ITD worker (DESIGN.md, "Data flow") reads the window that ends at
 a given sample index, or the latest ``W`` seconds. Every sample has an absolute index (0 for the first sample ever
@@ -9,13 +9,10 @@ through a bounded queue filled by the audio callback. Wrap it in a lock if two t
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal
-
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["ChannelSelection", "RingBuffer", "select_channels"]
+__all__ = ["RingBuffer"]
 
 
 class RingBuffer:
@@ -141,81 +138,3 @@ class RingBuffer:
     def read_latest_seconds(self, duration_s: float, samplerate_hz: float) -> np.ndarray:
         """The newest ``round(duration_s * samplerate_hz)`` samples."""
         return self.read_latest(round(duration_s * samplerate_hz))
-
-
-Layout = Literal["frames", "planar", "interleaved"]
-
-
-@dataclass(frozen=True)
-class ChannelSelection:
-    """Which two channels of a multichannel stream are the left and right microphones.
-
-    Parameters
-    ----------
-    left, right : int
-        Zero-based channel numbers (the robot's head had four microphones; the user names two).
-    n_channels : int
-        Channels in the stream.
-    layout : {"frames", "planar", "interleaved"}
-        How a block is laid out: ``"frames"`` is ``(n, n_channels)`` (sounddevice, soundfile), ``"planar"`` is
-        ``(n_channels, n)`` (pyroomacoustics, librosa), ``"interleaved"`` is a flat ``(n * n_channels,)`` array of
-        frames one after the other (raw PCM).
-    """
-
-    left: int
-    right: int
-    n_channels: int = 2
-    layout: Layout = "frames"
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.n_channels, (int, np.integer)) or self.n_channels < 2:
-            raise ValueError(f"n_channels must be an integer >= 2, got {self.n_channels!r}")
-        for name in ("left", "right"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, np.integer)) or isinstance(value, bool) or not (
-                    0 <= value < self.n_channels):
-                raise ValueError(
-                    f"{name} must be a channel number in [0, {self.n_channels - 1}], got {value!r}")
-        if self.left == self.right:
-            raise ValueError(f"left and right name the same channel {self.left}; name two different channels")
-        if self.layout not in ("frames", "planar", "interleaved"):
-            raise ValueError(f"layout must be 'frames', 'planar' or 'interleaved', got {self.layout!r}")
-
-    def split(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return the left and right channels of ``block`` as two ``(n,)`` views (no copy)."""
-        arr = np.asarray(block)
-        c = self.n_channels
-        if self.layout == "frames":
-            if arr.ndim != 2 or arr.shape[1] != c:
-                raise ValueError(f"block must have shape (n, {c}) for layout 'frames', got shape {arr.shape}")
-            return arr[:, self.left], arr[:, self.right]
-        if self.layout == "planar":
-            if arr.ndim != 2 or arr.shape[0] != c:
-                raise ValueError(f"block must have shape ({c}, n) for layout 'planar', got shape {arr.shape}")
-            return arr[self.left], arr[self.right]
-        if arr.ndim != 1 or arr.shape[0] % c:
-            raise ValueError(
-                f"block must be a 1-D array whose length is a multiple of {c} for layout 'interleaved', "
-                f"got shape {arr.shape}")
-        return arr[self.left::c], arr[self.right::c]
-
-    def stereo(self, block: np.ndarray) -> np.ndarray:
-        """Return a new ``(n, 2)`` array of (left, right) samples, ready for :meth:`RingBuffer.append`."""
-        left, right = self.split(block)
-        return np.stack([left, right], axis=1)
-
-
-def select_channels(block: np.ndarray, left: int, right: int, layout: Layout = "frames") -> np.ndarray:
-    """Shortcut: ``(n, 2)`` left/right samples of ``block`` (see :class:`ChannelSelection`).
-
-    The number of channels is read from the block's shape (for ``"interleaved"`` it must be given through
-    :class:`ChannelSelection` instead).
-    """
-    arr = np.asarray(block)
-    if layout == "interleaved":
-        raise ValueError("an interleaved block does not say how many channels it has; use "
-                         "ChannelSelection(left, right, n_channels, layout='interleaved')")
-    if arr.ndim != 2:
-        raise ValueError(f"block must be a 2-D array, got shape {arr.shape}")
-    n_channels = arr.shape[1] if layout == "frames" else arr.shape[0]
-    return ChannelSelection(left, right, n_channels, layout).stereo(arr)

@@ -46,84 +46,40 @@ class SpeakingTest:
     within +-``window_sd`` sigma of the cluster (sigma at least ``min_sd_s``) are more than chance allows: if a
     share ``outlier_share`` of the K ITDs were spread uniformly over the ITD interval, the count in the window
     would be Poisson; the count must exceed its ``quantile`` and be at least ``min_itds``. ``use_tau_a`` also
-    keeps the paper's threshold (off by default: measured in ``avhear eval synthetic``, it costs 2-20 points of
-    audio TP on the Var sequences and removes no false positive). ``count_by`` says how much an ITD in the window
-    counts for the person: ``"posterior"`` with its posterior beta_kn, so that an ITD between two people is not
-    counted twice; ``"nearest"`` with its posterior of being anyone's (1 - the outlier's), all of it for the
-    person it lies nearest to; ``"window"`` fully for everyone whose window holds it.
+    keeps the paper's threshold (off by default: it costs audio TP on the Var sequences and removes no false
+    positive, ``avhear eval synthetic``). ``count_by`` says how much an ITD in the window counts for the person:
+    ``"posterior"`` with its posterior beta_kn, so that an ITD between two people is not counted twice;
+    ``"nearest"`` with its posterior of being anyone's (1 - the outlier's), all of it for the person it lies
+    nearest to; ``"window"`` fully for everyone whose window holds it.
 
-    ``"nearest"`` is the face-guided default (:class:`avcore.inference.FaceGuidedParams`). Beta_kn holds the
-    mixture weights, which EM fits to the same ITDs. Two faces closer in ITD than the Gaussians' width explain the
-    same ITDs about equally well, and EM then often hands nearly all the weight, and so nearly all the posterior,
-    to one of them. The other one gets none of its own ITDs, even when both talk at once. Counting each ITD for
-    the nearest face follows the geometry instead of that weight, and keeps the outlier class's share out.
-    Measured with ``avhear eval scenarios --seed 0 1 2``, ``"posterior"`` before and ``"nearest"`` after: S5
-    (three people speaking independently, one walking past the others) 89.1 -> 91.3 % of the spoken numbers
-    found, false speaking stretches 11 -> 10; S1-S4 unchanged (100 %, none); per 0.4 s interval S5's TP
-    80.1 -> 82.9 %, its false alarms per speaking count 0.40 -> 0.43, S1-S4 within 0.02. The price is paid where
-    people cross in ITD while one of them talks (``avhear eval synthetic --seed 0 1 2 3 4 --face-guided``, table 3,
-    per 136-interval sequence): DynCon TP 95.9 -> 97.2 %, FP 3.4 -> 10.0; DynVar 91.1 -> 92.7 %, 2.2 -> 6.6;
-    StaCon and StaVar within 0.4. Counting fully for the nearest face without the outlier's share found more
-    in S5 (93.5 %, throwaway run) but made a face speak for an unseen talker 70 us beyond it.
+    ``"nearest"`` is the face-guided default (:class:`avcore.inference.FaceGuidedParams`): two faces closer in ITD
+    than the Gaussians' width explain the same ITDs about equally well, and EM then often hands nearly all the
+    weight, and so the posterior, to one of them; counting each ITD for the nearest face follows the geometry
+    instead of that weight, and keeps the outlier class's share out.
 
     ``decide(..., present=mask)`` decides on a subset of the ITDs that fitted the model: the face-guided fusion
     fits on the ITDs of the whole time frame and decides on those near the frame's own instant
     (``FaceGuidedParams.decision_window_s``).
 
     A second look at the single frames (``frame_rescue``, beyond the paper). One ITD per 150 ms window (section 4)
-    belongs to the louder talker whenever two overlap, and a quieter one can lose every window of a spoken number.
-    In the gaps between the louder talker's syllables it still wins some 32 ms frames. Given the frames' own ITDs
+    belongs to the louder talker whenever two overlap, and a quieter one can lose every window of a spoken number;
+    in the gaps between the louder talker's syllables it still wins some 32 ms frames. Given the frames' own ITDs
     (``decide(..., frame_itds=...)``, from ``ItdStream(frame_itds=True)``), a person also speaks when more of them
     lie within ``frame_within_s`` of the person, and nearer to them than to anyone else, than chance allows. Chance
     is a Poisson count with two parts: the frames that stray uniformly over the ITD interval (a share
-    ``outlier_share`` of the M, as for the windows), and the other people's frames that spill over to this one.
-    A frame's ITD scatters more than a window's: in the single-talker frames of S1 and S2, 84 % lie within 25 us
-    of the talker, a Laplace of scale 14 us (throwaway measurement; ``frame_spread_s`` is 15 us). So a talker
-    30-60 us away puts about a sixth of its frames nearer to a silent neighbour. The count must exceed the
-    Poisson's ``frame_quantile`` and reach ``frame_min``. Only the nearest person counts a frame.
-
-    Measured with ``avhear eval scenarios --seed 0 1 2`` on S5 (three people speaking independently), per spoken
-    number, TP and false speaking stretches:
-    - the windows alone (``--no-frame-itds``), window ITDs counted by posterior: 86.2 %, 9;
-    - the frames, all M of them as uniform strays, window ITDs counted by posterior: 89.1 %, 11;
-    - the same, window ITDs counted for the nearest face: 91.3 %, 10;
-    - the frames with a fifth as strays plus the spill (the defaults): 92.8 %, 12.
-    S1-S4 stay at 100 % and none.
+    ``outlier_share`` of the M, as for the windows), and the other people's frames that spill over to this one (a
+    frame's ITD scatters as a Laplace of scale ``frame_spread_s``). The count must exceed the Poisson's
+    ``frame_quantile`` and reach ``frame_min``. Only the nearest person counts a frame.
 
     A third look at the frames' frequency bands (``band_itds``, from ``ItdStream.pop_band_itds``: each 32 ms frame's
     own peak in each of the bands cut at 800, 1600 and 2600 Hz). Two voices at once rarely fill the same bands
     equally, so a masked talker that wins no whole frame still wins some bands. The same test counts them, with a
-    spread of ``band_spread_s`` (30 us: a band's peak scatters twice as much as a frame's; in the single-talker
-    frames of S5 27-48 % of the band peaks lie within 25 us, throwaway count). Where two voices share a band, its
-    peak falls between them (a phantom, as in summing localisation): nobody lying between two people already judged
-    speaking is called speaking on the bands (white-noise talkers put a silent person between them speaking in every
-    result without this, ``tests/app/test_pipeline.py``). On their own the bands bring short false stretches; the
-    pipeline's vote over 9 results (``PipelineConfig.vote_frames``, :func:`vote_speaking`) removes them. Measured
-    with ``avhear eval scenarios --seed 0 1 2`` and ``--scenario S5 --seed 3 4 5 6 7 8``, per spoken number, before
-    (the frames' look above) and after (bands and vote): S5 seeds 0-2 92.8 -> 94.2 %, false stretches 12 -> 9; seeds
-    3-8 92.9 -> 96.3 %, 35 -> 25 (seeds 3-8 were also rescored in the choices below); S1-S4 100 %, S1 one false
-    stretch (none before). Per 0.4 s interval S5's TP rose 85.6 -> 91.1 % (seeds 0-2), its false alarms per speaking
-    count 0.47 -> 0.53. Throwaway rescoring of saved runs chose the parts: the bands alone found as many numbers but
-    with 2.6 times the false stretches (seeds 0-2: 31 against 12); the vote alone removed false stretches but found
-    no number; the phantom rule costs one number on seeds 0-2 and one on 3-8. Seeds 9-14, used in no choice (they
-    only validated them), with the final code (``--scenario S5 --seed 9 10 11 12 13 14``, after the face tracker's
-    lost-face search too): 96.3 % of 268 numbers, 14 false stretches (0.05 per count); seeds 15-20, looked at once
-    later: 94.9 % of 273, 22 (0.08). All of these used the digits as recorded and the same three voices for every
-    seed; with the digits cut to their audible part (:func:`avcore.scenario.trim_quiet_ends`) and the voices drawn
-    with the seed, S5 gives 97.2 % of 144 numbers on seeds 0-2 and 93.5 % of 863 on seeds 3-20.
+    spread of ``band_spread_s`` (a band's peak scatters twice as much as a frame's). Where two voices share a band,
+    its peak falls between them (a phantom, as in summing localisation): nobody lying between two people already
+    judged speaking is called speaking on the bands. On their own the bands bring short false stretches, which the
+    pipeline's vote over 9 results removes (``PipelineConfig.vote_frames``, :func:`vote_speaking`).
 
-    Eight bands instead of four (cut at 400, 800, 1200, 1600, 2100, 2600 and 3300 Hz; runs with the cut patched in,
-    ``--scenario S5 --seed 9 10 11 12 13 14`` and ``15 ... 20``) only moved along the same trade: 517 -> 525 of 541
-    numbers, but false stretches 36 -> 54, and on S1-S4 (seeds 0-2) 1 -> 9, each a silent neighbour 100-200 us from
-    the talker. The narrower bands scatter more (in single-talker frames a Laplace of 45-80 us below 2.6 kHz; above
-    it the peak often lands a period away, median error 280 us, throwaway measurement). With ``band_spread_s`` set
-    to that 45 us: 515 and 34, as with four bands.
-
-    Tried in throwaway rescoring of the same runs and not kept: windows of +-20 and
-    +-40 us, quantiles 0.95 and 0.98, a +-0.3 s span, the frames' second peaks (all within a spoken number or two
-    of the above); every frame near a person, not only the nearest (a few more numbers, about twice the false
-    stretches); the mean frame correlation at each face, and the weights of a von Mises mixture of the T-F bins'
-    phases at the faces (in both, the silent faces' values overlap the masked talkers').
+    How each part was chosen, measured and what was tried without gain: docs/experiments.md ("The speaking test").
     """
 
     outlier_aware: bool = True

@@ -72,3 +72,4 @@ def results(source: str = "sim:S2", *, duration_s: float | None = None, realtime
         stop.set()
         pipeline.stop()
         worker.join(5.0)
+        src.close()

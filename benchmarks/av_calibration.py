@@ -1,6 +1,6 @@
 """Audio-visual calibration (paper section 5.3, issue 5): plain least squares vs the robust fit of c1, c0.
 
-A simulated calibration session (``avcore.calibration.simulate_calibration``): a person holding a white-noise
+A simulated calibration session (``sim.calibration.simulate_calibration``): a person holding a white-noise
 loudspeaker walks a zig-zag across the +-28 x +-20 degree field of view at 1-3 m for a minute; one face/ITD pair per
 20 ms hop; true microphones 12 cm apart; ITD noise 10 us; a share of the ITDs replaced by outliers uniform over the
 ITD interval. The hand-measured microphone positions are each off by the given distance in a random direction.
@@ -33,7 +33,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from avcore.calibration import CalibrationSession, fit_av_calibration, simulate_calibration  # noqa: E402
+from avcore.calibration import fit_av_calibration  # noqa: E402
+from sim.calibration import CalibrationSession, simulate_calibration  # noqa: E402
 from avcore.geometry import MicPair  # noqa: E402
 
 US = 1e-6

@@ -29,7 +29,7 @@ import rerun as rr
 from app.console import Console, ConsoleFrame
 from avcore.geometry import MicPair
 from avcore.inference import FaceGuidedHearing
-from avcore.render import default_scene
+from sim.render import default_scene
 from layouts.blueprint import APPLICATION_ID
 
 FPS = 30.0

@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 
 from avcore.geometry import MicPair  # noqa: E402
 from avcore.inference import FaceGuidedHearing, MotionGuidedHearing, MotionGuidedParams  # noqa: E402
-from avcore.synthetic import generate_sequence  # noqa: E402
+from sim.synthetic import generate_sequence  # noqa: E402
 
 
 def _stats(times: list[float]) -> str:

@@ -30,7 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from avcore.itd import extract_itds
-from avcore.roomsim import N_DIFFUSE, Room, noise_positions, simulate, window_truth
+from sim.roomsim import N_DIFFUSE, Room, noise_positions, simulate, window_truth
 
 PRA = "pra-gcc-phat"
 DEFAULT_METHODS = ["correlogram", "gcc-phat", "correlogram-robust", "gcc-phat-robust", PRA]

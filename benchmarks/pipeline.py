@@ -143,8 +143,7 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
             if session.part_due():
                 session.next_part()
                 console.new_part()
-            console.log(ConsoleFrame.from_face_guided(r.stamp_s, r.index, r.image, r.boxes, r.xyz, r.itds_s,
-                                                      r.output, person_ids=r.person_ids))
+            console.log(ConsoleFrame.from_result(r))
 
     pipeline = Pipeline(source, config, on_result)
     monitor = MemoryMonitor(duration_s, pipeline, every_s=sample_s, progress_s=progress_s, trace=trace)

@@ -1,6 +1,6 @@
 """Speed and accuracy of the visual front-end on rendered 640x480 stereo scenes (issue 4, paper section 5.2).
 
-Scenes: avcore.render.default_scene (three people at 1.3, 2.1 and 2.9 m, rig of focal 554 px and baseline 0.12 m),
+Scenes: sim.render.default_scene (three people at 1.3, 2.1 and 2.9 m, rig of focal 554 px and baseline 0.12 m),
 with real face crops from ../shared/data/faces when present, drawn faces otherwise. Timings are per stereo pair,
 on one core by default (cv2.setNumThreads(1)); with one thread they are the CPU time of the calling thread (where
 OpenCV then runs), so that other work on the machine does not inflate them (on an idle core it equals wall time).
@@ -26,7 +26,7 @@ from avcore.faces import (
     locate_faces,
 )
 from avcore.motion import harris_motion_points
-from avcore.render import default_scene
+from sim.render import default_scene
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
 

@@ -22,6 +22,7 @@ from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
 from app.options import count, duration
 from app.paths import output_file
+from app.pipeline import DEFAULT_ITD_METHOD
 from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
 from avcore.itd import METHODS as ITD_METHODS
 from avcore.stereo import calibrate_stereo, find_chessboard
@@ -243,7 +244,7 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
                    help="also move the microphone positions (prior: 2 cm around --rig) to remove the parallax error "
                         "that c1, c0 cannot absorb; needs the full one-minute sequence; a refinement that moves a "
                         "microphone more than 5 cm is rejected and only c1, c0 are written")
-    p.add_argument("--itd-method", default="gcc-phat-robust", choices=sorted(ITD_METHODS),
+    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(ITD_METHODS),
                    help="ITD extractor (default gcc-phat-robust, as `avhear run`)")
     p.add_argument("--energy-threshold", type=_positive_float, default=1e-3,
                    help="audio windows with less mean power yield no ITD (paper's E_A, default 0.001)")

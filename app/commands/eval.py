@@ -15,7 +15,7 @@ from pathlib import Path
 from app.errors import UserError
 from app.options import MAX_SIMULATED_S, count, duration
 from app.paths import output_dir
-from app.pipeline import PipelineConfig
+from app.pipeline import DEFAULT_ITD_METHOD, PipelineConfig
 from app.scenario_eval import (
     INTERVAL_S,
     ITD_TOLERANCE_S,
@@ -29,8 +29,8 @@ from app.scenario_eval import (
     evaluate_scenario,
 )
 from avcore.itd import METHODS
-from avcore.synthetic import SEQUENCES
-from avcore.synthetic_eval import (
+from sim.synthetic import SEQUENCES
+from sim.synthetic_eval import (
     FACE_VARIANTS,
     PAPER_AUDIO,
     PAPER_VISUAL,
@@ -82,7 +82,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="seconds of each scenario (default: the preset's, 20 s; 25 s for S5)")
     sce.add_argument("--motion", action="store_true",
                      help="motion-guided inference (HM3D points, Algorithm 1) instead of face-guided (Algorithm 2)")
-    sce.add_argument("--itd-method", default="gcc-phat-robust", choices=sorted(METHODS),
+    sce.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(METHODS),
                      help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
                           "correlogram-robust")
     sce.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,

@@ -12,7 +12,7 @@ from pathlib import Path
 from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
 from app.config import RigConfig, require_live_rig
 from app.errors import UserError
-from app.live import LiveConfig, LiveSource
+from app.live import LiveSource, add_device_arguments, live_config
 from app.options import count, duration, positive
 from app.paths import output_dir
 from app.recorder import record
@@ -30,25 +30,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="live devices (default), or a robot's `avhear sensors` on the bus")
     p.add_argument("--rig", default=None, help="rig YAML (stereo + microphones), from avhear calibrate stereo; "
                    "with --source bus, the robot's unless given")
-    p.add_argument("--cameras", nargs="+", default=["0", "1"], help="two camera indices/paths, or one with "
-                   "--side-by-side")
-    p.add_argument("--side-by-side", action="store_true")
     p.add_argument("--fps", type=functools.partial(positive, maximum=240.0), default=30.0,
                    help="frames per second asked of the cameras (default 30)")
-    p.add_argument("--audio-device", default=None, help="sounddevice input (index or name)")
-    p.add_argument("--audio-channels", type=count(1, 64), default=2,
-                   help="channels of the input stream (all are kept)")
-    p.add_argument("--mic-channels", type=count(0, 63), nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"))
     p.add_argument("--samplerate", type=count(8000, 192000), default=16000)
     p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS", help="stop after this long")
     p.add_argument("--video", choices=("avi", "png"), default="avi", help="MJPG video or PNG image sequences")
     p.add_argument("--force", action="store_true", help="replace a recording already in the folder")
+    add_device_arguments(p, recording=True)
     add_bus_arguments(p)
     p.set_defaults(func=run)
-
-
-def _device(text: str) -> int | str:
-    return int(text) if text.isdigit() else text
 
 
 def run(args: argparse.Namespace) -> int:
@@ -58,15 +48,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("a live recording needs the rig calibration: --rig rig.yaml (avhear calibrate stereo "
                         "makes one)")
     rig = require_live_rig(args.rig)
-    cams = [_device(c) for c in args.cameras]
-    try:
-        config = LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
-                            side_by_side=args.side_by_side, fps=args.fps,
-                            audio_device=_device(args.audio_device) if args.audio_device else None,
-                            samplerate_hz=args.samplerate, n_channels=args.audio_channels,
-                            channels=tuple(args.mic_channels))
-    except ValueError as exc:
-        raise UserError(str(exc)) from exc
+    config = live_config(args, fps=args.fps, samplerate_hz=args.samplerate)
     if (args.output / "frames.csv").exists() and not args.force:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
     fresh = not args.output.exists()
@@ -75,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     writer = RecordingWriter(args.output, rig=rig, fps=args.fps, samplerate_hz=args.samplerate,
                              n_channels=args.audio_channels, video=args.video, overwrite=args.force,
                              channels={"left": args.mic_channels[0], "right": args.mic_channels[1]},
-                             meta={"kind": "live", "cameras": [str(c) for c in cams]})
+                             meta={"kind": "live", "cameras": list(args.cameras)})
     print(f"avhear: recording to {args.output} ... Ctrl-C stops", file=sys.stderr, flush=True)
     with stop_on_signals(threading.Event()) as stop:
         stats = record(source, writer, duration_s=args.duration, stop=stop)

@@ -14,15 +14,15 @@ from app.bus.publisher import ResultPublisher
 from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
-from app.live import LiveConfig
+from app.live import LiveConfig, add_device_arguments, live_config
 from app.options import MAX_DURATION_S, MAX_SIMULATED_S, count, duration, port
 from app.paths import output_file
-from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.pipeline import DEFAULT_ITD_METHOD, FusionResult, Pipeline, PipelineConfig
 from app.results import ResultsWriter
 from app.sources import open_source
 from app.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
 from avcore.itd import METHODS as ITD_METHODS
-from avcore.scenario import PRESETS
+from sim.scenario import PRESETS
 
 DEMO_RRD = Path("recordings/demo.rrd")
 
@@ -30,7 +30,7 @@ DEMO_RRD = Path("recordings/demo.rrd")
 def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: float = MAX_DURATION_S) -> None:
     p.add_argument("--duration", type=duration(max_duration_s), default=None, metavar="SECONDS", help=duration_help)
     p.add_argument("--motion", action="store_true", help="motion-guided inference (HM3D points, Algorithm 1)")
-    p.add_argument("--itd-method", default="gcc-phat-robust", choices=sorted(ITD_METHODS),
+    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(ITD_METHODS),
                    help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
                         "correlogram-robust")
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
@@ -76,20 +76,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--rig", default=None,
                      help="rig YAML of a live source (stereo + microphones); with --source bus it overrides the "
                           "robot's")
-    run.add_argument("--cameras", nargs="+", default=["0", "1"],
-                     help="live: two camera indices/paths, or one with --side-by-side")
-    run.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
-    run.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
-    run.add_argument("--audio-channels", type=count(1, 64), default=2, help="live: channels of the input stream")
-    run.add_argument("--mic-channels", type=count(0, 63), nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"),
-                     help="live: the left and right microphone channels (0-based)")
+    add_device_arguments(run)
     _common(run, duration_help="stop after this many seconds of stream (default: the whole source; a live source "
                                "until Ctrl-C)")
     run.set_defaults(func=run_source)
-
-
-def _device(text: str) -> int | str:
-    return int(text) if text.isdigit() else text
 
 
 def run_demo(args: argparse.Namespace) -> int:
@@ -98,16 +88,7 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def run_source(args: argparse.Namespace) -> int:
-    live = None
-    if args.source == "live":
-        cams = [_device(c) for c in args.cameras]
-        try:
-            live = LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
-                              side_by_side=args.side_by_side, audio_device=_device(args.audio_device)
-                              if args.audio_device else None, n_channels=args.audio_channels,
-                              channels=tuple(args.mic_channels))
-        except ValueError as exc:
-            raise UserError(str(exc)) from exc
+    live = live_config(args) if args.source == "live" else None
     return _run(args.source, args, _target(args, demo=False), live=live)
 
 
@@ -153,11 +134,11 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
         if spec == "bus":
             source = bus_source(session, options, args)
-            stack.callback(source.close)
         else:
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
                                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+        stack.enter_context(source)
         return _run_checked(spec, args, target, source, results, publisher, wall_time=live is not None or
                             spec == "bus")
 
@@ -185,14 +166,7 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, sour
         diagnostics = {f"queue_depth/{name}": float(n) for name, n in pipeline.queue_depths().items()}
         if result.latency_s == result.latency_s:
             diagnostics["latency_ms/fusion"] = result.latency_s * 1e3
-        if result.boxes is not None:
-            frame = ConsoleFrame.from_face_guided(result.stamp_s, result.index, result.image, result.boxes,
-                                                  result.xyz, result.itds_s, result.output,
-                                                  person_ids=result.person_ids, diagnostics=diagnostics)
-        else:
-            frame = ConsoleFrame.from_motion_guided(result.stamp_s, result.index, result.image, result.xyz,
-                                                    result.itds_s, result.output, person_ids=result.person_ids,
-                                                    diagnostics=diagnostics)
+        frame = ConsoleFrame.from_result(result, diagnostics)
         if session.part_due():
             session.next_part()
             console.new_part()

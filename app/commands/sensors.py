@@ -11,7 +11,7 @@ import time
 from app.bus.sensors import SensorPublisher
 from app.bus.session import BusOptions, add_bus_arguments, open_session
 from app.errors import UserError
-from app.live import LiveConfig
+from app.live import add_device_arguments, live_config
 from app.options import count, duration
 from app.signals import stop_on_signals
 from app.sources import open_source
@@ -25,12 +25,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--source", default="sim:S2", help="live, sim:S1..S5|calibration or replay:FOLDER")
     p.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
     p.add_argument("--rig", default=None, help="live: rig YAML (stereo + microphones)")
-    p.add_argument("--cameras", nargs="+", default=["0", "1"], help="live: two camera indices/paths")
-    p.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
-    p.add_argument("--audio-channels", type=count(1, 64), default=2, help="live: channels of the input stream")
     p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS",
                    help="stop after this many seconds (default: the end of the source, or Ctrl-C)")
     p.add_argument("--jpeg-quality", type=count(10, 100), default=90, help="JPEG quality of the images (90)")
+    add_device_arguments(p)
     add_bus_arguments(p)
     p.set_defaults(func=run)
 
@@ -38,13 +36,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.source == "bus":
         raise UserError("avhear sensors publishes a source on the bus: give live, sim:S2 or replay:FOLDER")
-    live = None
-    if args.source == "live":
-        cams = [int(c) if c.isdigit() else c for c in args.cameras]
-        device = args.audio_device
-        live = LiveConfig(left=cams[0], right=cams[1] if len(cams) > 1 else 1,
-                          audio_device=int(device) if device and device.isdigit() else device,
-                          n_channels=args.audio_channels)
+    live = live_config(args) if args.source == "live" else None
     options = BusOptions.from_args(args)
     session = open_session(options)
     try:

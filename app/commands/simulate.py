@@ -20,7 +20,7 @@ from app.paths import output_dir
 from app.recording import write_recording
 from app.signals import stop_on_signals
 from app.simsource import SimSource
-from avcore.scenario import DEFAULT_DURATION_S, PRESETS
+from sim.scenario import DEFAULT_DURATION_S, PRESETS
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

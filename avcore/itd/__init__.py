@@ -16,15 +16,10 @@ Sign (DESIGN.md): ITD = t_left - t_right, positive for a source on the right, as
 from __future__ import annotations
 
 from ._base import ItdMethod
-from ._extract import METHODS, ItdStream, ItdTrack, extract_itds, make_method, register
+from ._extract import METHODS, ItdStream, ItdTrack, extract_itds, geometry_options, gives_frame_itds, make_method
 from .correlogram import Correlogram
 from .gcc_phat import GccPhat
 from .robust import RobustCorrelogram, RobustGccPhat
-
-register(Correlogram)
-register(GccPhat)
-register(RobustCorrelogram)
-register(RobustGccPhat)
 
 __all__ = [
            "METHODS",
@@ -36,5 +31,7 @@ __all__ = [
            "RobustCorrelogram",
            "RobustGccPhat",
            "extract_itds",
+           "geometry_options",
+           "gives_frame_itds",
            "make_method",
 ]

@@ -8,18 +8,33 @@ import numpy as np
 
 from ..ringbuffer import RingBuffer
 from ._base import ItdMethod
-from .robust import FrameState
+from .correlogram import Correlogram
+from .gcc_phat import GccPhat
+from .robust import FrameState, RobustCorrelogram, RobustGccPhat
 
-__all__ = ["METHODS", "ItdStream", "ItdTrack", "extract_itds", "make_method"]
+__all__ = ["METHODS", "ItdStream", "ItdTrack", "extract_itds", "geometry_options", "gives_frame_itds", "make_method"]
 
-METHODS: dict[str, type[ItdMethod]] = {}
+METHODS: dict[str, type[ItdMethod]] = {
+    cls.name: cls for cls in (Correlogram, GccPhat, RobustCorrelogram, RobustGccPhat)
+}
+"""The extractors by name; the one place where a method is added."""
 
 _CHUNK_WINDOWS = 64  # windows processed together: vectorised FFTs with bounded memory
 
 
-def register(cls: type[ItdMethod]) -> type[ItdMethod]:
-    METHODS[cls.name] = cls
-    return cls
+def geometry_options(method: str, mic_distance_m: float, speed_of_sound: float) -> dict[str, float]:
+    """The microphone geometry that ``method`` takes as options: the frame-based (robust) methods model the diffuse
+    field of the pair (its coherence ``sinc(2 f d / c)``); the others need nothing."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {sorted(METHODS)}, got {method!r}")
+    if not METHODS[method].frame_based:
+        return {}
+    return {"mic_distance_m": float(mic_distance_m), "speed_of_sound": float(speed_of_sound)}
+
+
+def gives_frame_itds(method: str) -> bool:
+    """Whether ``ItdStream(method, frame_itds=True)`` can pass the single frames' ITDs and their bands' peaks."""
+    return bool(getattr(METHODS.get(method), "frame_itds_capable", False))
 
 
 @dataclass(frozen=True)

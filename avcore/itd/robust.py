@@ -26,7 +26,7 @@ dereverberates by linear prediction (below), and each frame and frequency bin is
 Two frame-level cues then weight whole frames: within a "speech" window the talker pauses between words and
 the background noise (clattering dishes in the benchmark) takes over some frames, whose bins the per-bin weights
 above only partly silence. They are on by default for ``gcc-phat-robust`` and off for ``correlogram-robust``
-(where they helped the spoken digits but cost 1.7 points with ARCTIC sentences, seed 1):
+(where they cost accuracy on sentences):
 
 - **frame signal-to-noise**: ``share^frame_snr_power`` with ``share = sum_f max(P(t, f) - N(f), 0) / sum_f P(t, f)``
   over the band, the part of the frame's power above the noise floor (an a-posteriori SNR, as in statistical voice
@@ -47,12 +47,11 @@ except where said):
   reverberation of earlier sound (and steady sound such as the fan's hum); what is left is what is new, the direct
   sound of an onset and its first reflections. The filters adapt by normalised least mean squares (a step of 0.2 per
   frame, normalised by the past frames' power), not by the recursive least squares of online WPE (Caroselli,
-  Shafran, Narayanan and Rose 2017), which did worse here at twice the cost (below). Where the error is louder than
+  Shafran, Narayanan and Rose 2017), which did worse here at twice the cost. Where the error is louder than
   the frame (both channels summed) the bin passes unchanged: dereverberation only removes energy, and a louder error
   means the filter copied past sound into the present (a filter learnt on a steady voice, applied to a past burst of
   noise from elsewhere). Only the cross-spectrum, the coherence and the CDR use the dereverberated spectra; the
-  level cues (noise floor, SNR, onsets, flatness, frame SNR) keep the microphones'. On the correlogram it also helps
-  (digits, seeds 1 / 2 / 3: 68.4 / 66.2 / 64.0 -> 71.0 / 69.7 / 69.0), not measured further, so not on there;
+  level cues (noise floor, SNR, onsets, flatness, frame SNR) keep the microphones';
 - **frames' correlations** (``frame_corr_power`` 2, ``gcc-phat-robust`` only): each frame's weighted phase-transform
   correlation, divided by the frame's total weight (so in ``[-1, 1]``), is clipped at 0 and squared before the
   window sums the frames, each weighted by its total weight; a frame whose bins agree on one lag counts for more than
@@ -60,71 +59,8 @@ except where said):
   With ``frame_corr_power=0`` the frames' weighted cross-spectra are summed instead and the window ends as the plain
   method (power 1 gives the same up to the clipping).
 
-Measured in the benchmark rooms at SNR 10 dB, RT60 0.4 and 0.6 s, as the share of speech windows within 40 us (mean
-of the two rooms; ``python benchmarks/itd_accuracy.py --rt60 0.4 0.6 --snr 10 --seed N [--speech arctic] --methods
-gcc-phat gcc-phat-robust 'gcc-phat-robust[dereverb_taps=0,frame_corr_power=0]'``, the last spec being the method
-before the two stages above; ``--snr 0 20`` for the other levels, ``--talkers 2`` for two talkers speaking in turns,
-``--ablation`` for each part switched off), before -> after them: spoken digits, seeds 1 / 2 / 3: 76.7 -> 78.9, 72.9
--> 75.5, 70.4 -> 75.6 (mean 73.3 -> 76.7; plain GCC-PHAT 59.7, 54.7, 44.8); ARCTIC sentences, seeds 1 / 2: 74.5 ->
-76.8, 78.1 -> 79.9; digits at 0 dB, seeds 1 / 2: 52.9 -> 53.3, 51.2 -> 52.4, and at 20 dB: 79.6 -> 84.5, 78.9 ->
-82.5; digits, seeds 4 / 5 (kept out of the tuning, they only rejected one variant below): 70.4 -> 73.2, 78.7 ->
-80.8; two talkers in turns (digits, ``--talkers 2``, seeds 11 / 12 / 13; they decided against ``over_subtraction``
-2, below): 73.4 -> 74.3, 75.7 -> 76.8, 67.3 -> 71.0 (mean 72.1 -> 74.0). By part (digits, mean of seeds 1 to 3): the
-dereverberation alone 73.3 -> 75.9, the frames' correlations alone 73.3 -> 73.9. The cost: the streaming real-time
-factor at 16 kHz is about 1.5 times the previous default's (``python benchmarks/itd_speed.py --rates 16000 --methods
-gcc-phat-robust 'gcc-phat-robust[dereverb_taps=0,frame_corr_power=0]'``, best of 5 on one core: 0.020 -> 0.031, and
-in batch form 0.011 -> 0.021; plain GCC-PHAT streams at 0.0077).
-
-Earlier, without -> with both frame cues, power 8 each: spoken digits, seeds 1 / 2 / 3: 73.6 -> 76.7, 68.0 -> 72.9,
-65.0 -> 70.4; ARCTIC sentences, seeds 1 / 2: 74.0 -> 74.5, 77.3 -> 78.1; at 0 and 20 dB (digits, seeds 1 and 2)
-47.4 -> 52.0 and 76.3 -> 79.3. Flatness alone with power 16 (the earlier option) gave +4.4 on the digits but -0.2
-on ARCTIC; the frame SNR alone +2.7 and +0.8.
-
-Tried without a gain (same measure, digits seed 1, 73.6 before the frame cues): the weighted phase transform
-``|C|^-beta`` with beta 0.9 / 0.7 / 0.5 (73.7 / 72.4 / 68.5), the phase transform applied to the window's summed
-cross-spectrum instead of per frame (66.3), frames of 16 or 64 ms (73.3, 70.5), frames every quarter hop (73.2; with
-16 ms frames 74.9, but 66.8 and 64.9 on seeds 2 and 3 against 68.0 and 65.0), other exponents on the coherence and
-CDR weights, a higher low band edge (71.5 at 400 Hz), and a harmonic-comb weighting at the frame's pitch (no change;
-weighting frames by their harmonicity: +2.9 on the digits over the three seeds, +0.1 on ARCTIC, less than the two
-cues above). The sub-sample peak is already the exact band-limited correlation (``_base``), so a finer interpolation
-has nothing to add.
-
-Tried without a gain before the dereverberation (digits, mean of seeds 1 to 3, 73.3 for the method of the time):
-stronger precedence weighting, an onset floor of 0.1 / 0.05 / 0.3 (73.7 / 73.6 / 73.0; 0.1 with today's default:
-76.5 against 76.7), the onset share raised to the power 2 or 0.5 (73.3, 73.1), onsets measured against a peak hold
-of the past frames decaying at 120 to 500 dB/s (73.4 to 73.5), a frame weight by the frame's share of new power
-(73.1 and 72.5 with powers 1 and 2); a larger ``over_subtraction``, 1.5 / 2 / 3 (73.5 / 73.9 / 73.8; 2 with today's
-default: 77.1 against 76.7 with one talker, but 73.2 against 74.0 with two talkers in turns); subtracting the
-noise's own cross-spectrum, averaged where a bin's smoothed power is within 1.5 times its floor (minima-controlled
-averaging, Cohen 2002): against the fan alone a large gain (seeds 2 / 3 with only the fan: 72.3 / 68.4 -> 83.3 /
-83.5), in the benchmark's mix +0.2, and -2.6 on seeds 4 and 5 (the talker's own reverberant tail is taken for noise
-and its direction subtracted); the noise floor tracked by the speech-presence probability (Gerkmann and Hendriks
-2012; 73.8), a decision-directed Wiener gain instead of the subtraction (Ephraim and Malah 1984; 73.8 and 72.4 with
-smoothing 0.9 and 0.98); the spectral flatness per 500 Hz band as a bin weight (71.6 and 67.5 with powers 2 and 4:
-the fan's hum is peaky too); a bin weight ``(f / 1 kHz)^g`` (g = 0.5, 1: 71.6, 68.6; g = -0.25, -0.5: 73.8, 73.7);
-the coherence averaged over 15, 60, 100 or 200 ms (71.2, 73.8, 73.2, 71.4); both frame cues with power 16 (73.6);
-bins reweighted by their agreement with the window's first estimate, ``max(cos(phase error), 0)^q`` (q = 1, 2, 4:
-73.3, 73.5, 73.7; +2.5 on seed 3, -1 on seeds 1 and 2); the window's bins scaled by how steady their phase is over
-its frames (no change); the frames' correlations with powers 1, 2, 4, 8, 16 (73.3, 73.9, 74.2, 74.1, 73.0, on a grid
-of 1/8 sample; with the dereverberation, powers 2, 3, 4: 76.7, 76.7, 76.8, but with 4 the frame-cue test keeps only
-0.76 of its windows near the talker, 0.90 with 2), and with frames of 24 or 16 ms (with ``over_subtraction`` 2 and
-an onset floor of 0.1: 75.0 and 73.4 against 74.9). With the dereverberation (and ``over_subtraction`` 2, the
-candidate of the time): online WPE by recursive least squares (forgetting 1 s, the frame's power as the variance;
-76.7 with 3 taps against 80.0 for the NLMS form, both without the guard below, at twice the cost), prediction delays
-of 3 and 4 frames (78.8, 77.6, without the guard), 2 or 5 taps and steps of 0.1 and 0.4 (within 0.5 of 3 and 0.2).
-The NLMS form without the guard on louder errors gave 80.0 (ARCTIC 82.1, 20 dB 89.6) but lost a steady harmonic
-talker entirely to noise bursts from the other side (``tests/avcore/test_itd.py``, the frame-cue test): the filter
-learnt on the voice replays the bursts into the voice's frames. The guard cost 2.3 points (80.0 -> 77.7), taken to
-be past sound copied into the present, which helps with one talker and would not with several; keeping the level
-cues on the microphones' spectra (which that test needs: 0.49 of its windows near the talker otherwise, 0.82 so) 0.5
-more.
-
-What the errors are (throwaway measurements on the benchmark's mixes with components left out, so without a
-command here to repeat them; qualitative only): at 10 dB the kitchen noise and the robot's fan cost more than the
-reverberation. The fan, a few centimetres from the microphones and perfectly coherent, pulls the talkers' ITDs
-towards its own (about +73 us); an oracle per-bin speech mask would gain more than any weighting tried. Without
-noise, what remains is a bias for some lateral positions from the room's early reflections (the first 5 ms of an
-impulse-response pair give the right lag, the whole pair does not), which the dereverberation reduces.
+How each part was chosen, what it gains in the benchmark rooms and what was tried without a gain:
+docs/experiments.md ("The robust ITD extractors").
 
 ``gcc-phat-robust`` sums the frames' correlations as above. Otherwise the weighted frame cross-spectra of a window
 are summed, then the window is finished as in the plain method: phase transform per bin (``gcc-phat-robust`` with
@@ -457,6 +393,8 @@ class RobustGccPhat(FrameMethod):
     """
 
     name = "gcc-phat-robust"
+
+    frame_itds_capable: ClassVar[bool] = True  # its frames' correlations give per-frame and per-band ITDs
 
     def __init__(self, samplerate_hz: float, window_len: int, max_itd_s: float, *, flatness_power: float = 8.0,
                  frame_snr_power: float = 8.0, frame_corr_power: float = 2.0, dereverb_taps: int = 3,

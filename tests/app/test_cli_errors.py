@@ -5,7 +5,6 @@ from __future__ import annotations
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -134,9 +133,7 @@ def test_opencv_warnings_stay_out_of_the_output(tmp_path: Path) -> None:
 
 def test_the_demo_says_when_it_falls_back_to_drawn_faces(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
                                                          capsys: pytest.CaptureFixture[str]) -> None:
-    import app.simsource
-
-    monkeypatch.setattr(app.simsource, "DEFAULT_DATA_DIR", tmp_path / "no-data")
+    monkeypatch.setenv("AVHEAR_DATA", str(tmp_path / "no-data"))
     assert main(["demo", "--duration", "1", "--fast", "--headless"]) == 0
     assert "no ../shared/data here: the simulated room uses drawn faces" in capsys.readouterr().err
 

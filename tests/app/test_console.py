@@ -23,7 +23,7 @@ from avcore.faces import locate_faces
 from avcore.geometry import MicPair
 from avcore.inference import FaceGuidedHearing
 from avcore.mixture import Mixture1D
-from avcore.render import default_scene
+from sim.render import default_scene
 from avcore.stereo import StereoRig
 from layouts.blueprint import (
     APPLICATION_ID,

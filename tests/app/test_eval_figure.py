@@ -13,7 +13,7 @@ from app.eval_figure import draw_timeline, save_timeline
 from app.pipeline import PipelineConfig
 from app.plotting import GREEN, RED
 from app.scenario_eval import FusedFrame, score_run
-from avcore.scenario import make_scenario
+from sim.scenario import make_scenario
 
 FPS = 30.0
 

@@ -57,14 +57,14 @@ def test_camera_that_stops_mid_run(tmp_path: Path, rig_file: Path, make_video, f
 
 def test_audio_device_that_vanishes(fake_sounddevice) -> None:  # noqa: ANN001
     """The fake stream delivers 20 blocks and goes inactive, as an unplugged device: the audio iterator raises
-    within max_silent_s (the pipeline then stops and the command line prints the message, as for a camera)."""
+    at once (the pipeline then stops and the command line prints the message, as for a camera)."""
     import threading
 
     from app.live import LiveConfig, LiveSource
     from app.sound import DeviceError
 
     fake_sounddevice.InputStream.n_blocks = 20
-    src = LiveSource(LiveConfig(left="a", right="b", max_silent_s=0.5), RIG, MicPair())
+    src = LiveSource(LiveConfig(left="a", right="b"), RIG, MicPair())
     got = []
     with pytest.raises(DeviceError, match="audio input .* stopped: was the device unplugged"):
         for block in src.audio(threading.Event()):

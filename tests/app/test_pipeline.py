@@ -8,11 +8,12 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
+from app.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from avcore.geometry import MicPair
-from avcore.render import default_scene
+from sim.render import default_scene
 
 FS = 16_000
 SCENE = default_scene(None, n_people=3)  # drawn faces: no shared data needed
@@ -20,7 +21,7 @@ MICS = MicPair()
 TALKER = 2  # the person at (0.75, -0.1, 2.9)
 
 
-class FakeSource:
+class FakeSource(SourceBase):
     """Frames of the rendered scene at ``fps``; 4-channel audio where channels 1 and 3 carry the talker's noise
     delayed by the talker's ITD (left = ch 1, right = ch 3), optionally with bad frames and NaN blocks."""
 

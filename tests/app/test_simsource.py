@@ -20,7 +20,7 @@ from app.simsource import (
 )
 from avcore.faces import detect_faces
 from avcore.itd import extract_itds
-from avcore.scenario import make_scenario
+from sim.scenario import make_scenario
 
 
 @pytest.fixture(scope="module")

@@ -10,9 +10,9 @@ from avcore.calibration import (
     calibration_signal,
     fit_av_calibration,
     fit_av_calibration_report,
-    simulate_calibration,
 )
 from avcore.geometry import MicPair
+from sim.calibration import simulate_calibration
 
 US = 1e-6
 

@@ -15,7 +15,7 @@ from avcore.faces import (
     detect_faces,
     locate_faces,
 )
-from avcore.render import StereoSceneRenderer, default_scene
+from sim.render import StereoSceneRenderer, default_scene
 from avcore.stereo import StereoRig
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from avcore.motion import harris_motion_points, temporal_std
-from avcore.render import default_scene
+from sim.render import default_scene
 from avcore.stereo import StereoRig
 
 TIMES = [0.2 + i / 15 for i in range(6)]  # 6 frames at 15 fps: an interval of 0.4 s

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from avcore.ringbuffer import ChannelSelection, RingBuffer, select_channels
+from avcore.ringbuffer import RingBuffer
 
 
 def ramp(start: int, n: int, channels: int) -> np.ndarray:
@@ -72,25 +72,3 @@ def test_bad_arguments():
         RingBuffer(2, 8).append(np.zeros((4, 3)))
     assert RingBuffer.for_duration(2, 0.15, 16000).capacity == 2400
 
-
-@pytest.mark.parametrize("layout", ["frames", "planar", "interleaved"])
-def test_channel_selection_layouts(layout):
-    frames = ramp(0, 6, 4)  # (n, 4): value = 10 * index + channel
-    block = {"frames": frames, "planar": frames.T.copy(), "interleaved": frames.reshape(-1)}[layout]
-    sel = ChannelSelection(left=3, right=1, n_channels=4, layout=layout)
-    left, right = sel.split(block)
-    np.testing.assert_array_equal(left, frames[:, 3])
-    np.testing.assert_array_equal(right, frames[:, 1])
-    np.testing.assert_array_equal(sel.stereo(block), frames[:, [3, 1]])
-
-
-def test_channel_selection_errors():
-    with pytest.raises(ValueError, match="left must be a channel number"):
-        ChannelSelection(left=4, right=0, n_channels=4)
-    with pytest.raises(ValueError, match="same channel"):
-        ChannelSelection(left=1, right=1, n_channels=4)
-    with pytest.raises(ValueError, match="multiple of 4"):
-        ChannelSelection(0, 1, 4, "interleaved").split(np.zeros(10))
-    with pytest.raises(ValueError, match=r"shape \(4, n\)"):
-        ChannelSelection(0, 1, 4, "planar").split(np.zeros((10, 4)))
-    np.testing.assert_array_equal(select_channels(ramp(0, 3, 3), 2, 0), ramp(0, 3, 3)[:, [2, 0]])

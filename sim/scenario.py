@@ -33,10 +33,11 @@ from typing import Literal
 import numpy as np
 
 from avcore.calibration import CALIBRATION_BURST_S
+from avcore.evaluation import FrameTruth
 from avcore.geometry import MicPair
-from avcore.render import Room as VisualRoom
-from avcore.roomsim import Room as AcousticRoom
-from avcore.roomsim import synthetic_speech
+from sim.render import Room as VisualRoom
+from sim.roomsim import Room as AcousticRoom
+from sim.roomsim import synthetic_speech
 from avcore.stereo import StereoRig
 
 __all__ = [
@@ -67,7 +68,7 @@ SOURCE_OFFSETS_M: dict[str, tuple[float, float, float]] = {
     "clap": (0.0, 0.40, -0.25),
     "noise": (0.0, 0.15, -0.06),
 }
-FACE_WIDTH_M = 0.16          # the labelled face box of a person (avcore.render.Person.face_width_m)
+FACE_WIDTH_M = 0.16          # the labelled face box of a person (sim.render.Person.face_width_m)
 HEAD_HALF_M = 0.8 * FACE_WIDTH_M  # half side of a rendered head texture (render.FACE_MARGIN = 1.6 face widths)
 BODY_HALF_M, BODY_TOP_M, BODY_HEIGHT_M = 0.23, 0.12, 0.7  # a rendered body plane, below the face centre
 COUNT_TO = 16                # the paper's people count from one up to sixteen, then start again
@@ -161,28 +162,6 @@ class SoundEvent:
     label: str = ""
 
 
-@dataclass(frozen=True, eq=False)
-class FrameTruth:
-    """The ground truth of one instant, for ``N`` actors.
-
-    time_s : seconds from the scenario's start; positions_m : (N, 3) face centres, scene frame, metres;
-    visible : (N,) bool -- the whole face box projects inside both images and no nearer person hides its centre;
-    speaking : (N,) bool -- a speech event of the actor covers the instant (at the source, not at the microphones);
-    sounding : (N,) bool -- any sound of the actor (speech, clap, loudspeaker noise);
-    boxes_left : (N, 4) float -- the face box (x, y, w, h) projected into the left image, pixels (NaN behind the rig);
-    itds_s : (N,) float -- the ITD of eq. (itd) of each actor's mouth (its loudspeaker for "noise"), seconds.
-    """
-
-    time_s: float
-    positions_m: np.ndarray
-    visible: np.ndarray
-    speaking: np.ndarray
-    sounding: np.ndarray
-    boxes_left: np.ndarray
-    itds_s: np.ndarray
-    names: tuple[str, ...] = ()
-
-
 # ---------------------------------------------------------------------------------------------------------------
 # speech clips
 
@@ -246,7 +225,7 @@ def normalise_clip(x: np.ndarray) -> np.ndarray:
 def synthetic_clip_bank(samplerate_hz: int = 16000, n_voices: int = 3, seed: int = 0) -> ClipBank:
     """Ten synthetic voiced "digits" (0.35-0.7 s each) per voice, for machines without ``../shared/data``.
 
-    Uses :func:`avcore.roomsim.synthetic_speech` (harmonic complex, moving formants, syllabic envelope).
+    Uses :func:`sim.roomsim.synthetic_speech` (harmonic complex, moving formants, syllabic envelope).
     """
     if n_voices < 1:
         raise ValueError(f"n_voices must be at least 1, got {n_voices!r}")
@@ -364,7 +343,7 @@ class Scenario:
 
     def face_boxes_left(self, t: float) -> np.ndarray:
         """(N, 4) float: each face box (x, y, w, h) in the left image, pixels (OpenCV Rect convention, as
-        :class:`avcore.render.RenderedFrame`); NaN rows for faces behind the cameras."""
+        :class:`sim.render.RenderedFrame`); NaN rows for faces behind the cameras."""
         out = np.full((len(self.actors), 4), np.nan)
         for i, p in enumerate(self.positions(t)):
             corners = p + np.array([[-1, -1, 0], [1, 1, 0]]) * (FACE_WIDTH_M / 2)

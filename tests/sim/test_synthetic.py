@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from avcore.geometry import MicPair
-from avcore.synthetic import (
+from sim.synthetic import (
     SEQUENCES,
     Interval,
     SyntheticConfig,

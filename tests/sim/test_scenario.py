@@ -1,10 +1,10 @@
-"""Tests of avcore.scenario: the section 7.3 presets, their timelines and the ground truth of every instant."""
+"""Tests of sim.scenario: the section 7.3 presets, their timelines and the ground truth of every instant."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from avcore.scenario import (
+from sim.scenario import (
     CALIBRATION_BURST_S,
     PRESETS,
     Actor,

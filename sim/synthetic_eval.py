@@ -21,7 +21,7 @@ from avcore.inference import (
     MotionGuidedParams,
     SpeakingTest,
 )
-from avcore.synthetic import SEQUENCES, SyntheticConfig, generate_sequence
+from sim.synthetic import SEQUENCES, SyntheticConfig, generate_sequence
 
 __all__ = [
     "FACE_VARIANTS",

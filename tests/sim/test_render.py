@@ -1,11 +1,11 @@
-"""Tests of avcore.render: the stereo scene renderer and its ground truth."""
+"""Tests of sim.render: the stereo scene renderer and its ground truth."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from avcore.faces import HaarFaceDetector
-from avcore.render import Person, StereoSceneRenderer, default_scene, drawn_face_texture, load_face_textures
+from sim.render import Person, StereoSceneRenderer, default_scene, drawn_face_texture, load_face_textures
 from avcore.stereo import StereoRig
 
 

@@ -18,6 +18,7 @@ dry signal aligned with its arrival at the head, from which benchmarks decide wh
 """
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass, field
 from math import gcd
@@ -28,11 +29,12 @@ import numpy as np
 from scipy.io import wavfile
 from scipy.signal import fftconvolve, lfilter, resample_poly
 
-from ._validate import as_points
-from .geometry import SPEED_OF_SOUND, MicPair
+from avcore._validate import as_points
+from avcore.geometry import SPEED_OF_SOUND, MicPair
 
 __all__ = [
     "DEFAULT_DATA_DIR",
+    "resolve_data_dir",
     "N_DIFFUSE",
     "Room",
     "RoomRecording",
@@ -46,7 +48,17 @@ __all__ = [
     "window_truth",
 ]
 
-DEFAULT_DATA_DIR = Path(__file__).resolve().parents[2] / "shared" / "data"
+DATA_ENV = "AVHEAR_DATA"
+DEFAULT_DATA_DIR = Path("../shared/data")  # relative to the current folder: the repository's root
+
+
+def resolve_data_dir(data_dir: str | Path | None = None) -> Path:
+    """Where the real third-party data (faces, speech, noise) is read from: ``data_dir`` when given, else the
+    ``AVHEAR_DATA`` environment variable, else ``../shared/data`` relative to the current folder. A folder that is
+    not there makes the simulator fall back to drawn faces and synthetic sounds (and say so)."""
+    if data_dir is not None:
+        return Path(data_dir)
+    return Path(os.environ.get(DATA_ENV) or DEFAULT_DATA_DIR)
 SPEECH_LEVEL_RMS = 0.1  # active speech at the microphones, full scale 1 (-20 dBFS): 10 dB above the paper's E_A
 
 
@@ -86,7 +98,7 @@ def load_speech(samplerate_hz: int, kind: Literal["digits", "arctic"] = "digits"
     Returns a list of ``(n,)`` float arrays (full scale 1), sorted by file name; each trimmed of leading and
     trailing silence (below 1 % of its peak) and high-passed at about 60 Hz (removes DC and hum).
     """
-    folder = (DEFAULT_DATA_DIR if data_dir is None else Path(data_dir)) / "speech" / kind
+    folder = resolve_data_dir(data_dir) / "speech" / kind
     files = sorted(folder.glob("*.wav"))
     if not files:
         return None
@@ -388,7 +400,7 @@ def simulate(room: Room, talkers_scene: object, duration_s: float = 10.0, seed: 
     used = speech if utterances else "synthetic"
     dry = speech_turns(talkers.shape[0], duration_s, fs, rng, utterances)
 
-    noise_file = (DEFAULT_DATA_DIR if data_dir is None else Path(data_dir)) / "noise" / "doing_the_dishes.wav"
+    noise_file = resolve_data_dir(data_dir) / "noise" / "doing_the_dishes.wav"
     full = _read_wav(noise_file, fs) if used != "synthetic" and noise_file.is_file() else None
     noise_kind = "doing_the_dishes.wav" if full is not None else "pink"
     n_talk = talkers.shape[0]

@@ -8,9 +8,9 @@ import pytest
 
 pytest.importorskip("pyroomacoustics", reason="the room simulator needs the 'sim' extra")
 
-from avcore import roomsim
+from sim import roomsim
 from avcore.itd import extract_itds
-from avcore.roomsim import Room, load_speech, simulate, window_truth
+from sim.roomsim import Room, load_speech, simulate, window_truth
 
 
 @pytest.fixture(scope="module")
