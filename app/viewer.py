@@ -131,6 +131,31 @@ def check_viewer(url: str) -> None:
         raise UserError(f"--connect {url!r}: {exc}") from exc
     if not _wait_for_port(parts.hostname, port, 1.0):
         raise UserError(f"no Rerun viewer at {url}: start one with `rerun`, or use --save FILE.rrd")
+    if not _speaks_grpc(parts.hostname, port):
+        raise UserError(f"no Rerun viewer at {url}: something listens there but does not answer as a viewer "
+                        "(gRPC); start one with `rerun`, or use --save FILE.rrd")
+
+
+_H2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes(3) + b"\x04" + bytes(5)  # + an empty SETTINGS frame
+
+
+def _speaks_grpc(host: str, port: int, timeout_s: float = 2.0) -> bool:
+    """Whether the server at ``host:port`` answers an HTTP/2 connection preface with its SETTINGS frame, as every
+    gRPC server (Rerun's viewer among them) must; a port held by something else never does."""
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s) as conn:
+            conn.sendall(_H2_PREFACE)
+            head = b""
+            deadline = time.monotonic() + timeout_s
+            while len(head) < 9 and time.monotonic() < deadline:
+                conn.settimeout(max(deadline - time.monotonic(), 0.01))
+                chunk = conn.recv(9 - len(head))
+                if not chunk:
+                    break
+                head += chunk
+    except OSError:
+        return False
+    return len(head) == 9 and head[3] == 0x04  # frame type 4: SETTINGS
 
 
 def viewer_abandoned() -> bool:
@@ -179,7 +204,11 @@ class ViewerSession:
             self.parts.append(target.save)
         elif target.connect is not None:
             check_viewer(target.connect)
-            rec.connect_grpc(target.connect or None, default_blueprint=blueprint)
+            if not _bounded(lambda: rec.connect_grpc(target.connect or None, default_blueprint=blueprint),
+                            FLUSH_TIMEOUT_S):
+                _ABANDONED.append(rec)  # its sink waits for ever: never dropped, and the CLI ends the process
+                raise UserError(f"the Rerun viewer at {target.connect or DEFAULT_VIEWER_URL} did not take the "
+                                f"connection within {FLUSH_TIMEOUT_S:.0f} s; restart it, or use --save FILE.rrd")
         elif target.serve:
             rec.connect_grpc(self._start_server(), default_blueprint=blueprint)
         else:
