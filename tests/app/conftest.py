@@ -11,6 +11,19 @@ import numpy as np
 import pytest
 
 import app.live
+from app.config import RigConfig, save_rig
+from avcore.geometry import MicPair
+from avcore.stereo import StereoRig
+
+SMALL_RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)  # the video-file cameras' size
+
+
+@pytest.fixture
+def rig_file(tmp_path: Path) -> Path:
+    """A rig YAML for the 64x48 video-file cameras, with the nominal microphone pair."""
+    path = tmp_path / "rig.yaml"
+    save_rig(path, RigConfig(SMALL_RIG, MicPair()))
+    return path
 
 
 def write_video(path: Path, n: int, width: int, shade: int, height: int = 48) -> Path:

@@ -8,18 +8,12 @@ from pathlib import Path
 import pytest
 
 from app.cli import main
-from app.config import RigConfig, save_rig
 from avcore.geometry import MicPair
 from avcore.stereo import StereoRig
 
 RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
 
 
-@pytest.fixture
-def rig_file(tmp_path: Path) -> Path:
-    path = tmp_path / "rig.yaml"
-    save_rig(path, RigConfig(RIG, MicPair()))
-    return path
 
 
 def _one_line_error(err: str, *needles: str) -> None:

@@ -9,17 +9,11 @@ import pytest
 from app.cli import main
 from app.config import RigConfig, save_rig
 from app.recording import open_recording
-from avcore.geometry import MicPair
 from avcore.stereo import StereoRig
 
 RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
 
 
-@pytest.fixture
-def rig_file(tmp_path: Path) -> Path:
-    path = tmp_path / "rig.yaml"
-    save_rig(path, RigConfig(RIG, MicPair()))
-    return path
 
 
 def test_record_then_replay(tmp_path: Path, rig_file: Path, make_video, fake_sounddevice,  # noqa: ANN001

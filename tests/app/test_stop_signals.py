@@ -16,7 +16,6 @@ import pytest
 from app.cli import main
 from app.config import RigConfig, save_rig
 from app.recording import open_recording
-from avcore.geometry import MicPair
 from avcore.stereo import StereoRig
 
 RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
@@ -68,11 +67,6 @@ def test_sigterm_during_a_run_keeps_the_results_and_exits_130(tmp_path: Path) ->
     assert len(rows) > 10
 
 
-@pytest.fixture
-def rig_file(tmp_path: Path) -> Path:
-    path = tmp_path / "rig.yaml"
-    save_rig(path, RigConfig(RIG, MicPair()))
-    return path
 
 
 def test_sigterm_on_record_keeps_the_recording(tmp_path: Path, rig_file: Path, make_video,  # noqa: ANN001
