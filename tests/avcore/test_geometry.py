@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from avcore.geometry import MicPair
+from avcore.geometry import ARRAY_PRESETS, MicArray, MicPair
 
 
 def test_itd_hand_computed() -> None:
@@ -77,3 +77,78 @@ def test_bad_construction(kwargs: dict, match: str) -> None:
 def test_bad_points_shape() -> None:
     with pytest.raises(ValueError, match=r"\(\.\.\., 3\)"):
         MicPair().itd(np.zeros((4, 2)))
+
+
+# -- several microphone pairs -------------------------------------------------------------------------------------
+
+
+def test_one_pair_array_is_the_pair() -> None:
+    mics = MicPair(left=(-0.07, 0.01, 0.0), right=(0.05, 0.0, 0.02), c1=0.9, c0=3e-6)
+    array = MicArray.from_pair(mics)
+    pts = np.random.default_rng(0).uniform(-2, 2, (50, 3)) + [0, 0, 3]
+    np.testing.assert_allclose(array.itd(pts)[:, 0], mics.itd(pts))
+    assert array.n_pairs == 1 and array.itd(pts).shape == (50, 1)
+
+
+def test_array_itds_follow_the_geometry_both_ways() -> None:
+    """t_i - t_j from the path lengths, for every pair; a source on the right of a (left, right) pair gives a
+    positive ITD, and swapping the pair negates it."""
+    array = MicArray.preset("nao")
+    rng = np.random.default_rng(1)
+    pts = rng.uniform(-3, 3, (40, 3))
+    pos = np.asarray(array.positions)
+    expected = np.stack([(np.linalg.norm(pts - pos[i], axis=1) - np.linalg.norm(pts - pos[j], axis=1)) / 343.0
+                         for i, j in array.pairs], axis=1)
+    np.testing.assert_allclose(array.itd(pts), expected, atol=1e-15)
+    lr = array.pairs.index((2, 3))  # NAO's left and right microphones
+    right_of_robot = np.array([[1.0, 0.0, 2.0]])
+    assert array.itd(right_of_robot)[0, lr] > 0
+    swapped = MicArray(array.positions, [(j, i) for i, j in array.pairs])
+    np.testing.assert_allclose(swapped.itd(pts), -array.itd(pts))
+
+
+def test_nao_head_frame_becomes_the_scene_frame() -> None:
+    """NAO's left microphone (head y = +6 cm, left) is at scene x = -6 cm; its front one is in front (z > 0) and
+    above the head's origin (y < 0, since y points down)."""
+    nao = MicArray.preset("nao")
+    front, rear, left, right = np.asarray(nao.positions)
+    assert left[0] == pytest.approx(-0.0606) and right[0] == pytest.approx(0.0606)
+    assert front[2] > 0 > rear[2] and front[1] < 0
+    # front/back, which the left-right pair cannot tell apart: mirrored sources, same left-right ITD
+    ahead, behind = np.array([0.8, 0.0, 2.0]), np.array([0.8, 0.0, -2.0])
+    lr, fr = nao.pairs.index((2, 3)), nao.pairs.index((1, 0))
+    itds = nao.itd(np.stack([ahead, behind]))
+    assert abs(itds[0, lr] - itds[1, lr]) < 15e-6  # the left-right pair hears them alike (the head is not flat)
+    assert itds[0, fr] > 1e-4 and itds[1, fr] < -1e-4  # the rear-front pair does not
+
+
+@pytest.mark.parametrize("name, n_mics", [("pair", 2), ("nao", 4), ("respeaker4", 4), ("respeaker-usb", 4),
+                                          ("respeaker6", 6), ("ps3eye", 4), ("uma8", 7)])
+def test_presets(name: str, n_mics: int) -> None:
+    array = MicArray.preset(name)
+    assert len(array.positions) == n_mics and array.n_pairs == n_mics * (n_mics - 1) // 2
+    assert array.itd_intervals().shape == (array.n_pairs, 2)
+    assert name in ARRAY_PRESETS
+
+
+def test_respeaker_usb_uses_the_raw_channels() -> None:
+    assert MicArray.preset("respeaker-usb").channels == (1, 2, 3, 4)
+
+
+def test_an_array_placed_on_the_rig() -> None:
+    turn = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # 90 degrees about y
+    moved = MicArray.preset("ps3eye").placed(turn, [0.0, -0.1, 0.05])
+    np.testing.assert_allclose(np.asarray(moved.positions)[0], [0.0, -0.1, 0.05 + 0.03], atol=1e-12)
+    with pytest.raises(ValueError, match="rotation"):
+        MicArray.preset("ps3eye").placed(np.diag([1.0, 1.0, -1.0]), [0, 0, 0])
+
+
+def test_bad_arrays() -> None:
+    with pytest.raises(ValueError, match="at least 2"):
+        MicArray(((0, 0, 0),))
+    with pytest.raises(ValueError, match="two different microphone numbers"):
+        MicArray(((0, 0, 0), (0.1, 0, 0)), pairs=[(0, 0)])
+    with pytest.raises(ValueError, match="one value per pair"):
+        MicArray(((0, 0, 0), (0.1, 0, 0)), c1=(1.0, 1.0))
+    with pytest.raises(ValueError, match="unknown microphone array"):
+        MicArray.preset("nope")
