@@ -6,7 +6,8 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "count", "duration", "port", "positive"]
+__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_method_arguments", "count", "duration", "pipeline_config",
+           "port", "positive"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
@@ -48,3 +49,40 @@ def count(minimum: int = 0, maximum: int | None = None) -> Callable[[str], int]:
 
 
 port = count(1, 65535)
+
+
+def add_method_arguments(p: argparse.ArgumentParser) -> None:
+    """The pipeline's method options, the same for ``run``, ``demo`` and ``eval scenarios``
+    (:func:`pipeline_config` reads them)."""
+    from app.pipeline import DEFAULT_ITD_METHOD
+    from avcore.itd import METHODS
+
+    p.add_argument("--motion", action="store_true",
+                   help="motion-guided inference (HM3D points, Algorithm 1) instead of face-guided (Algorithm 2)")
+    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(METHODS),
+                   help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
+                        "correlogram-robust")
+    p.add_argument("--decision-window", type=duration(1.0), default=None, metavar="SECONDS",
+                   help="face-guided: decide speaking on the ITDs within +- this of each frame only (EM still "
+                        "fits on the +-0.2 s time frame); default: on all of them, as the paper")
+    p.add_argument("--frame-itds", action=argparse.BooleanOptionalAction, default=True,
+                   help="face-guided with gcc-phat-robust: the speaking test also looks at the single 32 ms "
+                        "frames' ITDs, where a talker masked by a louder one in every 150 ms window still wins "
+                        "some frames (default); --no-frame-itds decides on the windows' ITDs alone")
+    p.add_argument("--vote-frames", type=count(1, 99), default=9, metavar="N",
+                   help="face-guided: each person's speaking state is the majority over N consecutive results "
+                        "centred on it (odd; default 9, 0.3 s at 30 FPS); 1: each frame decides alone")
+
+
+def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline imports this module's types
+    """The :class:`app.pipeline.PipelineConfig` of :func:`add_method_arguments`' options; a bad combination is a
+    :class:`app.errors.UserError`."""
+    from app.errors import UserError
+    from app.pipeline import PipelineConfig
+
+    try:
+        return PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method,
+                              decision_window_s=args.decision_window, frame_itds=args.frame_itds,
+                              vote_frames=args.vote_frames)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None

@@ -19,7 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.pipeline import DEFAULT_ITD_METHOD, PipelineConfig
+from app.options import add_method_arguments, pipeline_config
 from app.scenario_eval import (
     PAPER_PERCENT,
     SCENARIOS,
@@ -42,13 +42,12 @@ def main() -> int:
     parser.add_argument("--scenario", nargs="+", choices=SCENARIOS, default=list(SCENARIOS))
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--duration", type=float, default=None, help="seconds per scenario (default the preset's)")
-    parser.add_argument("--motion", action="store_true", help="motion-guided (Algorithm 1) instead of face-guided")
-    parser.add_argument("--itd-method", default=DEFAULT_ITD_METHOD)
+    add_method_arguments(parser)
     parser.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
                         help="fit c1, c0 on the calibration preset first (default), as avhear eval scenarios")
     parser.add_argument("--json", type=Path, default=None, help="also write every row to this file")
     args = parser.parse_args()
-    config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)
+    config = pipeline_config(args)
     mics = None
     if args.calibrate:
         fit = calibrate_on_preset(seed=args.seeds[0], config=config)

@@ -13,9 +13,9 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.options import MAX_SIMULATED_S, count, duration
+from app.options import MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config
 from app.paths import output_dir
-from app.pipeline import DEFAULT_ITD_METHOD, PipelineConfig
+from app.pipeline import PipelineConfig
 from app.scenario_eval import (
     INTERVAL_S,
     ITD_TOLERANCE_S,
@@ -28,7 +28,6 @@ from app.scenario_eval import (
     calibrate_on_preset,
     evaluate_scenario,
 )
-from avcore.itd import METHODS
 from sim.synthetic import SEQUENCES
 from sim.synthetic_eval import (
     FACE_VARIANTS,
@@ -80,25 +79,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="seeds of the simulated scenarios; counts are summed over them (default: 0)")
     sce.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="SECONDS",
                      help="seconds of each scenario (default: the preset's, 20 s; 25 s for S5)")
-    sce.add_argument("--motion", action="store_true",
-                     help="motion-guided inference (HM3D points, Algorithm 1) instead of face-guided (Algorithm 2)")
-    sce.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(METHODS),
-                     help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
-                          "correlogram-robust")
+    add_method_arguments(sce)
     sce.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
                      help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
                           "(40 s), as a user of the rig would, and fuse with it (default); --no-calibrate fuses "
                           "with the nominal microphone pair (c1 = 1, c0 = 0)")
-    sce.add_argument("--decision-window", type=duration(1.0), default=None, metavar="SECONDS",
-                     help="face-guided: decide speaking on the ITDs within +- this of each frame only (EM still "
-                          "fits on the +-0.2 s time frame); default: on all of them, as the paper")
-    sce.add_argument("--frame-itds", action=argparse.BooleanOptionalAction, default=True,
-                     help="face-guided with gcc-phat-robust: the speaking test also looks at the single 32 ms "
-                          "frames' ITDs, where a talker masked by a louder one in every 150 ms window still wins "
-                          "some frames (default); --no-frame-itds decides on the windows' ITDs alone")
-    sce.add_argument("--vote-frames", type=count(1, 99), default=9, metavar="N",
-                     help="face-guided: each person's speaking state is the majority over N consecutive results "
-                          "centred on it (odd; default 9, 0.3 s at 30 FPS); 1: each frame decides alone")
     sce.add_argument("--timeline", type=Path, default=None, metavar="DIR",
                      help="also save each run's speaking states over time, beside the truth, as DIR/S1_seed0.png "
                           "and so on: spoken numbers, misses, false stretches, faces not found")
@@ -222,14 +207,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
         raise UserError(f"--seed takes non-negative integers, got {args.seed}")
     if args.duration is not None and not (2.0 <= args.duration <= 3600.0):
         raise UserError(f"--duration must be between 2 and 3600 seconds, got {args.duration}")
-    try:
-        config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method,
-                                decision_window_s=args.decision_window, frame_itds=args.frame_itds,
-                                vote_frames=args.vote_frames)
-    except ValueError as exc:
-        raise UserError(str(exc)) from exc
-    if args.itd_method not in METHODS:
-        raise UserError(f"unknown --itd-method {args.itd_method!r}; choose one of {', '.join(sorted(METHODS))}")
+    config = pipeline_config(args)
     if args.timeline is not None:
         output_dir(args.timeline, "--timeline")
     start = time.perf_counter()

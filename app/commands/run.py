@@ -15,13 +15,13 @@ from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_sess
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.live import LiveConfig, add_device_arguments, live_config
-from app.options import MAX_DURATION_S, MAX_SIMULATED_S, count, duration, port
+from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config,
+                         port)
 from app.paths import output_file
-from app.pipeline import DEFAULT_ITD_METHOD, FusionResult, Pipeline, PipelineConfig
+from app.pipeline import FusionResult, Pipeline
 from app.results import ResultsWriter
 from app.sources import open_source
 from app.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
-from avcore.itd import METHODS as ITD_METHODS
 from sim.scenario import PRESETS
 
 DEMO_RRD = Path("recordings/demo.rrd")
@@ -29,10 +29,7 @@ DEMO_RRD = Path("recordings/demo.rrd")
 
 def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: float = MAX_DURATION_S) -> None:
     p.add_argument("--duration", type=duration(max_duration_s), default=None, metavar="SECONDS", help=duration_help)
-    p.add_argument("--motion", action="store_true", help="motion-guided inference (HM3D points, Algorithm 1)")
-    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(ITD_METHODS),
-                   help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
-                        "correlogram-robust")
+    add_method_arguments(p)
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
     where.add_argument("--save", type=Path, default=None, metavar="FILE.rrd",
                        help="save the console's data to this file")
@@ -149,7 +146,7 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, sour
     if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
               f"{meta.get('speech')} speech", file=sys.stderr, flush=True)
-    config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method)
+    config = pipeline_config(args)
     session = ViewerSession(target)
     rec = session.recording
     console = Console(source.rig, source.mics, recording=rec) if rec is not None else None
