@@ -19,7 +19,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, Literal
@@ -34,9 +33,9 @@ from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import ItdStream, geometry_options, gives_frame_itds
 from avcore.motion import harris_motion_points
-from avcore.speaking import vote_speaking
+from avcore.speaking import SpeakingVote
 from avcore.stereo import StereoRig
-from avcore.sync import TimeFrame
+from avcore.sync import FrameItdWindow, TimeFrame
 from avcore.tracking import NearestTracker
 
 log = logging.getLogger(__name__)
@@ -226,16 +225,14 @@ class Pipeline:
         self._q_fusion: DropOldestQueue[tuple[str, float, Any]] = DropOldestQueue(c.fusion_queue, "fusion")
         self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
-        self._frame_itds: deque[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = deque()
-        self._voting: deque[FusionResult] = deque()  # the vote's window: emitted results, then those waiting
-        self._waiting = 0  # results of _voting not emitted yet
+        self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
+        self._vote = SpeakingVote(c.vote_frames if c.inference == "face" else 1)
         self._fused = 0  # vision frames fused (results emitted lag them by the vote)
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
         self._backpressure = not source.realtime
         self._vision_clock: float | None = None  # stamp of the last frame vision took (the ITD worker's pace)
         self._first_audio_stamp: float | None = None
         self._sync: TimeFrame | None = None  # the fusion thread's synchroniser, for its drop counts
-        self._frame_itds_cut = 0  # single-frame ITDs dropped unused (real time: vision far behind or gone)
 
     # -- control ---------------------------------------------------------------------------------------------
 
@@ -280,7 +277,7 @@ class Pipeline:
             self.stats.drops.update({
                 "itds_unmatched": sync.dropped_secondaries if sync is not None else 0,  # TimeFrame's cap
                 "frames_unmatched": sync.dropped_primaries if sync is not None else 0,
-                "frame_itds": self._frame_itds_cut,
+                "frame_itds": self._frame_itds.cut,
             })
             self.stats.overflows = int(self.source.overflows)  # audio lost at the input
             self.stats.late_frames = int(self.source.frames_dropped)  # skipped by a real-time source
@@ -463,12 +460,8 @@ class Pipeline:
         if kind == "itd":
             return sync.push_secondary(stamp, (stamp, item))
         if kind == "frame_itds":
-            frames = self._frame_itds
             single, bands = item
-            frames.append((stamp + single.times_s, single.itds_s, stamp + bands.times_s, bands.itds_s))
-            # bounded without vision frames too (a camera that vanished)
-            while frames[0][0][-1] < frames[-1][0][-1] - _FRAME_ITDS_KEEP_S:
-                self._frame_itds_cut += len(frames.popleft()[1])
+            self._frame_itds.push(stamp + single.times_s, single.itds_s, stamp + bands.times_s, bands.itds_s)
             return []
         return sync.advance(stamp)  # the audio clock moved on without ITDs (silence): frames before it are complete
 
@@ -481,7 +474,8 @@ class Pipeline:
                 self._fuse(hearing, tracker, vision, itds)
         for vision, itds in sync.flush():
             self._fuse(hearing, tracker, vision, itds)
-        self._flush_votes()
+        for voted in self._vote.flush():
+            self._emit_voted(*voted)
 
     def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, tracker: NearestTracker, vision: tuple,
               itds: list[tuple[float, float]]) -> None:
@@ -490,40 +484,18 @@ class Pipeline:
         timed = np.asarray(itds, dtype=np.float64).reshape(-1, 2)  # (window centre, ITD)
         a = timed[:, 1].copy()
         if isinstance(hearing, FaceGuidedHearing):
-            output = hearing.step(xyz, a, timed[:, 0] - stamp, *self._frame_itds_near(stamp))
+            output = hearing.step(xyz, a, timed[:, 0] - stamp, *self._frame_itds.near(stamp))
         else:
             output = hearing.step(xyz, a)
         ids = tracker.update(xyz if boxes is not None else output.positions)
         result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, float("nan"), ids)
-        half = self.config.vote_frames // 2 if isinstance(hearing, FaceGuidedHearing) else 0
-        if half == 0:
-            self._emit(result)
-        else:  # the vote of the result `half` frames back is complete: emit it
-            self._voting.append(result)
-            self._waiting += 1
-            if self._waiting > half:
-                self._emit_voted(half)
-            while len(self._voting) > 2 * half + 1:
-                self._voting.popleft()
+        for voted in self._vote.push(result, ids, output.speaking, output.probability):
+            self._emit_voted(*voted)  # the result whose vote this one completed (itself without a vote)
         self._fused += 1
         self._timed("fusion", t0, self._fused)
 
-    def _emit_voted(self, half: int) -> None:
-        """Emit the oldest waiting result of the vote's window, its states voted over up to ``half`` results on
-        each side (fewer at the end of the stream)."""
-        window = list(self._voting)
-        i = len(window) - self._waiting
-        r = window[i]
-        around = [(w.person_ids, w.output.speaking) for w in window[max(i - half, 0):i + half + 1]]
-        speaking, probability = vote_speaking(r.person_ids, r.output.speaking, r.output.probability, around)
-        self._waiting -= 1
-        self._emit(replace(r, output=replace(r.output, speaking=speaking, probability=probability)))
-
-    def _flush_votes(self) -> None:
-        """The stream is over: emit the results still waiting for their vote, on the neighbours there are."""
-        half = self.config.vote_frames // 2
-        while self._waiting:
-            self._emit_voted(half)
+    def _emit_voted(self, result: FusionResult, speaking: np.ndarray, probability: np.ndarray) -> None:
+        self._emit(replace(result, output=replace(result.output, speaking=speaking, probability=probability)))
 
     def _emit(self, result: FusionResult) -> None:
         # a replay as fast as possible runs ahead of its stamps: latency is only defined in real time
@@ -536,19 +508,6 @@ class Pipeline:
         if self.on_result is not None:
             self.on_result(result)
         self.stats.results += 1
-
-    def _frame_itds_near(self, stamp: float) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """The single frames' ITDs and their bands' peaks within the time frame of ``stamp`` (None: none); blocks of
-        them that no later vision frame can use are dropped (vision frames are fused in stamp order)."""
-        frames = self._frame_itds
-        span = self.config.decision_window_s or self.config.frame_window_s
-        while frames and frames[0][0][-1] < stamp - span:
-            frames.popleft()
-        near = [(itds[np.abs(times - stamp) <= span], b_itds[np.abs(b_times - stamp) <= span])
-                for times, itds, b_times, b_itds in frames if times[0] <= stamp + span]
-        if not near:
-            return None, None
-        return np.concatenate([n[0] for n in near]), np.concatenate([n[1] for n in near])
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:

@@ -1,13 +1,14 @@
 """Speaking states of the AV objects: eq. (audio_act) with the paper's tau_A, and avhear's outlier-aware test."""
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
 from avcore.mixture import Mixture1D
 
-__all__ = ["COUNT_BY", "SpeakingTest", "speaking_threshold", "vote_speaking"]
+__all__ = ["COUNT_BY", "SpeakingTest", "SpeakingVote", "speaking_threshold", "vote_speaking"]
 
 
 def speaking_threshold(n_itds: int, n_objects: int) -> float:
@@ -221,3 +222,51 @@ def vote_speaking(ids: np.ndarray, speaking: np.ndarray, probability: np.ndarray
     voted = votes > seen / 2
     share = votes / seen
     return voted, np.where(voted == speaking, np.asarray(probability, dtype=np.float64), share)
+
+
+class SpeakingVote:
+    """:func:`vote_speaking` over a stream: each result is held until the ``frames // 2`` results after it are in,
+    then leaves with its states voted over the ``frames`` results centred on it (fewer at the stream's ends).
+
+    ``push(item, ids, speaking, probability)`` returns the results whose vote is complete, as ``(item, speaking,
+    probability)``, oldest first (none while the first ``frames // 2`` wait); ``flush()`` returns the rest at the end
+    of the stream. ``frames`` is odd; 1 passes every result through at once.
+    """
+
+    def __init__(self, frames: int) -> None:
+        if not (isinstance(frames, int) and frames >= 1 and frames % 2 == 1):
+            raise ValueError(f"frames must be an odd number of results >= 1, got {frames!r}")
+        self.half = frames // 2
+        self._window: deque[tuple[object, np.ndarray, np.ndarray, np.ndarray]] = deque()
+        self._waiting = 0  # results of the window not yet returned
+
+    @property
+    def waiting(self) -> int:
+        """Results pushed whose vote is not complete yet."""
+        return self._waiting
+
+    def push(self, item: object, ids: np.ndarray, speaking: np.ndarray, probability: np.ndarray
+             ) -> list[tuple[object, np.ndarray, np.ndarray]]:
+        if self.half == 0:
+            return [(item, np.asarray(speaking, dtype=bool), np.asarray(probability, dtype=float))]
+        self._window.append((item, np.asarray(ids), np.asarray(speaking, dtype=bool), np.asarray(probability)))
+        self._waiting += 1
+        out = [self._release()] if self._waiting > self.half else []
+        while len(self._window) > 2 * self.half + 1:
+            self._window.popleft()
+        return out
+
+    def flush(self) -> list[tuple[object, np.ndarray, np.ndarray]]:
+        out = []
+        while self._waiting:
+            out.append(self._release())
+        return out
+
+    def _release(self) -> tuple[object, np.ndarray, np.ndarray]:
+        window = list(self._window)
+        i = len(window) - self._waiting
+        item, ids, speaking, probability = window[i]
+        around = [(w[1], w[2]) for w in window[max(i - self.half, 0):i + self.half + 1]]
+        voted, prob = vote_speaking(ids, speaking, probability, around)
+        self._waiting -= 1
+        return item, voted, prob

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from avcore.mixture import Mixture1D
-from avcore.speaking import SpeakingTest, _poisson_quantile, speaking_threshold, vote_speaking
+from avcore.speaking import SpeakingTest, SpeakingVote, _poisson_quantile, speaking_threshold, vote_speaking
 
 SUPPORT = (-350e-6, 350e-6)
 MODEL = Mixture1D(np.array([0.3, 0.3, 0.4]), np.array([-100e-6, 100e-6]), np.array([4e-10, 4e-10]), SUPPORT)
@@ -152,3 +152,29 @@ def test_vote_takes_each_persons_majority_over_the_window() -> None:
 def test_bad_settings_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         SpeakingTest(**bad)
+
+
+def test_speaking_vote_streams_the_majority_with_its_lag() -> None:
+    vote = SpeakingVote(3)
+    ids = np.array([7])
+    states = [False, True, False, True, True, False, True]  # one-result gaps and blips
+    out = []
+    for k, s in enumerate(states):
+        released = vote.push(k, ids, np.array([s]), np.array([0.9 if s else 0.1]))
+        assert len(released) == (1 if k >= 1 else 0)  # each result waits for the one after it
+        out += released
+    out += vote.flush()
+    assert [item for item, _, _ in out] == list(range(len(states)))
+    voted = [bool(s[0]) for _, s, _ in out]
+    # majority over (k-1, k, k+1), over what there is at the ends
+    expected = [False, False, True, True, True, True, False]
+    assert voted == expected
+    assert all((p[0] > 0.5) == s[0] for _, s, p in out)
+
+
+def test_speaking_vote_of_one_passes_through() -> None:
+    vote = SpeakingVote(1)
+    got = vote.push("r", np.array([1, 2]), np.array([True, False]), np.array([0.8, 0.2]))
+    assert got[0][0] == "r" and got[0][1].tolist() == [True, False] and vote.flush() == []
+    with pytest.raises(ValueError, match="odd"):
+        SpeakingVote(4)

@@ -4,11 +4,12 @@ import itertools
 import logging
 import math
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from avcore.sync import ApproximateTime, TimeFrame
+from avcore.sync import ApproximateTime, FrameItdWindow, TimeFrame
 
 PROPERTY = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
@@ -414,3 +415,19 @@ def test_time_frame_gives_exactly_the_secondaries_in_the_window(case: tuple) -> 
         passed_at = next((k for k, e in enumerate(events) if e[0] == "s" and e[1] > stamp + window), len(events))
         done_at = next(k for k, step in enumerate(results) if any(p == item for p, _ in step))
         assert done_at == max(pushed_at, passed_at)
+
+
+def test_frame_itd_window_gives_the_frames_near_a_stamp_and_forgets_the_past() -> None:
+
+    w = FrameItdWindow(0.2, keep_s=1.0)
+    for start in np.arange(0.0, 3.0, 0.5):  # blocks of 16 frames every 0.5 s
+        times = start + np.arange(16) * 0.032
+        w.push(times, times * 1e-4, times, -times * 1e-4)
+    assert w.cut > 0 and all(b[0][-1] >= 3.0 - 1.5 for b in w)  # bounded without vision frames
+    frames, bands = w.near(2.3)
+    assert frames is not None and bands is not None
+    assert np.all(np.abs(frames / 1e-4 - 2.3) <= 0.2 + 1e-9) and np.all(np.abs(-bands / 1e-4 - 2.3) <= 0.2 + 1e-9)
+    n = len(w)
+    w.near(2.9)  # a later frame: blocks wholly before 2.7 s are not needed again
+    assert len(w) < n
+    assert w.near(10.0) == (None, None)
