@@ -268,7 +268,7 @@ class ConsoleFrame:
     @classmethod
     def from_result(cls, result: Any, diagnostics: Mapping[str, float] | None = None) -> ConsoleFrame:
         """From the pipeline's :class:`app.pipeline.FusionResult`, face- or motion-guided (boxes or none)."""
-        if result.boxes is not None:
+        if result.mode == "face":
             return cls.from_face_guided(result.stamp_s, result.index, result.image, result.boxes, result.xyz,
                                         result.itds_s, result.output, person_ids=result.person_ids,
                                         diagnostics=diagnostics)

@@ -31,7 +31,7 @@ from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
-from avcore.itd import ItdStream, geometry_options, gives_frame_itds
+from avcore.itd import ItdStream, ItdTrack, geometry_options, gives_frame_itds
 from avcore.motion import harris_motion_points
 from avcore.speaking import SpeakingVote
 from avcore.stereo import StereoRig
@@ -108,6 +108,43 @@ class PipelineConfig:
                              f"{self.vote_frames!r}")
 
 
+@dataclass(frozen=True, eq=False)
+class VisionMessage:
+    """A vision result for the fusion thread: faces (boxes (N, 4) px and xyz (N, 3) m) of one frame, or the HM3D
+    points (xyz (M, 3) m, no boxes) of one interval, ``frame`` its (middle) stereo frame."""
+
+    stamp_s: float
+    frame: StereoFrame
+    boxes: np.ndarray | None
+    xyz: np.ndarray
+
+
+@dataclass(frozen=True)
+class ItdMessage:
+    """One window's ITD, stamped at the window's centre."""
+
+    stamp_s: float
+    itd_s: float
+
+
+@dataclass(frozen=True, eq=False)
+class FrameItdsMessage:
+    """A block of single frames' ITDs and their bands' peaks; their times are relative to ``stamp_s``."""
+
+    stamp_s: float
+    frames: ItdTrack
+    bands: ItdTrack
+
+
+@dataclass(frozen=True)
+class ClockMessage:
+    """The audio clock: every window centred before ``stamp_s`` has been extracted."""
+
+    stamp_s: float
+
+
+FusionMessage = VisionMessage | ItdMessage | FrameItdsMessage | ClockMessage
+
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
 
@@ -132,6 +169,12 @@ class FusionResult:
     output: Any
     latency_s: float
     person_ids: np.ndarray
+
+    @property
+    def mode(self) -> str:
+        """"face" (Algorithm 2: ``xyz`` are the faces, ``boxes`` their boxes) or "motion" (Algorithm 1: ``xyz`` are
+        the HM3D points, the people are ``output.positions``)."""
+        return "face" if self.boxes is not None else "motion"
 
     def as_dict(self) -> dict[str, Any]:
         """The result as one line of the results file (schema: :mod:`app.results`)."""
@@ -222,7 +265,7 @@ class Pipeline:
         c = self.config
         self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(c.frame_queue, "frames")
         self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
-        self._q_fusion: DropOldestQueue[tuple[str, float, Any]] = DropOldestQueue(c.fusion_queue, "fusion")
+        self._q_fusion: DropOldestQueue[FusionMessage] = DropOldestQueue(c.fusion_queue, "fusion")
         self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
         self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
@@ -356,7 +399,7 @@ class Pipeline:
                     log.debug("bad frame %d: %s", frame.index, exc)
                     self.stats.bad_frames += 1
                     continue
-                self._offer(self._q_fusion, ("vision", frame.stamp_s, (frame.stamp_s, frame, faces.boxes, faces.points)))
+                self._offer(self._q_fusion, VisionMessage(frame.stamp_s, frame, faces.boxes, faces.points))
             else:
                 interval.append(frame)
                 if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
@@ -364,7 +407,7 @@ class Pipeline:
                 points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
                 mid = interval[len(interval) // 2]
                 stamp = 0.5 * (interval[0].stamp_s + interval[-1].stamp_s)
-                self._offer(self._q_fusion, ("vision", stamp, (stamp, mid, None, points)))
+                self._offer(self._q_fusion, VisionMessage(stamp, mid, None, points))
                 interval = []
             n += 1
             self.stats.vision_results = n
@@ -403,12 +446,12 @@ class Pipeline:
             if frame_itds:  # before the windows' ITDs, which complete vision frames (frames run ahead of windows)
                 frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
                 if len(frames):
-                    self._offer(self._q_fusion, ("frame_itds", start_s, (frames, bands)))
+                    self._offer(self._q_fusion, FrameItdsMessage(start_s, frames, bands))
             for t, itd in zip(track.times_s, track.itds_s):
-                self._offer(self._q_fusion, ("itd", start_s + float(t), float(itd)))
+                self._offer(self._q_fusion, ItdMessage(start_s + float(t), float(itd)))
             self.stats.itds += len(track)
             # the audio clock: windows centred before this time are all extracted
-            self._offer(self._q_fusion, ("clock", expected_s - c.window_s / 2, None))
+            self._offer(self._q_fusion, ClockMessage(expected_s - c.window_s / 2))
             n += 1
             self.stats.audio_blocks = n
             self._timed("itd", t0, n)
@@ -452,18 +495,18 @@ class Pipeline:
             for vision, itds in self._handle(message, sync):
                 self._fuse(hearing, tracker, vision, itds)
 
-    def _handle(self, message: tuple[str, float, Any], sync: TimeFrame) -> list:
+    def _handle(self, message: FusionMessage, sync: TimeFrame) -> list:
         """One message of the fusion queue into the synchroniser; returns the vision frames it completes."""
-        kind, stamp, item = message
-        if kind == "vision":
-            return sync.push_primary(stamp, item)
-        if kind == "itd":
-            return sync.push_secondary(stamp, (stamp, item))
-        if kind == "frame_itds":
-            single, bands = item
-            self._frame_itds.push(stamp + single.times_s, single.itds_s, stamp + bands.times_s, bands.itds_s)
+        if isinstance(message, VisionMessage):
+            return sync.push_primary(message.stamp_s, message)
+        if isinstance(message, ItdMessage):
+            return sync.push_secondary(message.stamp_s, (message.stamp_s, message.itd_s))
+        if isinstance(message, FrameItdsMessage):
+            t0, single, bands = message.stamp_s, message.frames, message.bands
+            self._frame_itds.push(t0 + single.times_s, single.itds_s, t0 + bands.times_s, bands.itds_s)
             return []
-        return sync.advance(stamp)  # the audio clock moved on without ITDs (silence): frames before it are complete
+        # the audio clock moved on without ITDs (silence): frames before it are complete
+        return sync.advance(message.stamp_s)
 
     def _finish(self, sync: TimeFrame, hearing: FaceGuidedHearing | MotionGuidedHearing,
                 tracker: NearestTracker) -> None:
@@ -477,10 +520,10 @@ class Pipeline:
         for voted in self._vote.flush():
             self._emit_voted(*voted)
 
-    def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, tracker: NearestTracker, vision: tuple,
-              itds: list[tuple[float, float]]) -> None:
+    def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, tracker: NearestTracker,
+              vision: VisionMessage, itds: list[tuple[float, float]]) -> None:
         t0 = time.perf_counter()
-        stamp, frame, boxes, xyz = vision
+        stamp, frame, boxes, xyz = vision.stamp_s, vision.frame, vision.boxes, vision.xyz
         timed = np.asarray(itds, dtype=np.float64).reshape(-1, 2)  # (window centre, ITD)
         a = timed[:, 1].copy()
         if isinstance(hearing, FaceGuidedHearing):

@@ -40,7 +40,7 @@ def _num(x: Any) -> float | None:
 def result_record(result: Any) -> dict[str, Any]:
     """One :class:`app.pipeline.FusionResult` as the JSON-ready dict of the module's schema."""
     out = result.output
-    face = result.boxes is not None
+    face = result.mode == "face"
     positions = np.asarray(result.xyz if face else out.positions, dtype=float).reshape(-1, 3)
     people = []
     for n, pid in enumerate(np.asarray(result.person_ids).ravel()):
@@ -57,7 +57,7 @@ def result_record(result: Any) -> dict[str, Any]:
     return {
         "stamp_s": round(float(result.stamp_s), 6),
         "index": int(result.index),
-        "mode": "face" if face else "motion",
+        "mode": result.mode,
         "n_itds": int(np.asarray(result.itds_s).size),
         "latency_s": _num(result.latency_s),
         "people": people,

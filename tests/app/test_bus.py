@@ -148,6 +148,7 @@ def test_a_slow_bus_never_stalls_the_pipeline() -> None:
             import numpy as np
 
             self.stamp_s, self.index, self.boxes, self.latency_s = k / 30, k, None, float("nan")
+            self.mode = "motion"
             self.xyz, self.itds_s, self.person_ids = np.zeros((0, 3)), np.zeros(3), np.array([1])
             self.output = type("Out", (), {"positions": np.zeros((1, 3)), "speaking": np.array([True]),
                                            "probability": np.array([0.9]), "itd_means": np.array([1e-4])})()
