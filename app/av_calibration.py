@@ -32,7 +32,7 @@ import numpy as np
 from app.errors import UserError
 from app.plotting import BLACK, BLUE, FONT, GREEN, GREY, PALE_RED, RED, nice_ticks
 from app.pipeline import DEFAULT_ITD_METHOD
-from app.recording import Recording
+from app.sources.recording import Recording
 from avcore.calibration import CalibrationReport, fit_av_calibration_report
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.geometry import MicPair

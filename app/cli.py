@@ -56,7 +56,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # also while the command modules are still being imported
         print("avhear: interrupted", file=sys.stderr)
         status = 130
-    if argv is None and "app.viewer" in sys.modules and sys.modules["app.viewer"].viewer_abandoned():
+    if argv is None and "app.console.viewer" in sys.modules and sys.modules["app.console.viewer"].viewer_abandoned():
         sys.stdout.flush()
         sys.stderr.flush()
         os._exit(status)

@@ -25,7 +25,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from app.contract import Source
+from app.sources.contract import Source
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue

@@ -36,7 +36,7 @@ import numpy as np
 from app.console import Console, ConsoleFrame
 from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from app.sources import open_source
-from app.viewer import ViewerSession, ViewerTarget
+from app.console.viewer import ViewerSession, ViewerTarget
 
 
 def _rss_mb() -> float:

@@ -20,7 +20,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.options import add_method_arguments, pipeline_config
-from app.scenario_eval import (
+from app.eval.scenarios import (
     PAPER_PERCENT,
     SCENARIOS,
     ScenarioScore,

@@ -3,7 +3,7 @@
 A :class:`Scenario` is a pure description: who is in the room, where each head is at any instant (a piecewise-linear
 path of the face centre), and a timeline of sound events (spoken digits, hand claps, a loudspeaker playing white
 noise). From it come the ground truth of any instant (:meth:`Scenario.truth`: 3D head positions, visibility,
-speaking state) and, in :mod:`app.simsource`, the rendered frames and the simulated microphone signals.
+speaking state) and, in :mod:`app.sources.sim`, the rendered frames and the simulated microphone signals.
 
 Presets (section 7.3, "Results on NAO"; the paper's room is about 5 x 5 m, the robot and the people seated):
 
@@ -21,7 +21,7 @@ head (cameras and microphones) is at the origin, 1.0 m above the floor. Times ar
 scenario (the stream's clock adds its start).
 
 Everything is deterministic for a seed. Nothing here reads files or touches devices: the speech clips come in as a
-:class:`ClipBank` (real digits loaded by :mod:`app.simsource`, or :func:`synthetic_clip_bank` on a clean machine).
+:class:`ClipBank` (real digits loaded by :mod:`app.sources.sim`, or :func:`synthetic_clip_bank` on a clean machine).
 """
 from __future__ import annotations
 

@@ -20,7 +20,7 @@ import numpy as np
 from app.bus.messages import AUDIO_BLOCK, decode
 from app.bus.sensors import AUDIO_KEY, LEFT_KEY, RIG_KEY, RIGHT_KEY, _stamp, frame_from_messages
 from app.config import RigConfig, rig_from_dict
-from app.contract import SourceBase
+from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue

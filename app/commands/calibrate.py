@@ -259,7 +259,7 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
 
 def run_av(args: argparse.Namespace) -> int:
     from app.av_calibration import calibrate_recording, log_calibration_rrd, save_calibration_figure
-    from app.recording import open_recording
+    from app.sources.recording import open_recording
 
     rig = load_rig(args.rig)
     if rig.microphones is None:

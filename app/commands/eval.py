@@ -1,7 +1,7 @@
 """`avhear eval ...`: accuracy evaluations that print the paper's tables beside ours.
 
 ``synthetic``: Algorithm 1 on the synthetic sequences of section 7.1 (tables 1 and 2). ``scenarios``: the simulated
-room's scenarios S1-S5 through the real pipeline, the table of section 7.3 (see :mod:`app.scenario_eval`).
+room's scenarios S1-S5 through the real pipeline, the table of section 7.3 (see :mod:`app.eval.scenarios`).
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from app.errors import UserError
 from app.options import MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config
 from app.paths import output_dir
 from app.pipeline import PipelineConfig
-from app.scenario_eval import (
+from app.eval.scenarios import (
     INTERVAL_S,
     ITD_TOLERANCE_S,
     PAPER_PERCENT,
@@ -229,7 +229,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
             c = score.counts
             _progress(f"{name} seed {seed}: TP {c.tp}, FN {c.fn}, FP {c.fp} ({time.perf_counter() - t0:.0f} s)")
             if args.timeline is not None and score.timeline is not None:
-                from app.eval_figure import save_timeline
+                from app.eval.figure import save_timeline
 
                 u = score.utterances
                 path = args.timeline / f"{name}_seed{seed}.png"

@@ -12,11 +12,11 @@ from pathlib import Path
 from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
 from app.config import RigConfig, require_live_rig
 from app.errors import UserError
-from app.live import LiveSource, add_device_arguments, live_config
+from app.sources.live import LiveSource, add_device_arguments, live_config
 from app.options import count, duration, positive
 from app.paths import output_dir
-from app.recorder import record
-from app.recording import RecordingWriter
+from app.sources.recorder import record
+from app.sources.recording import RecordingWriter
 from app.signals import stop_on_signals
 
 

@@ -14,14 +14,14 @@ from app.bus.publisher import ResultPublisher
 from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
-from app.live import LiveConfig, add_device_arguments, live_config
+from app.sources.live import LiveConfig, add_device_arguments, live_config
 from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config,
                          port)
 from app.paths import output_file
 from app.pipeline import FusionResult, Pipeline
 from app.results import ResultsWriter
 from app.sources import open_source
-from app.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
+from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
 from sim.scenario import PRESETS
 
 DEMO_RRD = Path("recordings/demo.rrd")

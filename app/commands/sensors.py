@@ -11,7 +11,7 @@ import time
 from app.bus.sensors import SensorPublisher
 from app.bus.session import BusOptions, add_bus_arguments, open_session
 from app.errors import UserError
-from app.live import add_device_arguments, live_config
+from app.sources.live import add_device_arguments, live_config
 from app.options import count, duration
 from app.signals import stop_on_signals
 from app.sources import open_source

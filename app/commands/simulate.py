@@ -17,9 +17,9 @@ from pathlib import Path
 from app.errors import UserError
 from app.options import MAX_SIMULATED_S, count, duration, positive
 from app.paths import output_dir
-from app.recording import write_recording
+from app.sources.recording import write_recording
 from app.signals import stop_on_signals
-from app.simsource import SimSource
+from app.sources.sim import SimSource
 from sim.scenario import DEFAULT_DURATION_S, PRESETS
 
 

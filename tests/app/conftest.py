@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-import app.live
+import app.sources.live
 from app.config import RigConfig, save_rig
 from avcore.geometry import MicPair
 from avcore.stereo import StereoRig
@@ -82,5 +82,5 @@ class FakeInputStream:
 @pytest.fixture
 def fake_sounddevice(monkeypatch: pytest.MonkeyPatch) -> types.SimpleNamespace:
     fake = types.SimpleNamespace(InputStream=FakeInputStream)
-    monkeypatch.setattr(app.live, "load_sounddevice", lambda: fake)
+    monkeypatch.setattr(app.sources.live, "load_sounddevice", lambda: fake)
     return fake

@@ -128,7 +128,7 @@ def test_record_the_bus(tmp_path: Path) -> None:
                             cwd=ROOT, timeout=60)
     sensors.wait(timeout=60)
     assert record.returncode == 0, record.stderr
-    from app.recording import open_recording
+    from app.sources.recording import open_recording
 
     rec = open_recording(out)
     assert rec.n_frames > 60 and rec.n_samples > 2 * 16000

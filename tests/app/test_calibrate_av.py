@@ -15,8 +15,8 @@ from app.cli import main
 from app.commands import calibrate
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
-from app.recording import RecordingWriter, open_recording, write_recording
-from app.simsource import AudioBlock, SimSource, StereoFrame
+from app.sources.recording import RecordingWriter, open_recording, write_recording
+from app.sources.sim import AudioBlock, SimSource, StereoFrame
 from avcore.geometry import MicPair
 from avcore.itd import ItdTrack
 

@@ -16,9 +16,9 @@ import pytest
 import rerun as rr
 from rerun.chunk import RrdReader
 
-from app import console_geometry as geo
+from app.console import geometry as geo
 from app.console import Console, ConsoleFrame
-from app.viewer import ViewerSession, ViewerTarget, rerun_executable
+from app.console.viewer import ViewerSession, ViewerTarget, rerun_executable
 from avcore.faces import locate_faces
 from avcore.geometry import MicPair
 from avcore.inference import FaceGuidedHearing

@@ -9,10 +9,10 @@ import pytest
 
 from app.cli import main
 from app.errors import UserError
-from app.eval_figure import draw_timeline, save_timeline
+from app.eval.figure import draw_timeline, save_timeline
 from app.pipeline import PipelineConfig
 from app.plotting import GREEN, RED
-from app.scenario_eval import FusedFrame, score_run
+from app.eval.scenarios import FusedFrame, score_run
 from sim.scenario import make_scenario
 
 FPS = 30.0

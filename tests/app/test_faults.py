@@ -54,7 +54,7 @@ def test_audio_device_that_vanishes(fake_sounddevice) -> None:  # noqa: ANN001
     at once (the pipeline then stops and the command line prints the message, as for a camera)."""
     import threading
 
-    from app.live import LiveConfig, LiveSource
+    from app.sources.live import LiveConfig, LiveSource
     from app.sound import DeviceError
 
     fake_sounddevice.InputStream.n_blocks = 20
@@ -81,13 +81,13 @@ def test_audio_stream_that_fails_to_open(tmp_path: Path, rig_file: Path, make_vi
 
 def test_no_portaudio(tmp_path: Path, rig_file: Path, make_video, monkeypatch: pytest.MonkeyPatch,
                       capsys: pytest.CaptureFixture[str]) -> None:  # noqa: ANN001
-    import app.live
+    import app.sources.live
     from app.sound import DeviceError
 
     def missing() -> None:
         raise DeviceError("sounddevice cannot load PortAudio (PortAudio library not found); install it")
 
-    monkeypatch.setattr(app.live, "load_sounddevice", missing)
+    monkeypatch.setattr(app.sources.live, "load_sounddevice", missing)
     left, right = make_video(tmp_path / "l.avi", 300, 64, 60), make_video(tmp_path / "r.avi", 300, 64, 200)
     code = main(["run", "--source", "live", "--rig", str(rig_file), "--cameras", str(left), str(right),
                  "--headless", "--duration", "20"])

@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import app.live
-from app.live import LiveConfig, LiveSource
+import app.sources.live
+from app.sources.live import LiveConfig, LiveSource
 from app.sound import DeviceError
 from avcore.geometry import MicPair
 from avcore.stereo import StereoRig
@@ -76,7 +76,7 @@ def test_audio_device_error(monkeypatch: pytest.MonkeyPatch) -> None:
     def refuse(**kwargs: object) -> None:
         raise ValueError("No input device matching 'usb'")
 
-    monkeypatch.setattr(app.live, "load_sounddevice", lambda: types.SimpleNamespace(InputStream=refuse))
+    monkeypatch.setattr(app.sources.live, "load_sounddevice", lambda: types.SimpleNamespace(InputStream=refuse))
     src = LiveSource(LiveConfig(audio_device="usb"), RIG, MicPair())
     with pytest.raises(DeviceError, match="python -m sounddevice"):
         next(src.audio(threading.Event()))

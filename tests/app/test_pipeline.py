@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from app.contract import SourceBase
+from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.pipeline import FusionResult, Pipeline, PipelineConfig

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from app.live import LiveConfig, LiveSource
+from app.sources.live import LiveConfig, LiveSource
 from avcore.geometry import MicPair
 from avcore.itd import extract_itds
 from avcore.stereo import StereoRig

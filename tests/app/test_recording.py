@@ -1,4 +1,4 @@
-"""Tests of app.recording: the raw recording folder, written and read back; broken files give clear errors."""
+"""Tests of app.sources.recording: the raw recording folder, written and read back; broken files give clear errors."""
 from __future__ import annotations
 
 import csv
@@ -11,8 +11,8 @@ import pytest
 from scipy.io import wavfile
 
 from app.config import RigConfig, save_rig
-from app.recording import RecordingError, open_recording, write_recording
-from app.simsource import AudioBlock, SimSource, StereoFrame
+from app.sources.recording import RecordingError, open_recording, write_recording
+from app.sources.sim import AudioBlock, SimSource, StereoFrame
 from avcore.stereo import StereoRig
 
 

@@ -86,7 +86,7 @@ def test_serve_binds_to_localhost(capsys: pytest.CaptureFixture[str]) -> None:
 
     import rerun as rr
 
-    from app.viewer import ViewerSession, ViewerTarget
+    from app.console.viewer import ViewerSession, ViewerTarget
 
     with socket.socket() as a, socket.socket() as b:  # two free ports
         a.bind(("127.0.0.1", 0))

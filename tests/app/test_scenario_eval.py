@@ -13,7 +13,7 @@ import pytest
 
 from app.cli import main
 from app.pipeline import PipelineConfig
-from app.scenario_eval import (
+from app.eval.scenarios import (
     INTERVAL_S,
     PAPER_SCENARIOS,
     FusedFrame,
@@ -21,7 +21,7 @@ from app.scenario_eval import (
     calibrate_on_preset,
     score_run,
 )
-from app.simsource import load_clip_bank
+from app.sources.sim import load_clip_bank
 from sim.scenario import FrameTruth, Scenario, make_scenario
 
 FPS = 30.0
@@ -100,7 +100,7 @@ def test_wrong_states_and_missed_faces_are_counted() -> None:
 def test_timing_reference_scores_the_truth_held_longer(monkeypatch: pytest.MonkeyPatch) -> None:
     """The per-interval timing reference counts what a detector that knows the truth, but holds each number
     TIMING_REFERENCE_S longer at both ends, would score; held 0 s it is the truth's own counts."""
-    import app.scenario_eval as scenario_eval
+    import app.eval.scenarios as scenario_eval
 
     scenario = _scenario("S2")
     speech = [e for e in scenario.events if e.kind == "speech"]

@@ -1,4 +1,4 @@
-"""Tests of app.simsource: the simulated room as a stream, consistent with its ground truth (issue 5, section 1).
+"""Tests of app.sources.sim: the simulated room as a stream, consistent with its ground truth (issue 5, section 1).
 
 Everything runs without ../shared/data (``data_dir`` points to a missing folder): drawn faces, synthetic speech.
 """
@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.simsource import (
+from app.sources.sim import (
     AudioBlock,
     SimSource,
     StereoFrame,

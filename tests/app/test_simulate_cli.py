@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from app.cli import main
-from app.recording import open_recording
-from app.simsource import StereoFrame
+from app.sources.recording import open_recording
+from app.sources.sim import StereoFrame
 from avcore.faces import locate_faces
 from avcore.itd import extract_itds
 

@@ -15,7 +15,7 @@ import pytest
 
 from app.cli import main
 from app.config import RigConfig, save_rig
-from app.recording import open_recording
+from app.sources.recording import open_recording
 from avcore.stereo import StereoRig
 
 RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.viewer import rerun_executable, stop_process_group
+from app.console.viewer import rerun_executable, stop_process_group
 
 pytestmark = pytest.mark.slow
 

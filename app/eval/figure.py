@@ -18,7 +18,7 @@ import numpy as np
 
 from app.errors import UserError
 from app.plotting import BLACK, BLUE, FONT, GREEN, GREY, LIGHT, RED, nice_ticks
-from app.scenario_eval import INTERVAL_S, Timeline
+from app.eval.scenarios import INTERVAL_S, Timeline
 
 __all__ = ["draw_timeline", "save_timeline"]
 

@@ -204,7 +204,7 @@ class UtteranceCounts(_Counts):
 
 @dataclass(frozen=True, eq=False)
 class Timeline:
-    """One run's speaking states over time, for the timeline figure (:mod:`app.eval_figure`).
+    """One run's speaking states over time, for the timeline figure (:mod:`app.eval.figure`).
 
     stamps_s : (R,) the results' stamps; states : (R, N) per result and person, -1 not found, 0 judged silent,
     1 judged speaking; half_span_s : the time one result stands for (half a frame; half an interval for the

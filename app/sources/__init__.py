@@ -7,12 +7,12 @@ import time
 from collections.abc import Iterator
 
 from app.config import require_live_rig
-from app.contract import SourceBase
+from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
-from app.live import LiveConfig, LiveSource
-from app.recording import open_recording
-from app.simsource import SimSource, StreamSource
+from app.sources.live import LiveConfig, LiveSource
+from app.sources.recording import open_recording
+from app.sources.sim import SimSource, StreamSource
 from avcore.geometry import MicPair
 from sim.scenario import PRESETS
 
@@ -20,7 +20,7 @@ __all__ = ["StreamAdapter", "open_source"]
 
 
 class StreamAdapter(SourceBase):
-    """A :class:`~app.simsource.StreamSource` (the simulator or a recording) as a pipeline source.
+    """A :class:`~app.sources.sim.StreamSource` (the simulator or a recording) as a pipeline source.
 
     realtime : deliver at capture pace on ``time.monotonic()`` (a live-like demo), or as fast as possible (then
     the pipeline applies back-pressure and loses nothing). Both threads share one start time, so frames and audio

@@ -19,7 +19,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from app.contract import SourceBase
+from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.options import count

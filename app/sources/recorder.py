@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from app.events import AudioBlock, StereoFrame
-from app.recording import RecordingWriter
+from app.sources.recording import RecordingWriter
 
 log = logging.getLogger(__name__)
 

@@ -22,7 +22,7 @@ All stamps are seconds on one clock (the simulator: from 0; a live capture: ``ti
 
 :func:`write_recording` writes a source (the simulator) into a folder; :class:`RecordingWriter` writes frames and
 blocks as they come (for ``avhear record``); :func:`open_recording` validates a folder and returns a
-:class:`Recording`, a :class:`app.simsource.StreamSource` that yields the same stream of timestamped frames and audio
+:class:`Recording`, a :class:`app.sources.sim.StreamSource` that yields the same stream of timestamped frames and audio
 blocks as the simulator did, at real speed or as fast as possible. Missing, truncated or corrupt files raise
 :class:`RecordingError` naming the file, what is wrong and what to do.
 """
@@ -44,7 +44,7 @@ import numpy as np
 
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
-from app.simsource import AudioBlock, StereoFrame, StreamSource
+from app.sources.sim import AudioBlock, StereoFrame, StreamSource
 from avcore.evaluation import FrameTruth
 
 __all__ = ["RecordingError", "RecordingWriter", "Recording", "open_recording", "write_recording", "FORMAT"]

@@ -1,10 +1,10 @@
 """The Rerun operator console: the paper's visualisation tool (section 6, figure vtool) and more, as Rerun data.
 
 Every ``rr.*`` call of the application lives here (DESIGN.md); what is drawn is computed by the pure helpers of
-:mod:`app.console_geometry`. The default layout of these entities is :func:`layouts.blueprint.default_blueprint`.
+:mod:`app.console.geometry`. The default layout of these entities is :func:`layouts.blueprint.default_blueprint`.
 
 Entity paths (static entities are logged once, when the console is created). The people of a frame are the
-instances of a few batched entities, one instance each, told apart by colour (:func:`~app.console_geometry.
+instances of a few batched entities, one instance each, told apart by colour (:func:`~app.console.geometry.
 person_colors`, stable per person id) and label (``"<id>: <probability>"``); such an entity is cleared when its last
 person goes. ``<id>`` is a person id.
 
@@ -45,7 +45,7 @@ Timelines: ``frame`` (sequence, the frame number) and ``capture_time`` (the capt
 console knows the wall-clock time of the stamp clock's zero, else a duration since that zero).
 
 ITD-space units: the horizontal axis is in microseconds; heights are the fraction of the interval's ITDs per bin
-(see :mod:`app.console_geometry`), drawn upwards (negative y in the 2D view).
+(see :mod:`app.console.geometry`), drawn upwards (negative y in the 2D view).
 """
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ import numpy as np
 import pyarrow as pa
 import rerun as rr
 
-from app import console_geometry as geo
+from app.console import geometry as geo
 from avcore.geometry import MicPair
 from avcore.mixture import Mixture1D
 from avcore.stereo import StereoRig
@@ -345,7 +345,7 @@ class Console:
         self.new_part()
 
     def new_part(self) -> None:
-        """Start afresh in a new .rrd part (:meth:`app.viewer.ViewerSession.next_part`): the static data again, and
+        """Start afresh in a new .rrd part (:meth:`app.console.viewer.ViewerSession.next_part`): the static data again, and
         whatever is logged only once or on change (people's styles, the bars' positions, the histogram) at the next
         frame."""
         self._present: set[int] = set()

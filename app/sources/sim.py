@@ -11,7 +11,7 @@ robot's fan; 16-bit quantisation as a sound card does). Frames are rendered on d
 :class:`sim.render.StereoSceneRenderer`; a frame whose scene did not change (nobody moved or nodded) reuses the
 previous rendering with fresh sensor noise, so still scenes cost little.
 
-Streams (shared with :class:`app.recording.Recording`, see :class:`StreamSource`): ``stream()`` yields frames and
+Streams (shared with :class:`app.sources.recording.Recording`, see :class:`StreamSource`): ``stream()`` yields frames and
 audio blocks merged in delivery order (a frame at its stamp, an audio block when its last sample has been captured),
 ``frames()`` and ``audio_blocks()`` yield one kind each (for a grabber thread and an audio thread). With
 ``realtime=True`` each item is delivered at its time on ``time.monotonic()``, stamps rebased onto that clock, and a
