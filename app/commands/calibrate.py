@@ -258,7 +258,9 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
 
 
 def run_av(args: argparse.Namespace) -> int:
-    from app.av_calibration import calibrate_recording, log_calibration_rrd, save_calibration_figure
+    from app.av_calibration import calibrate_recording
+    from app.console.calibration import log_calibration_rrd
+    from app.eval.calibration_figure import save_calibration_figure
     from app.sources.recording import open_recording
 
     rig = load_rig(args.rig)
