@@ -7,22 +7,20 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
 
 from app.errors import UserError
 from app.options import MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config
+from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets,
+                             synthetic_json)
 from app.paths import output_dir
-from app.pipeline import PipelineConfig
 from app.eval.scenarios import (
     INTERVAL_S,
     ITD_TOLERANCE_S,
-    PAPER_PERCENT,
     PAPER_SCENARIOS,
     SCENARIOS,
-    TIMING_REFERENCE_S,
     CalibrationFit,
     ScenarioScore,
     calibrate_on_preset,
@@ -31,15 +29,12 @@ from app.eval.scenarios import (
 from sim.synthetic import SEQUENCES
 from sim.synthetic_eval import (
     FACE_VARIANTS,
-    PAPER_AUDIO,
-    PAPER_VISUAL,
     VARIANTS,
     SequenceScore,
     evaluate_face_guided,
     evaluate_sequence,
 )
 
-VARIANT_LABELS = {"paper": "paper's method", "avhear": "avhear"}
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -114,7 +109,7 @@ def run_synthetic(args: argparse.Namespace) -> int:
             for variant, params in FACE_VARIANTS.items():
                 face.append(evaluate_face_guided(name, seeds, params(), variant=variant))
     if args.json:
-        out = _as_json(scores, seeds)
+        out = synthetic_json(scores, seeds)
         out["face_guided"] = [s.as_dict() for s in face]
         print(json.dumps(out, indent=2))
     else:
@@ -124,82 +119,6 @@ def run_synthetic(args: argparse.Namespace) -> int:
             print(format_face_table(face, seeds))
         print(f"\n({time.perf_counter() - start:.1f} s)")
     return 0
-
-
-def _as_json(scores: list[SequenceScore], seeds: list[int]) -> dict[str, object]:
-    return {
-        "seeds": seeds,
-        "results": [s.as_dict() for s in scores],
-        "paper": {"visual": {k: PAPER_VISUAL[k] for k in {s.sequence for s in scores}},
-                  "audio": {k: PAPER_AUDIO[k] for k in {s.sequence for s in scores}}},
-    }
-
-
-def _pct(count: float, total: float) -> str:
-    return f"({100.0 * count / total:4.1f}%)" if total else "(  - )"
-
-
-def format_tables(scores: list[SequenceScore], seeds: list[int]) -> str:
-    """Tables 1 and 2 of section 7.1; our counts are per sequence (averaged over the seeds)."""
-    n = len(seeds)
-    lines = [
-        (f"Table 1 - visual evaluation (section 7.1). Counts per 136-interval sequence, averaged over seeds "
-         f"{', '.join(map(str, seeds))}; TP % = TP / (TP + FN)."),
-        f"{'Seq.':8s} {'method':22s} {'FP':>7s} {'FN':>16s} {'TP':>16s} {'ALE [m]':>8s}",
-    ]
-    for name in dict.fromkeys(s.sequence for s in scores):
-        p = PAPER_VISUAL[name]
-        lines.append(f"{name:8s} {'paper (published)':22s} {p['fp']:7.0f} {p['fn']:6.0f} "
-                     f"{_pct(p['fn'], p['fn'] + p['tp']):>9s} {p['tp']:6.0f} {_pct(p['tp'], p['fn'] + p['tp']):>9s} "
-                     f"{p['ale_m']:8.2f}")
-        for s in scores:
-            if s.sequence != name:
-                continue
-            t = s.totals
-            lines.append(f"{'':8s} {VARIANT_LABELS.get(s.variant, s.variant):22s} {t.fp / n:7.1f} {t.fn / n:6.1f} "
-                         f"{_pct(t.fn, t.n_truth):>9s} {t.tp / n:6.1f} {_pct(t.tp, t.n_truth):>9s} {t.ale_m:8.3f}")
-    lines += [
-        "",
-        "Table 2 - auditory state (section 7.1), over the true-positive clusters. TP % = TP / (TP + FN).",
-        f"{'Seq.':8s} {'method':22s} {'FP':>7s} {'FN':>16s} {'TP':>16s}",
-    ]
-    for name in dict.fromkeys(s.sequence for s in scores):
-        p = PAPER_AUDIO[name]
-        lines.append(f"{name:8s} {'paper (published)':22s} {p['fp']:7.0f} {p['fn']:6.0f} "
-                     f"{_pct(p['fn'], p['fn'] + p['tp']):>9s} {p['tp']:6.0f} {_pct(p['tp'], p['fn'] + p['tp']):>9s}")
-        for s in scores:
-            if s.sequence != name:
-                continue
-            lines.append(_audio_row("", VARIANT_LABELS.get(s.variant, s.variant), s, n))
-    return "\n".join(lines)
-
-
-def _audio_row(first: str, label: str, score: SequenceScore, n: int) -> str:
-    """One row of speaking-state counts per sequence (FP, FN with %, TP with %)."""
-    t = score.totals
-    speak = t.audio_tp + t.audio_fn
-    return (f"{first:8s} {label:22s} {t.audio_fp / n:7.1f} {t.audio_fn / n:6.1f} {_pct(t.audio_fn, speak):>9s} "
-            f"{t.audio_tp / n:6.1f} {_pct(t.audio_tp, speak):>9s}")
-
-
-def format_face_table(scores: list[SequenceScore], seeds: list[int]) -> str:
-    """Table 3 (avhear's): Algorithm 2's speaking states with the faces given, per variant."""
-    n = len(seeds)
-    lines = [
-        "Table 3 - Face-Guided Robot Hearing (Algorithm 2), faces = visible people + 1 cm noise; speaking states.",
-        "paper = means free, tau_A = K/(N+2); anchored = means kept at the faces; avhear = anchored + outlier-aware.",
-        f"{'Seq.':8s} {'variant':22s} {'FP':>7s} {'FN':>16s} {'TP':>16s}",
-    ]
-    for name in dict.fromkeys(s.sequence for s in scores):
-        for s in scores:
-            if s.sequence != name:
-                continue
-            lines.append(_audio_row(name if s is scores[0] or s.variant == "paper" else "", s.variant, s, n))
-    return "\n".join(lines)
-
-
-# ---------------------------------------------------------------------------------------------------------------
-# avhear eval scenarios (section 7.3)
 
 
 def run_scenarios(args: argparse.Namespace) -> int:
@@ -252,7 +171,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
             "seeds": list(args.seed),
             "calibration": calibration.as_dict() if calibration else None,
             "results": [s.as_dict() for s in scores],
-            "targets": _targets(scores),
+            "targets": scenario_targets(scores),
             "paper": {s.scenario: PAPER_SCENARIOS[s.scenario] for s in scores},
         }
         print(json.dumps(out, indent=2))
@@ -261,143 +180,3 @@ def run_scenarios(args: argparse.Namespace) -> int:
         print(f"\n({time.perf_counter() - start:.1f} s)")
     return 0
 
-
-def _fp_share(fp: float, speaking: float) -> float:
-    """FP per speaking count, FP / (TP + FN): comparable between the paper's counts and ours, whose units differ."""
-    return fp / speaking if speaking else math.nan
-
-
-def _rounded(x: float) -> float | None:
-    return None if math.isnan(x) else round(x, 4)
-
-
-def _target_row(tp: int, fn: int, fp: int, scenario: str) -> dict[str, object]:
-    p = PAPER_SCENARIOS[scenario]
-    ours, paper = _fp_share(fp, tp + fn), _fp_share(p["fp"], p["tp"] + p["fn"])
-    return {
-        "tp_rate": _rounded(tp / (tp + fn)) if tp + fn else None,
-        "tp_at_least_95": bool(tp + fn and tp / (tp + fn) >= 0.95),
-        "fp_per_speaking_count": _rounded(ours),
-        "paper_fp_per_speaking_count": _rounded(paper),
-        "fp_at_most_half_paper": bool(not math.isnan(ours) and ours <= paper / 2),
-    }
-
-
-def _targets(scores: list[ScenarioScore]) -> dict[str, object]:
-    """Issue 5's targets: TP >= 95 % and FP at most half the paper's (per speaking count) on every scenario, per
-    interval and per spoken number; in S4 the unseen talker turns silent visible people into speakers no more often
-    than S2's silent people are turned (per interval)."""
-    out: dict[str, object] = {
-        "per_interval": {s.scenario: _target_row(s.counts.tp, s.counts.fn, s.counts.fp, s.scenario) for s in scores},
-        "per_spoken_number": {s.scenario: _target_row(s.utterances.tp, s.utterances.fn, s.utterances.fp, s.scenario)
-                              for s in scores},
-    }
-    by = {s.scenario: s for s in scores}
-    if "S4" in by and "S2" in by:
-        s4, s2 = by["S4"].counts.unseen_fp_rate, by["S2"].counts.fp_rate
-        out["s4_unseen_fp_rate"] = _rounded(s4)
-        out["s2_fp_rate"] = _rounded(s2)
-        out["s4_not_worse_than_s2"] = bool(not math.isnan(s4) and not math.isnan(s2) and s4 <= s2)
-    return out
-
-
-def _paper_row(name: str) -> str:
-    p = PAPER_SCENARIOS[name]
-    fn_pct, tp_pct = PAPER_PERCENT[name]
-    return (f"{name:6s} {'paper (NAO, published)':24s} {p['fp']:5d} {p['fn']:4d} {f'({fn_pct:4.1f}%)':>8s} "
-            f"{p['tp']:5d} {f'({tp_pct:4.1f}%)':>8s}  {p['fp'] / (p['tp'] + p['fn']):6.3f}")
-
-
-def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
-                          calibration: CalibrationFit | None) -> str:
-    """The table of section 7.3 with the paper's rows beside ours (per spoken number, then per 0.4 s interval), the
-    per-scenario front-end figures, and the issue's targets."""
-    n_seeds = len(scores[0].seeds) if scores else 0
-    label = f"avhear {config.inference}-guided"
-    correction = (f"fitted on the calibration preset, c1 = {calibration.mics.c1:.4f}, "
-                  f"c0 = {calibration.mics.c0 * 1e6 + 0.0:+.1f} us" if calibration else "none (c1 = 1, c0 = 0)")
-    ms = TIMING_REFERENCE_S * 1e3
-    reference = f"truth held +-{ms:.0f} ms"
-    head = f"{'Scen.':6s} {'method':24s} {'FP':>5s} {'FN':>13s} {'TP':>14s}  {'FP/spk':>6s}"
-    lines = [
-        (f"Speaking states per scenario (section 7.3), summed over {n_seeds} seed(s); TP % = TP / (TP + FN); "
-         "FP/spk = FP / (TP + FN)."),
-        "The paper's counts come from hand-annotated recordings on NAO (its caption: 'the total number of counts').",
-        f"ITD: {config.itd_method}; AV correction: {correction}.",
-        "",
-        ("Per spoken number (the paper's unit, its people counting to 16): TP = a number judged spoken by its "
-         "visible speaker, FN = not; FP = a stretch judged speaking that overlaps none of the person's numbers."),
-        f"{head}  {'FN face missed':>14s} {'FN overlap':>10s}",
-    ]
-    for s in scores:
-        u = s.utterances
-        n = u.tp + u.fn
-        lines += [_paper_row(s.scenario),
-                  (f"{'':6s} {label:24s} {u.fp:5d} {u.fn:4d} {_pct(u.fn, n):>8s} {u.tp:5d} {_pct(u.tp, n):>8s}  "
-                   f"{_fp_share(u.fp, n):6.3f}  {u.fn_missed_face:14d} {u.fn_overlap:10d}")]
-    lines += [
-        "",
-        (f"Per interval (a stricter view): one count = one visible person during {INTERVAL_S} s (majority of its "
-         "frames)."),
-        (f"The timing reference row scores the truth itself, each number held {ms:.0f} ms longer at both ends: the "
-         "false alarms this view gives for timing alone."),
-        ("FP partly spoken: in an interval where the person speaks in fewer than half of the frames (timing); FP "
-         "wholly silent: where they say nothing."),
-        (f"{head}  {'FN face missed':>14s} {'FN overlap':>10s}  {'FP partly spoken':>16s}  {'FP wholly silent':>16s}  "
-         f"{'silent->spk':>11s}"),
-    ]
-    for s in scores:
-        c = s.counts
-        n = c.tp + c.fn
-        silent = c.fp - c.fp_false_face + c.tn
-        lines += [_paper_row(s.scenario),
-                  (f"{'':6s} {label:24s} {c.fp:5d} {c.fn:4d} {_pct(c.fn, n):>8s} {c.tp:5d} {_pct(c.tp, n):>8s}  "
-                   f"{_fp_share(c.fp, n):6.3f}  {c.fn_missed_face:14d} {c.fn_overlap:10d}  "
-                   f"{c.fp_partly_spoken:16d}  {c.fp_wholly_silent:16d}  "
-                   f"{_pct(c.fp - c.fp_false_face, silent):>11s}")]
-        r = s.timing_reference
-        n = r.tp + r.fn
-        lines.append(f"{'':6s} {reference:24s} {r.fp:5d} {r.fn:4d} {_pct(r.fn, n):>8s} {r.tp:5d} {_pct(r.tp, n):>8s}  "
-                     f"{_fp_share(r.fp, n):6.3f}")
-    lines += [
-        "",
-        ("Front end per scenario, per fused frame: faces = frames with every visible face found; recall = visible "
-         f"faces found; ITD = ITDs within {ITD_TOLERANCE_S * 1e6:.0f} us of the talker's true ITD (windows with one "
-         "talker); bias = median extracted - true; pull = median pull towards 0 of talkers off to the side "
-         "(|ITD| >= 50 us)."),
-        (f"{'Scen.':6s} {'frames':>7s} {'faces':>7s} {'recall':>7s} {'F3D med [m]':>12s} {'ITD windows':>12s} "
-         f"{'ITD +-40us':>10s} {'bias [us]':>10s} {'pull [us]':>10s}"),
-    ]
-    for s in scores:
-        lines.append(f"{s.scenario:6s} {s.n_frames:7d} {_pct1(s.all_found_share):>7s} {_pct1(s.face_recall):>7s} "
-                     f"{_num(s.f3d_median_m, '.3f'):>12s} {len(s.itd_errors_s):12d} {_pct1(s.itd_accuracy):>10s} "
-                     f"{_num(s.itd_bias_s * 1e6, '+.1f'):>10s} {_num(s.itd_pull_s * 1e6, '+.1f'):>10s}")
-    t = _targets(scores)
-    lines += ["", ("Targets (beyond the paper's table): TP >= 95 %; FP/spk at most half the paper's; S4's unseen "
-              "talker no worse than S2.")]
-    held = {("per_interval", s.scenario): f"; {reference}: "
-            f"{_rounded(_fp_share(s.timing_reference.fp, s.timing_reference.tp + s.timing_reference.fn))}; "
-            f"FP/spk wholly silent: {_rounded(_fp_share(s.counts.fp_wholly_silent, s.counts.tp + s.counts.fn))}"
-            for s in scores}
-    for view in ("per_spoken_number", "per_interval"):
-        rows = t[view]
-        assert isinstance(rows, dict)
-        for name, r in rows.items():
-            tp = r["tp_rate"]
-            lines.append(f"  {view.replace('_', ' '):17s} {name}: TP {'-' if tp is None else f'{100 * tp:5.1f} %'} "
-                         f"[{'met' if r['tp_at_least_95'] else 'NOT met'}], FP/spk {r['fp_per_speaking_count']} vs "
-                         f"paper {r['paper_fp_per_speaking_count']} "
-                         f"[{'met' if r['fp_at_most_half_paper'] else 'NOT met'}]" + held.get((view, name), ""))
-    if "s4_unseen_fp_rate" in t:
-        lines.append(f"  S4: silent visible people judged speaking while the unseen person talks: "
-                     f"{t['s4_unseen_fp_rate']} of their intervals, vs S2's silent people: {t['s2_fp_rate']} "
-                     f"[{'met' if t['s4_not_worse_than_s2'] else 'NOT met'}]")
-    return "\n".join(lines)
-
-
-def _pct1(x: float) -> str:
-    return "-" if math.isnan(x) else f"{100 * x:.1f}%"
-
-
-def _num(x: float, fmt: str) -> str:
-    return "-" if math.isnan(x) else format(x, fmt)
