@@ -30,7 +30,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from avcore.itd import extract_itds
-from sim.roomsim import N_DIFFUSE, Room, noise_positions, simulate, window_truth
+from sim.roomsim import N_DIFFUSE, AcousticRoom, noise_positions, simulate, window_truth
 
 PRA = "pra-gcc-phat"
 DEFAULT_METHODS = ["correlogram", "gcc-phat", "correlogram-robust", "gcc-phat-robust", PRA]
@@ -101,7 +101,7 @@ def run(args: argparse.Namespace) -> None:
     measured: dict[float, float] = {}
     t_start = time.time()
     for rt60 in args.rt60:
-        room = Room(rt60_s=rt60, samplerate_hz=fs)
+        room = AcousticRoom(rt60_s=rt60, samplerate_hz=fs)
         noise_src = noise_positions(room, args.noise)
         fan = np.array([[0.02, -0.04, -0.06]])
         print(f"[{time.time() - t_start:6.1f} s] RT60 {rt60} s: room impulse responses for "

@@ -9,7 +9,7 @@ Everything is a textured planar quad (walls, floor, bodies, heads) drawn by a ho
 Haar cascade finds (:func:`drawn_face_texture`).
 
 Scene frame (DESIGN.md): the cyclopean frame of the rig, metres, x right, y down, z forward. The cameras are at
-y = 0; the floor is ``Room.floor_y`` below them.
+y = 0; the floor is ``VisualRoom.floor_y`` below them.
 """
 from __future__ import annotations
 
@@ -23,16 +23,18 @@ import numpy as np
 
 from avcore.faces import HaarFaceDetector
 from avcore.stereo import StereoRig
+from sim.roomsim import resolve_data_dir
 
 __all__ = [
     "FaceTexture",
     "Person",
-    "Room",
+    "VisualRoom",
     "RenderedFrame",
     "StereoSceneRenderer",
     "load_face_textures",
     "drawn_face_texture",
     "default_scene",
+    "load_textures",
 ]
 
 FACE_MARGIN = 1.6  # head texture side / labelled face box side: hair, ears and a little background
@@ -219,7 +221,7 @@ class Person:
 
 
 @dataclass(frozen=True)
-class Room:
+class VisualRoom:
     """A box room, scene frame, metres: walls at x = +-half_width and z = depth, floor at y = floor_y, ceiling at
     y = ceiling_y (negative: above the cameras)."""
 
@@ -275,7 +277,7 @@ class StereoSceneRenderer:
 
     rig: StereoRig
     people: list[Person]
-    room: Room = field(default_factory=Room)
+    room: VisualRoom = field(default_factory=VisualRoom)
     noise_std: float = 1.5
     seed: int = 0
     _background: dict[str, np.ndarray] = field(init=False, default_factory=dict, repr=False)
@@ -444,3 +446,17 @@ def default_scene(faces_dir: str | Path | None = None, *, moving: bool = False, 
         for i, (tex, pos, shirt) in enumerate(zip(chosen, positions, shirts))
     ]
     return StereoSceneRenderer(rig, people, seed=seed)
+
+
+def load_textures(data_dir: str | Path | None = None) -> tuple[list[FaceTexture], str]:
+    """Face textures cut from ``data_dir/faces`` (kept only where OpenCV's detector finds them), or five drawn faces
+    when the folder is absent. Returns the textures and "faces" or "drawn"."""
+    root = resolve_data_dir(data_dir)
+    try:
+        textures = load_face_textures(root / "faces", detector=HaarFaceDetector())
+    except FileNotFoundError:
+        textures = []
+    if textures:
+        return textures, "faces"
+    skins = ((150, 180, 220), (110, 140, 190), (90, 120, 160), (130, 160, 205), (70, 95, 130))
+    return [drawn_face_texture(skin_bgr=s) for s in skins], "drawn"

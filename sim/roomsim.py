@@ -4,7 +4,7 @@ Built on pyroomacoustics (image-source model of a shoebox room; optional: ``pip 
 
 Coordinates: talkers and microphones are given in the project's **scene frame** (DESIGN.md: origin at the head,
 x right, y down, z forward, metres). The room's own frame (pyroomacoustics: origin at a corner, z up) only appears
-inside this module; the head stands at ``Room.head_m`` (room frame) looking along the room's +y axis.
+inside this module; the head stands at ``AcousticRoom.head_m`` (room frame) looking along the room's +y axis.
 
 Speech: real speech from ``../shared/data/speech`` (spoken digits, 8 kHz, resampled; or CMU ARCTIC sentences),
 or, when that folder is absent, synthetic voiced speech (harmonic complexes with a moving pitch and formants,
@@ -36,7 +36,7 @@ __all__ = [
     "DEFAULT_DATA_DIR",
     "resolve_data_dir",
     "N_DIFFUSE",
-    "Room",
+    "AcousticRoom",
     "RoomRecording",
     "fan_noise",
     "load_speech",
@@ -193,13 +193,13 @@ def speech_turns(n_talkers: int, duration_s: float, samplerate_hz: int, rng: np.
 
 
 @dataclass(frozen=True)
-class Room:
+class AcousticRoom:
     """A shoebox room with a robot head.
 
     Parameters
     ----------
     dims_m : (3,) float, metres
-        Room size along the room's x (width), y (depth) and z (height).
+        AcousticRoom size along the room's x (width), y (depth) and z (height).
     rt60_s : float, seconds
         Reverberation time (0.2 to 0.8 s in the benchmarks).
     head_m : (3,) float, metres
@@ -255,7 +255,7 @@ class Room:
                              f"the room {list(self.dims_m)} with a {margin} m margin; move it or enlarge the room")
 
     def impulse_responses(self, sources_scene: object) -> tuple[np.ndarray, float]:
-        """Room impulse responses from each source to the left and right microphones.
+        """AcousticRoom impulse responses from each source to the left and right microphones.
 
         sources_scene : (S, 3) float, metres, scene frame.
         Returns ``(S, 2, L)`` responses (pyroomacoustics' global delay of 40 samples included, the same for both
@@ -303,7 +303,7 @@ class RoomRecording:
     talkers_scene : (T, 3) float, metres.  talker_itds_s : (T,) float, seconds -- ``MicPair.itd`` of each talker.
     """
 
-    room: Room
+    room: AcousticRoom
     mics: MicPair
     speech: np.ndarray
     background: np.ndarray
@@ -342,7 +342,7 @@ class RoomRecording:
 N_DIFFUSE = 8
 
 
-def noise_positions(room: Room, noise: Literal["diffuse", "point"] = "diffuse") -> np.ndarray:
+def noise_positions(room: AcousticRoom, noise: Literal["diffuse", "point"] = "diffuse") -> np.ndarray:
     """Default background-noise sources, scene frame ``(S, 3)`` metres: one in a back corner (``"point"``) or
     ``N_DIFFUSE`` spread around the room 0.4 m from the walls at varied heights (``"diffuse"``)."""
     dims = np.asarray(room.dims_m)
@@ -358,7 +358,7 @@ def noise_positions(room: Room, noise: Literal["diffuse", "point"] = "diffuse") 
     return room.room_to_scene(pts)
 
 
-def simulate(room: Room, talkers_scene: object, duration_s: float = 10.0, seed: int = 0,
+def simulate(room: AcousticRoom, talkers_scene: object, duration_s: float = 10.0, seed: int = 0,
              data_dir: Path | None = None, speech: Literal["digits", "arctic", "synthetic"] = "digits",
              noise: Literal["diffuse", "point"] = "diffuse", noise_scene: object | None = None,
              fan_scene: object = (0.02, -0.04, -0.06), rirs: tuple[np.ndarray, float] | None = None

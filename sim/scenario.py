@@ -35,8 +35,8 @@ import numpy as np
 from avcore.calibration import CALIBRATION_BURST_S
 from avcore.evaluation import FrameTruth
 from avcore.geometry import MicPair
-from sim.render import Room as VisualRoom
-from sim.roomsim import Room as AcousticRoom
+from sim.render import VisualRoom
+from sim.roomsim import AcousticRoom
 from sim.roomsim import synthetic_speech
 from avcore.stereo import StereoRig
 

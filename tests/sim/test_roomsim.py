@@ -10,20 +10,20 @@ pytest.importorskip("pyroomacoustics", reason="the room simulator needs the 'sim
 
 from sim import roomsim
 from avcore.itd import extract_itds
-from sim.roomsim import Room, load_speech, simulate, window_truth
+from sim.roomsim import AcousticRoom, load_speech, simulate, window_truth
 
 
 @pytest.fixture(scope="module")
 def small_recording():
     """3 s of synthetic speech from a talker on the right in a dry room (fast: RT60 0.2 s, two noise sources)."""
-    room = Room(dims_m=(5.0, 4.0, 2.8), rt60_s=0.2, head_m=(2.5, 1.2, 1.2))
+    room = AcousticRoom(dims_m=(5.0, 4.0, 2.8), rt60_s=0.2, head_m=(2.5, 1.2, 1.2))
     talker = np.array([[0.9, -0.2, 1.2]])
     noise = np.array([[-2.0, -1.0, 2.4], [2.0, 1.0, 2.5]])
     return simulate(room, talker, duration_s=3.0, seed=4, speech="synthetic", noise_scene=noise)
 
 
 def test_scene_and_room_frames_are_inverse_and_mics_are_on_the_x_axis():
-    room = Room()
+    room = AcousticRoom()
     pts = np.random.default_rng(0).uniform(-1, 1, (5, 3))
     np.testing.assert_allclose(room.room_to_scene(room.scene_to_room(pts)), pts)
     mics = room.mic_pair()
@@ -33,13 +33,13 @@ def test_scene_and_room_frames_are_inverse_and_mics_are_on_the_x_axis():
 
 
 def test_room_rejects_sources_outside_and_bad_parameters():
-    room = Room(rt60_s=0.2)
+    room = AcousticRoom(rt60_s=0.2)
     with pytest.raises(ValueError, match="not inside the room"):
         room.impulse_responses(np.array([[0.0, 0.0, 10.0]]))
     with pytest.raises(ValueError, match="rt60_s"):
-        Room(rt60_s=0.0)
+        AcousticRoom(rt60_s=0.0)
     with pytest.raises(ValueError, match="mic_distance_m"):
-        Room(mic_distance_m=2.0)
+        AcousticRoom(mic_distance_m=2.0)
 
 
 def test_recording_components_ground_truth_and_levels(small_recording):
@@ -95,7 +95,7 @@ def test_synthetic_signals_without_data_are_deterministic():
 
 def test_missing_data_falls_back_to_synthetic(tmp_path):
     assert load_speech(16000, "digits", data_dir=tmp_path) is None
-    room = Room(rt60_s=0.2)
+    room = AcousticRoom(rt60_s=0.2)
     rec = simulate(room, np.array([[-0.5, 0.0, 1.5]]), duration_s=1.5, data_dir=tmp_path,
                    noise_scene=np.array([[1.0, -0.5, 2.5]]))
     assert rec.meta["speech"] == "synthetic" and "pink" in rec.meta["noise"]
@@ -119,4 +119,4 @@ def test_missing_pyroomacoustics_says_how_to_install(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", fake_import)
     with pytest.raises(ImportError, match=r"pip install -e '\.\[sim\]'"):
-        Room(rt60_s=0.2).impulse_responses(np.array([[0.0, 0.0, 1.0]]))
+        AcousticRoom(rt60_s=0.2).impulse_responses(np.array([[0.0, 0.0, 1.0]]))

@@ -1,0 +1,215 @@
+"""The microphone signals of a simulated scenario (paper section 7.3's room): every sound event from its actor through
+the room's image-source responses, the robot's fan, the converter's noise; and the speech clips it uses (real spoken
+digits or synthetic stand-ins)."""
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import fftconvolve
+
+from sim.roomsim import AcousticRoom, fan_noise, load_speech, resolve_data_dir
+from sim.scenario import (
+    SOURCE_OFFSETS_M,
+    ClipBank,
+    Scenario,
+    normalise_clip,
+    synthetic_clip_bank,
+    trim_quiet_ends,
+)
+
+__all__ = ["SimAudio", "load_clip_bank", "render_audio"]
+
+log = logging.getLogger(__name__)
+
+REFERENCE_DISTANCE_M = 1.0
+FAN_POSITION_M = (0.02, -0.04, -0.06)  # the fan inside the head, behind the microphones (as sim.roomsim)
+PRA_DELAY_SAMPLES = 40   # pyroomacoustics' global delay in its responses (sim.roomsim.AcousticRoom.impulse_responses)
+def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = None, n_voices: int = 3,
+                   seed: int = 0) -> ClipBank:
+    """The spoken digits of ``data_dir/speech/digits`` grouped by speaker (``{digit}_{speaker}_N.wav``), one voice
+    per speaker with its ten digits, each cut to its audible part (:func:`sim.scenario.trim_quiet_ends`: the
+    truth's speaking states follow the clips); :func:`sim.scenario.synthetic_clip_bank` when the folder is absent
+    or incomplete. ``data_dir`` defaults to :func:`sim.roomsim.resolve_data_dir`."""
+    root = resolve_data_dir(data_dir)
+    folder = root / "speech" / "digits"
+    names = sorted(p.name for p in folder.glob("*.wav")) if folder.is_dir() else []
+    clips = load_speech(samplerate_hz, "digits", root) if names else None
+    if clips is not None and len(clips) == len(names):
+        by_speaker: dict[str, dict[int, np.ndarray]] = {}
+        for name, clip in zip(names, clips):
+            parts = name[:-4].split("_")
+            if len(parts) >= 2 and parts[0].isdigit():
+                by_speaker.setdefault(parts[1], {}).setdefault(int(parts[0]), clip)
+        complete = [s for s in sorted(by_speaker) if sorted(by_speaker[s]) == list(range(10))]
+        if complete:
+            voices = tuple(tuple(normalise_clip(trim_quiet_ends(by_speaker[s][d], samplerate_hz)) for d in range(10))
+                           for s in complete)
+            return ClipBank(samplerate_hz, voices, "digits", tuple(complete))
+    log.info("no spoken digits under %s: synthetic voiced clips instead", folder)
+    return synthetic_clip_bank(samplerate_hz, n_voices=n_voices, seed=seed)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# audio
+
+
+@dataclass(frozen=True, eq=False)
+class SimAudio:
+    """The microphone signals of a whole scenario.
+
+    samples : (n, 2) int16 -- left, right, as a 16-bit sound card gives them (full scale 32768);
+    dry : (N, n) float32 -- what each actor emits (speech, claps, loudspeaker noise), at the source, by actor;
+    measured_rt60_s : the reverberation time measured on the simulated responses; n_sources : how many responses
+    were computed; clipped : samples that hit full scale.
+    """
+
+    samples: np.ndarray
+    samplerate_hz: int
+    dry: np.ndarray
+    measured_rt60_s: float
+    n_sources: int
+    clipped: int = 0
+
+
+def _clap(rng: np.random.Generator, n: int, fs: int) -> np.ndarray:
+    """A hand clap: a bright noise burst, 1 ms attack, 10 ms decay; RMS 3 over its first 20 ms (speech clips have
+    unit RMS), i.e. about 10 dB louder than speech."""
+    t = np.arange(n) / fs
+    x = np.diff(rng.standard_normal(n + 1)) * np.minimum(1.0, t / 0.001) * np.exp(-t / 0.010)
+    head = x[: max(1, round(0.02 * fs))]
+    return 3.0 * x / np.sqrt(np.mean(head**2))
+
+
+def _anchors(scenario: Scenario, start_s: float, end_s: float, actor: int, max_step_m: float,
+             max_hop_s: float = 0.25) -> np.ndarray:
+    """Times (K,) at which a sound source is given its own impulse response: one (the middle) for a still source,
+    else a grid fine enough that the source moves at most ``max_step_m`` between two anchors."""
+    path = scenario.actors[actor].path
+    probe = np.linspace(start_s, end_s, 9)
+    pos = path.at(probe)
+    if np.max(np.linalg.norm(pos - pos[0], axis=1)) < 0.005:
+        return np.array([(start_s + end_s) / 2])
+    speed = np.max(np.linalg.norm(np.diff(path.at(np.linspace(start_s, end_s, 200)), axis=0), axis=1)) \
+        / ((end_s - start_s) / 199)
+    hop = min(max_hop_s, max_step_m / max(speed, 1e-6))
+    k = max(1, int(np.ceil((end_s - start_s) / hop)))
+    return np.linspace(start_s, end_s, k + 1)
+
+
+def _source_pieces(scenario: Scenario, bank: ClipBank, n: int, fs: int, max_step_m: float
+                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, int, np.ndarray]]]:
+    """What each actor emits (``dry``, (N, n)) and the pieces to convolve: (source position, first sample, signal),
+    a moving source cut into triangular cross-fades between anchors at most ``max_step_m`` apart."""
+    n_actors = len(scenario.actors)
+    dry = np.zeros((n_actors, n), dtype=np.float64)
+
+    # pieces: (anchor position, first sample, signal)
+    pieces: list[tuple[np.ndarray, int, np.ndarray]] = []
+    for e in scenario.events:
+        s0 = round(e.start_s * fs)
+        if s0 >= n:
+            continue
+        if e.kind == "speech":
+            sig = bank.clip(scenario.actors[e.actor].voice, e.clip)
+        elif e.kind == "clap":
+            sig = _clap(np.random.default_rng(e.clip), round((e.end_s - e.start_s) * fs), fs)
+        else:
+            sig = np.random.default_rng(e.clip).standard_normal(round((e.end_s - e.start_s) * fs))
+        sig = sig[: n - s0]
+        dry[e.actor, s0:s0 + sig.size] += sig
+        t_end = (s0 + sig.size) / fs
+        anchors = _anchors(scenario, s0 / fs, t_end, e.actor, max_step_m)
+        offset = np.asarray(SOURCE_OFFSETS_M[e.kind])
+        if anchors.size == 1:
+            pieces.append((scenario.actors[e.actor].path.at(anchors[0]) + offset, s0, sig))
+            continue
+        t = (s0 + np.arange(sig.size)) / fs
+        hop = anchors[1] - anchors[0]
+        for c in anchors:
+            w = np.clip(1.0 - np.abs(t - c) / hop, 0.0, None)  # triangles: a partition of unity between anchors
+            nz = np.flatnonzero(w)
+            if nz.size:
+                pieces.append((scenario.actors[e.actor].path.at(c) + offset, s0 + int(nz[0]),
+                               (sig * w)[nz[0]:nz[-1] + 1]))
+    return dry, pieces
+
+
+def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float = 0.1, fan_snr_db: float = 25.0,
+                 sensor_noise_rms: float = 1e-4, max_step_m: float = 0.08,
+                 progress: Callable[[str], None] | None = None) -> SimAudio:
+    """The two microphone signals of ``scenario`` (paper section 7.3's room: reverberation, the robot's fan).
+
+    Every sound event leaves from its actor (mouth, hands, loudspeaker: ``SOURCE_OFFSETS_M``) and reaches the
+    microphones through the room's image-source response. A moving source is cut into pieces with triangular
+    cross-fades between anchors at most ``max_step_m`` apart, each piece through the response of its anchor.
+
+    speech_level_rms : RMS of active speech at the microphones from a talker 1 m away (direct sound; farther talkers
+        are quieter, 1/r); fan_snr_db : the fan this far below that level at the left microphone;
+    sensor_noise_rms : white noise of the converter.
+    """
+    room = scenario.room
+    fs = room.samplerate_hz
+    if bank.samplerate_hz != fs:
+        raise ValueError(f"the clip bank is at {bank.samplerate_hz} Hz but the room at {fs} Hz; load the clips at {fs}")
+    n = round(scenario.duration_s * fs)
+    rng = np.random.default_rng([scenario.seed, 11])
+    dry, pieces = _source_pieces(scenario, bank, n, fs, max_step_m)
+
+    # one impulse response per distinct position (millimetres), plus the fan
+    keys: dict[tuple[int, int, int], int] = {}
+    for pos, _, _ in pieces:
+        keys.setdefault(tuple(int(v) for v in np.round(pos * 1000)), len(keys))
+    positions = np.array([np.array(k) / 1000.0 for k in keys] + [FAN_POSITION_M], dtype=np.float64)
+    if progress:
+        progress(f"room impulse responses for {positions.shape[0]} source positions ...")
+    rirs, rt60 = _impulse_responses(room, positions)
+    rirs = rirs[:, :, PRA_DELAY_SAMPLES:]
+    if progress:
+        progress(f"convolving {len(pieces)} sounds ...")
+
+    gain = speech_level_rms * REFERENCE_DISTANCE_M  # pyroomacoustics' direct path has amplitude 1/r (r in metres)
+    length = n + rirs.shape[2]
+    out = np.zeros((2, length))
+    by_source: dict[int, list[tuple[int, np.ndarray]]] = {}
+    for pos, s0, sig in pieces:
+        by_source.setdefault(keys[tuple(int(v) for v in np.round(pos * 1000))], []).append((s0, sig))
+    for src, items in by_source.items():
+        lo = min(s0 for s0, _ in items)
+        hi = max(s0 + sig.size for s0, sig in items)
+        track = np.zeros(hi - lo)
+        for s0, sig in items:
+            track[s0 - lo:s0 - lo + sig.size] += sig
+        for m in range(2):
+            y = fftconvolve(track, rirs[src, m])
+            out[m, lo:lo + y.size] += gain * y
+    out = out[:, :n]
+
+    fan = np.stack([fftconvolve(fan_noise(n, fs, rng), rirs[-1, m])[:n] for m in range(2)])
+    fan_rms = float(np.sqrt(np.mean(fan[0] ** 2)))
+    if fan_rms > 0:
+        out += fan * (speech_level_rms * 10 ** (-fan_snr_db / 20) / fan_rms)
+    out += sensor_noise_rms * rng.standard_normal(out.shape)
+    scaled = np.round(out.T * 32768.0)
+    clipped = int(np.count_nonzero((scaled > 32767) | (scaled < -32768)))
+    if clipped:
+        log.warning("%d samples clipped at full scale; lower speech_level_rms", clipped)
+    samples = np.clip(scaled, -32768, 32767).astype(np.int16)
+    return SimAudio(samples, fs, dry.astype(np.float32), rt60, int(positions.shape[0]), clipped)
+
+
+def _impulse_responses(room: AcousticRoom, positions: np.ndarray) -> tuple[np.ndarray, float]:
+    """``room.impulse_responses`` for many sources with one RT60 correction measured on a single source (the
+    correction does not depend on where the source is, and building the room twice for every source costs twice)."""
+    if not room.match_rt60:
+        return room.impulse_responses(positions)
+    plain = AcousticRoom(room.dims_m, room.rt60_s, room.head_m, room.mic_distance_m, room.samplerate_hz, match_rt60=False)
+    _, measured = plain.impulse_responses(positions[:1])
+    target = room.rt60_s
+    if abs(measured - target) > 0.05 * target:
+        target = max(0.05, min(3.0, target * target / measured))
+    corrected = AcousticRoom(room.dims_m, target, room.head_m, room.mic_distance_m, room.samplerate_hz, match_rt60=False)
+    return corrected.impulse_responses(positions)
