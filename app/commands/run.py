@@ -18,7 +18,7 @@ from app.sources.live import LiveConfig, add_device_arguments, live_config
 from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config,
                          port)
 from app.paths import output_file
-from app.pipeline import FusionResult, Pipeline
+from app.pipeline import FusionResult, Pipeline, PipelineConfig
 from app.results import ResultsWriter
 from app.sources import open_source
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
@@ -117,6 +117,7 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
 
 
 def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None = None) -> int:
+    config = pipeline_config(args)
     _check_outputs(spec, args, target)
     with ExitStack() as stack:
         results = stack.enter_context(ResultsWriter(args.results_jsonl)) if args.results_jsonl is not None else None
@@ -136,17 +137,16 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
                                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
-        return _run_checked(spec, args, target, source, results, publisher, wall_time=live is not None or
-                            spec == "bus")
+        return _run_checked(spec, args, target, config, source, results, publisher,
+                            wall_time=live is not None or spec == "bus")
 
 
-def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, source: Any,
+def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
     meta = getattr(getattr(source, "stream", None), "meta", None)
     if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
               f"{meta.get('speech')} speech", file=sys.stderr, flush=True)
-    config = pipeline_config(args)
     session = ViewerSession(target)
     rec = session.recording
     console = Console(source.rig, source.mics, recording=rec) if rec is not None else None

@@ -186,3 +186,9 @@ def test_demo_help_gives_the_real_default_duration(capsys: pytest.CaptureFixture
     with pytest.raises(SystemExit):
         main(["demo", "--help"])
     assert "default 20" in " ".join(capsys.readouterr().out.split())
+
+
+def test_a_bad_method_combination_is_refused_before_the_preparation(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo", "--vote-frames", "4", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "vote_frames must be an odd number" in err and "preparing" not in err
