@@ -19,6 +19,7 @@ def test_demo_writes_one_line_per_result(tmp_path: Path, capsys: pytest.CaptureF
                  "--stats-json", str(stats)]) == 0
     rows = _lines(out)
     assert len(rows) == json.loads(stats.read_text())["results"] > 40
+    assert "latency p95 n/a (as fast as possible)" in capsys.readouterr().out
     stamps = [r["stamp_s"] for r in rows]
     assert stamps == sorted(stamps)
     assert {r["mode"] for r in rows} == {"face"}
