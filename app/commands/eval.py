@@ -13,7 +13,7 @@ from pathlib import Path
 
 from app.errors import UserError
 from app.options import MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config
-from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets,
+from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets, signed_us,
                              synthetic_json)
 from app.paths import output_dir
 from app.eval.scenarios import (
@@ -135,7 +135,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
         _progress("calibration preset (section 5.3): fitting c1, c0 ...")
         calibration = calibrate_on_preset(seed=args.seed[0], config=config)
         c = calibration.as_dict()
-        _progress(f"c1 = {c['c1']:.4f}, c0 = {c['c0_us'] + 0.0:+.1f} us, median |residual| "
+        _progress(f"c1 = {c['c1']:.4f}, c0 = {signed_us(c['c0_us'])} us, median |residual| "
                   f"{c['median_abs_residual_before_us']:.1f} -> {c['median_abs_residual_after_us']:.1f} us")
     scores: list[ScenarioScore] = []
     for name in args.scenario:

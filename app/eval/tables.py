@@ -15,7 +15,8 @@ from app.eval.scenarios import (
 )
 from sim.synthetic_eval import PAPER_AUDIO, PAPER_VISUAL, SequenceScore
 
-__all__ = ["format_face_table", "format_scenario_table", "format_tables", "scenario_targets", "synthetic_json"]
+__all__ = ["format_face_table", "format_scenario_table", "format_tables", "scenario_targets", "signed_us",
+           "synthetic_json"]
 
 VARIANT_LABELS = {"paper": "paper's method", "avhear": "avhear"}
 
@@ -27,6 +28,11 @@ def synthetic_json(scores: list[SequenceScore], seeds: list[int]) -> dict[str, o
         "paper": {"visual": {k: PAPER_VISUAL[k] for k in {s.sequence for s in scores}},
                   "audio": {k: PAPER_AUDIO[k] for k in {s.sequence for s in scores}}},
     }
+
+
+def signed_us(x_us: float) -> str:
+    """``x_us`` with its sign and one decimal; a value that rounds to zero prints as +0.0, never -0.0."""
+    return f"{round(x_us, 1) + 0.0:+.1f}"
 
 
 def _pct(count: float, total: float) -> str:
@@ -149,7 +155,7 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
     n_seeds = len(scores[0].seeds) if scores else 0
     label = f"avhear {config.inference}-guided"
     correction = (f"fitted on the calibration preset, c1 = {calibration.mics.c1:.4f}, "
-                  f"c0 = {calibration.mics.c0 * 1e6 + 0.0:+.1f} us" if calibration else "none (c1 = 1, c0 = 0)")
+                  f"c0 = {signed_us(calibration.mics.c0 * 1e6)} us" if calibration else "none (c1 = 1, c0 = 0)")
     ms = TIMING_REFERENCE_S * 1e3
     reference = f"truth held +-{ms:.0f} ms"
     head = f"{'Scen.':6s} {'method':24s} {'FP':>5s} {'FN':>13s} {'TP':>14s}  {'FP/spk':>6s}"

@@ -33,3 +33,10 @@ def test_eval_bad_arguments(capsys: pytest.CaptureFixture[str]) -> None:
     assert stop.value.code == 2 and "--seed" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["eval", "synthetic", "--sequence", "Nope"])
+
+
+@pytest.mark.parametrize(("value", "text"), [(-0.03, "+0.0"), (-0.0, "+0.0"), (0.04, "+0.0"), (-1.26, "-1.3"), (2.0, "+2.0")])
+def test_c0_never_prints_as_minus_zero(value: float, text: str) -> None:
+    from app.eval.tables import signed_us
+
+    assert signed_us(value) == text
