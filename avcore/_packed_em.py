@@ -80,14 +80,33 @@ def e_step(x: np.ndarray, sizes: np.ndarray, wg: np.ndarray, mu: np.ndarray, var
     return dens, dens_o, total
 
 
+@dataclass(frozen=True)
+class Updates:
+    """Which parameters the M-step re-estimates besides the priors (which it always does).
+
+    means : False keeps every mean where it started (Algorithm 2's means anchored at the faces).
+    variances : False keeps every variance where it started.
+    var_ceiling : largest variance (us^2) the M-step may give; the floor is the engine's ``var_floor``.
+    """
+
+    means: bool = True
+    variances: bool = True
+    var_ceiling: float = np.inf
+
+
+ALL = Updates()
+
+
 def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.ndarray, mu_old: np.ndarray,
-           var_old: np.ndarray, var_floor: float, min_wo: float, indicator: np.ndarray | None = None
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           var_old: np.ndarray, var_floor: float, min_wo: float, indicator: np.ndarray | None = None,
+           updates: Updates = ALL) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Closed-form M-step from the responsibility-weighted sums.
 
     g_sums : (S, 3) sums of r, r x, r x^2 per Gaussian slot; o_counts : (C,) outlier responsibilities.
     The outlier prior is kept >= ``min_wo`` with the other priors proportional to their gamma: the exact
-    maximiser of sum_n gamma_n log pi_n under that constraint, so EM stays monotone.
+    maximiser of sum_n gamma_n log pi_n under that constraint, so EM stays monotone. With a fixed mean the
+    variance's maximiser is the second moment about that mean; a variance bounded to [floor, ceiling] is
+    clipped, the maximiser of its (unimodal) term under the bounds.
     Returns wg, mu, var, wo.
     """
     gamma = g_sums[:, 0]
@@ -99,15 +118,23 @@ def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.n
         scale = np.where(low, (1.0 - min_wo) / np.maximum(rest, 1e-300), 1.0)
         wg = wg * np.repeat(scale, sizes)
         wo = np.where(low, min_wo, wo)
-    if gamma.min() > 1e-10:  # the common case: every component holds some data
-        mu = g_sums[:, 1] / gamma
-        var = g_sums[:, 2] / gamma - mu * mu
-    else:  # an empty component keeps its mean and variance
-        alive = gamma > 1e-10
-        safe = np.where(alive, gamma, 1.0)
-        mu = np.where(alive, g_sums[:, 1] / safe, mu_old)
-        var = np.where(alive, g_sums[:, 2] / safe - mu * mu, var_old)
-    np.maximum(var, var_floor, out=var)
+    if not (updates.means or updates.variances):
+        return wg, mu_old, var_old, wo
+    alive = gamma > 1e-10  # an empty component keeps its mean and variance
+    every = bool(alive.all())  # the common case: every component holds some data
+    safe = gamma if every else np.where(alive, gamma, 1.0)
+    m1, m2 = g_sums[:, 1] / safe, g_sums[:, 2] / safe
+    if updates.means:
+        mu = m1 if every else np.where(alive, m1, mu_old)
+        var = m2 - mu * mu
+    else:
+        mu = mu_old
+        var = m2 - (2.0 * m1 - mu) * mu
+    if not every:
+        var = np.where(alive, var, var_old)
+    if not updates.variances:
+        return wg, mu, var_old, wo
+    np.clip(var, var_floor, updates.var_ceiling, out=var)
     return wg, mu, var, wo
 
 
@@ -142,8 +169,8 @@ class _Live:
 
 def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.ndarray], np.ndarray],
              sums: Callable[[_Live, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]], w_total: float, *,
-             max_iter: int, tol: float, var_floor: float, min_wo: float, history: list[np.ndarray] | None
-             ) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
+             max_iter: int, tol: float, var_floor: float, min_wo: float, history: list[np.ndarray] | None,
+             updates: Updates = ALL) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
     """The EM loop, written once for both EMs: E-step on ``x``, convergence of ``objective``, M-step.
 
     objective(live, total) -> (C_live,) the quantity EM must not lower, from the E-step's densities;
@@ -167,26 +194,28 @@ def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.
         done = np.abs(obj - value[lv.idx]) < tol * w_total
         value[lv.idx] = obj
         converged[lv.idx[done]] = True
-        if it == max_iter or np.all(done):
+        if it == max_iter or done.all():
             break
-        if np.any(done):
+        if done.any():
             slot_keep = lv.drop(done)
             dens, dens_o, total = dens[:, slot_keep], dens_o[~done], total[:, ~done]
         inv_total = 1.0 / total
         dens *= inv_total @ lv.indicator.T
         g_sums, o_counts = sums(lv, dens, dens_o * inv_total)
         lv.wg, lv.mu, lv.var, lv.wo = m_step(g_sums, o_counts, w_total, lv.sizes, lv.mu, lv.var, var_floor, min_wo,
-                                             lv.indicator)
+                                             lv.indicator, updates)
         n_iter[lv.idx] += 1
     lv.store()
     return p, value, n_iter, converged
 
 
 def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: int, tol: float, var_floor: float,
-           min_wo: float, history: list[np.ndarray] | None = None) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
+           min_wo: float, history: list[np.ndarray] | None = None, updates: Updates = ALL
+           ) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
     """Standard EM (eq. alpha_m and its M-step) on weighted 1-D data (bins with exact stats) for packed models.
 
-    x : (B,) where responsibilities are evaluated; stats : (B, 3) count, sum x, sum x^2 per bin.
+    x : (B,) where responsibilities are evaluated; stats : (B, 3) count, sum x, sum x^2 per bin. ``updates``
+    restricts the M-step (:class:`Updates`).
     Returns the fitted models, their final log-likelihood (C,), n_iter (C,), converged (C,). ``history`` receives
     the log-likelihood of every model before each M-step (np.nan for models that have left the batch).
     """
@@ -199,6 +228,7 @@ def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: i
         objective=lambda lv, total: cnt @ np.log(total),
         sums=lambda lv, resp, resp_o: (resp.T @ stats, cnt @ resp_o),
         w_total=float(cnt.sum()), max_iter=max_iter, tol=tol, var_floor=var_floor, min_wo=min_wo, history=history,
+        updates=updates,
     )
 
 

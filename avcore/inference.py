@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from avcore._packed_em import _Z2_CLIP, Packed, class_sums, log_likelihoods, run_em, run_fusion
+from avcore._packed_em import Packed, Updates, class_sums, e_step, log_likelihoods, run_em, run_fusion
 from avcore._validate import as_points, as_samples
 from avcore.geometry import MicPair
 from avcore.mixture import (
@@ -30,6 +30,7 @@ from avcore.mixture import (
     pack,
     ridgeline_merge,
     unpack,
+    warn_not_converged,
 )
 from avcore.refine3d import compact_groups, group_from_members, merge_close
 from avcore.speaking import SpeakingTest, speaking_threshold
@@ -396,7 +397,13 @@ class FaceGuidedHearing:
         self.mics = mics
         self.params = params if params is not None else FaceGuidedParams()
         self.support = mics.itd_interval()
-        self._u = 1.0 / (self.support[1] - self.support[0])
+        # Algorithm 2's EM is the standard EM of section 4.1 on the ITDs alone (the engine of avcore.mixture, in
+        # microseconds), with the means anchored or free and the variances fixed or kept in the params' range
+        p = self.params
+        self._u_us = 1.0 / ((self.support[1] - self.support[0]) * US)
+        self._em_kw = dict(max_iter=p.em.max_iter, tol=p.em.tol, var_floor=p.var_min_s2 * US * US,
+                           min_wo=p.em.min_outlier_weight,
+                           updates=Updates(not p.anchor_means, p.update_variances, p.var_max_s2 * US * US))
 
     def step(self, faces_xyz: object, itds_s: object, itd_offsets_s: object = None,
              frame_itds_s: object = None, band_itds_s: object = None) -> FaceGuidedOutput:
@@ -414,63 +421,23 @@ class FaceGuidedHearing:
                 raise ValueError(f"itd_offsets_s must give one time per ITD: {offsets.size} times for {a.size} ITDs")
             present = np.abs(offsets) <= self.params.decision_window_s
         p = self.params
-        n, k = faces.shape[0], a.size
+        n = faces.shape[0]
         mu = self.mics.itd(faces)
-        var = np.full(n, p.sigma2_init_s2)
-        w = np.append(np.full(n, (1.0 - p.init_outlier_weight) / max(n, 1)), p.init_outlier_weight)
-        if n == 0:
-            w = np.ones(1)
         n_iter = 0
-        beta = np.zeros((k, n + 1))
-        if k and n:
-            w, mu, var, beta, n_iter = self._em(a, w, mu, var)
-        model = Mixture1D.unchecked(w, mu, var, self.support)
+        start = Packed(np.array([n]), np.full(n, (1.0 - p.init_outlier_weight) / max(n, 1)), mu * US,
+                       np.full(n, p.sigma2_init_s2 * US * US), np.array([p.init_outlier_weight if n else 1.0]))
+        a_us = a * US
+        if n and a.size:
+            start, _, iters, converged = run_em(a_us, np.stack([np.ones(a.size), a_us, a_us * a_us], axis=1), start,
+                                                self._u_us, **self._em_kw)
+            n_iter = int(iters[0])
+            if not converged[0]:
+                warn_not_converged("the face-guided EM", p.em)
+        dens, dens_o, total = e_step(a_us, start.sizes, start.wg, start.mu, start.var, start.wo, self._u_us)
+        beta = np.append(dens, dens_o[None, :] * np.ones((a.size, 1)), axis=1) / total
+        model = unpack(start, 0, self.support) if n else Mixture1D.outliers_only(self.support)
         bbar = beta[:, :-1].sum(axis=0)
         frame_itds = None if frame_itds_s is None else as_samples(frame_itds_s, "frame_itds_s")
         band_itds = None if band_itds_s is None else as_samples(band_itds_s, "band_itds_s")
         speaking, prob, tau = p.speaking.decide(beta[:, :-1], a, model, present, frame_itds, band_itds)
-        return FaceGuidedOutput(speaking, prob, mu.copy(), bbar, model, tau, n_iter)
-
-    def _em(self, a: np.ndarray, w: np.ndarray, mu: np.ndarray, var: np.ndarray
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-        """EM on K ITDs for N faces: eq. (beta_kn) and the M-step restricted to the auditory data.
-
-        Small arrays, so the loop is kept lean: with anchored means and fixed variances (the default) the
-        Gaussian kernels are computed once and only the priors iterate.
-        """
-        p = self.params
-        k = a.size
-        min_wo = p.em.min_outlier_weight
-        fixed = p.anchor_means and not p.update_variances
-        kern = np.empty((k, mu.size + 1))
-        kern[:, -1] = self._u
-        prev = -np.inf
-        it = 0
-        for it in range(1, p.em.max_iter + 1):
-            if it == 1 or not fixed:
-                d = a[:, None] - mu[None, :]
-                kern[:, :-1] = np.exp(-0.5 * np.minimum(d * d / var, _Z2_CLIP)) / np.sqrt(2.0 * np.pi * var)
-            dens = kern * w
-            tot = dens.sum(axis=1)
-            beta = dens / tot[:, None]
-            ll = float(np.log(tot).sum())
-            if ll - prev < p.em.tol * k:
-                break
-            prev = ll
-            gamma = beta.sum(axis=0)
-            w = gamma / k
-            if w[-1] < min_wo:
-                w[:-1] *= (1.0 - min_wo) / max(w[:-1].sum(), 1e-300)
-                w[-1] = min_wo
-            if fixed:
-                continue
-            g = gamma[:-1]
-            alive = g > 1e-10
-            safe = np.where(alive, g, 1.0)
-            if not p.anchor_means:
-                mu = np.where(alive, (beta[:, :-1] * a[:, None]).sum(axis=0) / safe, mu)
-            if p.update_variances:
-                d = a[:, None] - mu[None, :]
-                v_new = (beta[:, :-1] * d * d).sum(axis=0) / safe
-                var = np.where(alive, np.clip(v_new, p.var_min_s2, p.var_max_s2), var)
-        return w / w.sum(), mu, var, beta, it
+        return FaceGuidedOutput(speaking, prob, model.means.copy(), bbar, model, tau, n_iter)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avcore._packed_em import _Z2_CLIP, Packed, run_em, run_fusion
+from avcore._packed_em import _Z2_CLIP, Packed, Updates, run_em, run_fusion
 from avcore._validate import as_samples
 
 __all__ = [
@@ -284,7 +284,8 @@ class FitResult:
     lower_bounds_: np.ndarray
 
 
-def _warn_not_converged(what: str, settings: EMSettings) -> None:
+def warn_not_converged(what: str, settings: EMSettings) -> None:
+    """Warn :class:`ConvergenceWarning`: ``what`` reached ``settings.max_iter`` before its tolerance."""
     warnings.warn(
         f"{what} did not converge in {settings.max_iter} iterations; try a larger max_iter or a larger tol",
         ConvergenceWarning,
@@ -298,12 +299,20 @@ def fit_em(
     *,
     settings: EMSettings = EMSettings(),
     bin_width_s: float | None = None,
+    update_means: bool = True,
+    update_variances: bool = True,
+    max_variance_s2: float = np.inf,
 ) -> FitResult:
     """Fit eq. (prob_model) to 1-D observations with the standard EM (section 4.1, eq. alpha_m and its M-step).
 
     x_s : (M,) float, seconds. init : the starting model (its support is kept). bin_width_s : None for the exact
     per-observation EM, or a bin width for the histogram engine (see module docstring).
+    update_means, update_variances : False keeps those parameters at ``init``'s (the priors are always fitted);
+    Algorithm 2 anchors its means at the mapped faces. Variances stay in [settings.var_floor_s2, max_variance_s2].
+    Warns :class:`ConvergenceWarning` when ``settings.max_iter`` is reached first.
     """
+    if not max_variance_s2 >= settings.var_floor_s2:
+        raise ValueError(f"max_variance_s2 must be >= the variance floor {settings.var_floor_s2}, got {max_variance_s2}")
     x = as_samples(x_s, "x_s")
     offset = x.size * np.log(US)  # densities per second, as the paper writes them
     if init.n_components == 0 or x.size == 0:
@@ -314,9 +323,10 @@ def fit_em(
     fitted, ll, n_iter, conv = run_em(
         data.x_us, data.stats, pack([init]), init.outlier_density / US, max_iter=settings.max_iter,
         tol=settings.tol, var_floor=settings.var_floor_s2 * US * US, min_wo=settings.min_outlier_weight, history=hist,
+        updates=Updates(update_means, update_variances, max_variance_s2 * US * US),
     )
     if not conv[0]:
-        _warn_not_converged("EM", settings)
+        warn_not_converged("EM", settings)
     bounds = np.array([h[0] for h in hist]) + offset
     return FitResult(unpack(fitted, 0, init.support), float(ll[0] + offset), int(n_iter[0]), bool(conv[0]), bounds)
 
@@ -377,7 +387,7 @@ def fit_fusion_em(
         min_wo=settings.min_outlier_weight, history=hist,
     )
     if not conv[0]:
-        _warn_not_converged("vision-guided EM fusion", settings)
+        warn_not_converged("vision-guided EM fusion", settings)
     model = unpack(fused, 0, init.support)
     ll = model.log_likelihood(v) + model.log_likelihood(a)
     objective = np.array([h[0] for h in hist]) + (v.size + a.size) * np.log(US)

@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -196,3 +198,22 @@ def test_face_guided_counts_each_itd_for_the_nearest_face(seed: int) -> None:
     assert nearest.speaking.tolist() == [True, True, False]
     with pytest.raises(ValueError, match="count_by"):
         SpeakingTest(count_by="loudest")
+
+
+def test_face_guided_em_warns_when_it_does_not_converge_and_reports_its_final_model() -> None:
+    """Algorithm 2's EM is the shared engine: a run cut at max_iter warns, and the ITD counts are the posteriors of
+    the model it returns (eq. beta_kn), not of the iteration before."""
+    from avcore.mixture import ConvergenceWarning, EMSettings
+
+    mics = MicPair()
+    rng = np.random.default_rng(5)
+    faces = np.array([[-0.6, 0.0, 2.0], [0.5, 0.0, 2.0]])
+    itds = np.concatenate([rng.normal(mics.itd(faces[0]), 40e-6, 30), rng.uniform(-5e-4, 5e-4, 30)])
+    short = replace(FaceGuidedParams.paper(), em=EMSettings(max_iter=2, tol=1e-12))
+    with pytest.warns(ConvergenceWarning, match="face-guided EM"):
+        out = FaceGuidedHearing(mics, short).step(faces, itds)
+    assert out.n_iter == 2
+    assert out.itd_counts == pytest.approx(out.model.responsibilities(itds)[:, :-1].sum(axis=0), rel=1e-9)
+    assert not np.allclose(out.itd_means, mics.itd(faces))  # the paper's means move with EM
+    anchored = FaceGuidedHearing(mics).step(faces, itds)
+    assert np.array_equal(anchored.itd_means, mics.itd(faces))

@@ -207,3 +207,22 @@ def test_non_convergence_is_a_warning() -> None:
     init = initial_models(None, 4, SUPPORT, BinnedSamples.from_samples(x))[4]
     with pytest.warns(UserWarning, match="did not converge"):
         fit_em(x, init, settings=EMSettings(max_iter=1, tol=1e-12))
+
+
+def test_em_with_anchored_means_and_bounded_variances() -> None:
+    """The restricted M-step Algorithm 2 uses: means stay put, each variance is the second moment about its fixed
+    mean, clipped to [floor, ceiling]; the log-likelihood still never decreases."""
+    rng = np.random.default_rng(3)
+    x = np.concatenate([rng.normal(-100e-6, 30e-6, 300), rng.normal(150e-6, 10e-6, 200)])
+    init = Mixture1D(np.array([0.4, 0.4, 0.2]), np.array([-90e-6, 150e-6]), np.array([1e-9, 1e-9]), (-6e-4, 6e-4))
+    ceiling = 4e-10  # (20 us)^2: the wide component must hit it
+    fit = fit_em(x, init, update_means=False, max_variance_s2=ceiling)
+    assert np.array_equal(fit.model_.means, init.means)
+    assert fit.model_.variances[0] == pytest.approx(ceiling)
+    assert fit.model_.variances[1] == pytest.approx(np.mean((x[300:] - 150e-6) ** 2), rel=0.05)
+    assert np.all(np.diff(fit.lower_bounds_) >= -1e-9)
+    frozen = fit_em(x, init, update_means=False, update_variances=False)
+    assert np.array_equal(frozen.model_.variances, init.variances)
+    assert frozen.model_.weights[0] == pytest.approx(0.6, abs=0.05)
+    with pytest.raises(ValueError, match="max_variance_s2"):
+        fit_em(x, init, max_variance_s2=1e-20)
