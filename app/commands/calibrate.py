@@ -25,7 +25,7 @@ from app.paths import output_file
 from app.pipeline import DEFAULT_ITD_METHOD
 from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
 from avcore.itd import METHODS as ITD_METHODS
-from avcore.stereo import calibrate_stereo, find_chessboard
+from avcore.stereo import StereoCalibration, calibrate_stereo, find_chessboard
 
 log = logging.getLogger(__name__)
 
@@ -121,9 +121,8 @@ def _corners_mosaic(images: list[np.ndarray], corners: list[np.ndarray | None], 
     return np.vstack(rows)
 
 
-def run_stereo(args: argparse.Namespace) -> int:
-    output_file(args.output, "-o")
-    output_file(args.corners_image or args.output.with_name(args.output.stem + "_corners.png"), "--corners-image")
+def _load_pairs(args: argparse.Namespace) -> tuple[list[Path], list[Path], list[np.ndarray], list[np.ndarray]]:
+    """The left and right pictures, paired by sorted name, all of one size."""
     lefts = _expand(args.left, "--left")
     rights = _expand(args.right, "--right")
     if len(lefts) != len(rights):
@@ -136,7 +135,14 @@ def run_stereo(args: argparse.Namespace) -> int:
         if img.shape[::-1] != size:
             raise UserError(f"{p}: size {img.shape[1]}x{img.shape[0]} differs from {lefts[0]} "
                             f"({size[0]}x{size[1]}); all pictures must come from the same two cameras")
+    return lefts, rights, images_l, images_r
 
+
+def _detect_pairs(args: argparse.Namespace, lefts: list[Path], rights: list[Path], images_l: list[np.ndarray],
+                  images_r: list[np.ndarray]) -> tuple[list[np.ndarray], list[np.ndarray], list[int],
+                                                       list[np.ndarray | None]]:
+    """The chessboard's corners in both pictures of each pair: those of the usable pairs, their indices, and the
+    left corners of every pair (None where not found) for the mosaic."""
     print(f"detecting {args.pattern[0]}x{args.pattern[1]} inner corners in {len(lefts)} pairs ...")
     found_l, found_r, used = [], [], []
     all_l: list[np.ndarray | None] = []
@@ -158,11 +164,14 @@ def run_stereo(args: argparse.Namespace) -> int:
     if len(used) < MIN_VIEWS:
         raise UserError(f"the chessboard was found in only {len(used)} pair(s); calibration needs at least "
                         f"{MIN_VIEWS} (10-20 is better): take more pairs with the board at different angles")
+    return found_l, found_r, used, all_l
 
-    cal = calibrate_stereo(found_l, found_r, args.pattern, args.square, size, min_views=MIN_VIEWS)
+
+def _print_views(cal: StereoCalibration, used: list[int], names: list[str], max_view_error: float) -> None:
+    """One line per usable pair (reprojection RMS, pose deviation), bad views flagged."""
     per_view = cal.per_view_rms_px
     worst = per_view.max(axis=1)
-    limit = max(args.max_view_error, 3.0 * float(np.nanmedian(worst)))
+    limit = max(max_view_error, 3.0 * float(np.nanmedian(worst)))
     print(f"\n{'pair':<28} {'left px':>8} {'right px':>9} {'pose deg':>9} {'pose T':>7}")
     n_bad = 0
     for k, i in enumerate(used):
@@ -176,24 +185,28 @@ def run_stereo(args: argparse.Namespace) -> int:
         rms_l = f"{per_view[k, 0]:8.3f}" if cal.used[k] else f"{'-':>8}"
         rms_r = f"{per_view[k, 1]:9.3f}" if cal.used[k] else f"{'-':>9}"
         dev_r, dev_t = cal.pose_deviation[k]
-        print(f"{lefts[i].name + ' / ' + rights[i].name:<28} {rms_l} {rms_r} {dev_r:9.2f} {100 * dev_t:6.1f}%"
-              f"{flag}")
-    rig = cal.rig
-    angle_deg = float(np.degrees(np.linalg.norm(cv2.Rodrigues(rig.rotation)[0])))
-    print(f"\nleft camera   rms {cal.left.rms_px:.3f} px   fx {rig.camera_matrix_left[0, 0]:.1f}  "
-          f"fy {rig.camera_matrix_left[1, 1]:.1f}  cx {rig.camera_matrix_left[0, 2]:.1f}  "
-          f"cy {rig.camera_matrix_left[1, 2]:.1f}")
-    print(f"right camera  rms {cal.right.rms_px:.3f} px   fx {rig.camera_matrix_right[0, 0]:.1f}  "
-          f"fy {rig.camera_matrix_right[1, 1]:.1f}  cx {rig.camera_matrix_right[0, 2]:.1f}  "
-          f"cy {rig.camera_matrix_right[1, 2]:.1f}")
-    print(f"stereo        rms {cal.rms_px:.3f} px over {int(cal.used.sum())} pairs   baseline {rig.baseline_m:.4f} m   "
-          f"rotation {angle_deg:.2f} deg   rectified focal {rig.focal_px:.1f} px")
+        print(f"{names[i]:<28} {rms_l} {rms_r} {dev_r:9.2f} {100 * dev_t:6.1f}%{flag}")
     if n_bad:
         print(f"{n_bad} view(s) flagged (left out of the stereo step, or reprojection RMS > {limit:.2f} px)")
+
+
+def _print_rig(cal: StereoCalibration) -> None:
+    """The intrinsics of both cameras and the stereo fit."""
+    rig = cal.rig
+    angle_deg = float(np.degrees(np.linalg.norm(cv2.Rodrigues(rig.rotation)[0])))
+    for name, result, k in (("left camera ", cal.left, rig.camera_matrix_left),
+                            ("right camera", cal.right, rig.camera_matrix_right)):
+        print(f"{name}  rms {result.rms_px:.3f} px   fx {k[0, 0]:.1f}  fy {k[1, 1]:.1f}  cx {k[0, 2]:.1f}  "
+              f"cy {k[1, 2]:.1f}")
+    print(f"stereo        rms {cal.rms_px:.3f} px over {int(cal.used.sum())} pairs   baseline {rig.baseline_m:.4f} m   "
+          f"rotation {angle_deg:.2f} deg   rectified focal {rig.focal_px:.1f} px")
     if cal.rms_px > 1.0:
         print("warning: stereo RMS above 1 px; check the flagged views, the --square value and that both "
               "pictures of each pair were taken at the same moment")
 
+
+def _save_stereo(args: argparse.Namespace, cal: StereoCalibration) -> None:
+    """Write the rig file, keeping the microphones of an existing one."""
     microphones = None
     if args.output.exists():
         try:
@@ -203,10 +216,21 @@ def run_stereo(args: argparse.Namespace) -> int:
                             "choose another -o)") from None
     header = (f"avhear rig calibration: stereo from {int(cal.used.sum())} chessboard pairs ({args.left}, {args.right}), "
               f"pattern {args.pattern[0]}x{args.pattern[1]}, square {args.square} m, stereo RMS {cal.rms_px:.3f} px")
-    save_rig(args.output, RigConfig(stereo=rig, microphones=microphones), header=header)
+    save_rig(args.output, RigConfig(stereo=cal.rig, microphones=microphones), header=header)
     print(f"\nwrote {args.output}")
 
+
+def run_stereo(args: argparse.Namespace) -> int:
     corners_path = args.corners_image or args.output.with_name(args.output.stem + "_corners.png")
+    output_file(args.output, "-o")
+    output_file(corners_path, "--corners-image")
+    lefts, rights, images_l, images_r = _load_pairs(args)
+    found_l, found_r, used, all_l = _detect_pairs(args, lefts, rights, images_l, images_r)
+    cal = calibrate_stereo(found_l, found_r, args.pattern, args.square, images_l[0].shape[::-1], min_views=MIN_VIEWS)
+    _print_views(cal, used, [f"{pl.name} / {pr.name}" for pl, pr in zip(lefts, rights)], args.max_view_error)
+    print()
+    _print_rig(cal)
+    _save_stereo(args, cal)
     mosaic = _corners_mosaic(images_l, all_l, args.pattern, [p.name for p in lefts])
     if not cv2.imwrite(str(corners_path), mosaic):
         raise UserError(f"{corners_path}: cannot write the corners picture; choose another --corners-image")
