@@ -148,59 +148,65 @@ def _paper_row(name: str) -> str:
             f"{p['tp']:5d} {f'({tp_pct:4.1f}%)':>8s}  {p['fp'] / (p['tp'] + p['fn']):6.3f}")
 
 
-def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
-                          calibration: CalibrationFit | None) -> str:
-    """The table of section 7.3 with the paper's rows beside ours (per spoken number, then per 0.4 s interval), the
-    per-scenario front-end figures, and the issue's targets."""
-    n_seeds = len(scores[0].seeds) if scores else 0
-    label = f"avhear {config.inference}-guided"
+_HEAD = f"{'Scen.':6s} {'method':24s} {'FP':>5s} {'FN':>13s} {'TP':>14s}  {'FP/spk':>6s}"
+
+
+def _count_row(label: str, fp: int, fn: int, tp: int) -> str:
+    n = tp + fn
+    return (f"{'':6s} {label:24s} {fp:5d} {fn:4d} {_pct(fn, n):>8s} {tp:5d} {_pct(tp, n):>8s}  "
+            f"{_fp_share(fp, n):6.3f}")
+
+
+def _header_lines(n_seeds: int, config: PipelineConfig, calibration: CalibrationFit | None) -> list[str]:
     correction = (f"fitted on the calibration preset, c1 = {calibration.mics.c1:.4f}, "
                   f"c0 = {signed_us(calibration.mics.c0 * 1e6)} us" if calibration else "none (c1 = 1, c0 = 0)")
-    ms = TIMING_REFERENCE_S * 1e3
-    reference = f"truth held +-{ms:.0f} ms"
-    head = f"{'Scen.':6s} {'method':24s} {'FP':>5s} {'FN':>13s} {'TP':>14s}  {'FP/spk':>6s}"
-    lines = [
+    return [
         (f"Speaking states per scenario (section 7.3), summed over {n_seeds} seed(s); TP % = TP / (TP + FN); "
          "FP/spk = FP / (TP + FN)."),
         "The paper's counts come from hand-annotated recordings on NAO (its caption: 'the total number of counts').",
         f"ITD: {config.itd_method}; AV correction: {correction}.",
-        "",
+    ]
+
+
+def _per_number_lines(scores: list[ScenarioScore], label: str) -> list[str]:
+    lines = [
         ("Per spoken number (the paper's unit, its people counting to 16): TP = a number judged spoken by its "
          "visible speaker, FN = not; FP = a stretch judged speaking that overlaps none of the person's numbers."),
-        f"{head}  {'FN face missed':>14s} {'FN overlap':>10s}",
+        f"{_HEAD}  {'FN face missed':>14s} {'FN overlap':>10s}",
     ]
     for s in scores:
         u = s.utterances
-        n = u.tp + u.fn
         lines += [_paper_row(s.scenario),
-                  (f"{'':6s} {label:24s} {u.fp:5d} {u.fn:4d} {_pct(u.fn, n):>8s} {u.tp:5d} {_pct(u.tp, n):>8s}  "
-                   f"{_fp_share(u.fp, n):6.3f}  {u.fn_missed_face:14d} {u.fn_overlap:10d}")]
-    lines += [
-        "",
+                  f"{_count_row(label, u.fp, u.fn, u.tp)}  {u.fn_missed_face:14d} {u.fn_overlap:10d}"]
+    return lines
+
+
+def _per_interval_lines(scores: list[ScenarioScore], label: str, reference: str) -> list[str]:
+    ms = TIMING_REFERENCE_S * 1e3
+    lines = [
         (f"Per interval (a stricter view): one count = one visible person during {INTERVAL_S} s (majority of its "
          "frames)."),
         (f"The timing reference row scores the truth itself, each number held {ms:.0f} ms longer at both ends: the "
          "false alarms this view gives for timing alone."),
         ("FP partly spoken: in an interval where the person speaks in fewer than half of the frames (timing); FP "
          "wholly silent: where they say nothing."),
-        (f"{head}  {'FN face missed':>14s} {'FN overlap':>10s}  {'FP partly spoken':>16s}  {'FP wholly silent':>16s}  "
-         f"{'silent->spk':>11s}"),
+        (f"{_HEAD}  {'FN face missed':>14s} {'FN overlap':>10s}  {'FP partly spoken':>16s}  "
+         f"{'FP wholly silent':>16s}  {'silent->spk':>11s}"),
     ]
     for s in scores:
         c = s.counts
-        n = c.tp + c.fn
         silent = c.fp - c.fp_false_face + c.tn
-        lines += [_paper_row(s.scenario),
-                  (f"{'':6s} {label:24s} {c.fp:5d} {c.fn:4d} {_pct(c.fn, n):>8s} {c.tp:5d} {_pct(c.tp, n):>8s}  "
-                   f"{_fp_share(c.fp, n):6.3f}  {c.fn_missed_face:14d} {c.fn_overlap:10d}  "
-                   f"{c.fp_partly_spoken:16d}  {c.fp_wholly_silent:16d}  "
-                   f"{_pct(c.fp - c.fp_false_face, silent):>11s}")]
         r = s.timing_reference
-        n = r.tp + r.fn
-        lines.append(f"{'':6s} {reference:24s} {r.fp:5d} {r.fn:4d} {_pct(r.fn, n):>8s} {r.tp:5d} {_pct(r.tp, n):>8s}  "
-                     f"{_fp_share(r.fp, n):6.3f}")
-    lines += [
-        "",
+        lines += [_paper_row(s.scenario),
+                  (f"{_count_row(label, c.fp, c.fn, c.tp)}  {c.fn_missed_face:14d} {c.fn_overlap:10d}  "
+                   f"{c.fp_partly_spoken:16d}  {c.fp_wholly_silent:16d}  "
+                   f"{_pct(c.fp - c.fp_false_face, silent):>11s}"),
+                  _count_row(reference, r.fp, r.fn, r.tp)]
+    return lines
+
+
+def _front_end_lines(scores: list[ScenarioScore]) -> list[str]:
+    lines = [
         ("Front end per scenario, per fused frame: faces = frames with every visible face found; recall = visible "
          f"faces found; ITD = ITDs within {ITD_TOLERANCE_S * 1e6:.0f} us of the talker's true ITD (windows with one "
          "talker); bias = median extracted - true; pull = median pull towards 0 of talkers off to the side "
@@ -212,8 +218,12 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
         lines.append(f"{s.scenario:6s} {s.n_frames:7d} {_pct1(s.all_found_share):>7s} {_pct1(s.face_recall):>7s} "
                      f"{_num(s.f3d_median_m, '.3f'):>12s} {len(s.itd_errors_s):12d} {_pct1(s.itd_accuracy):>10s} "
                      f"{_num(s.itd_bias_s * 1e6, '+.1f'):>10s} {_num(s.itd_pull_s * 1e6, '+.1f'):>10s}")
+    return lines
+
+
+def _target_lines(scores: list[ScenarioScore], reference: str) -> list[str]:
     t = scenario_targets(scores)
-    lines += ["", ("Targets (beyond the paper's table): TP >= 95 %; FP/spk at most half the paper's; S4's unseen "
+    lines = [("Targets (beyond the paper's table): TP >= 95 %; FP/spk at most half the paper's; S4's unseen "
               "talker no worse than S2.")]
     held = {("per_interval", s.scenario): f"; {reference}: "
             f"{_rounded(_fp_share(s.timing_reference.fp, s.timing_reference.tp + s.timing_reference.fn))}; "
@@ -232,7 +242,19 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
         lines.append(f"  S4: silent visible people judged speaking while the unseen person talks: "
                      f"{t['s4_unseen_fp_rate']} of their intervals, vs S2's silent people: {t['s2_fp_rate']} "
                      f"[{'met' if t['s4_not_worse_than_s2'] else 'NOT met'}]")
-    return "\n".join(lines)
+    return lines
+
+
+def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
+                          calibration: CalibrationFit | None) -> str:
+    """The table of section 7.3 with the paper's rows beside ours (per spoken number, then per 0.4 s interval), the
+    per-scenario front-end figures, and the targets."""
+    label = f"avhear {config.inference}-guided"
+    reference = f"truth held +-{TIMING_REFERENCE_S * 1e3:.0f} ms"
+    sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration),
+                _per_number_lines(scores, label), _per_interval_lines(scores, label, reference),
+                _front_end_lines(scores), _target_lines(scores, reference)]
+    return "\n\n".join("\n".join(section) for section in sections)
 
 
 def _pct1(x: float) -> str:
