@@ -13,12 +13,14 @@ import glob
 import logging
 import re
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
-from app.config import RigConfig, load_rig, save_rig
+from app.config import MICROPHONES_HINT, RigConfig, load_rig, save_rig
 from app.errors import UserError
 from app.options import count, duration
 from app.paths import output_file
@@ -26,6 +28,9 @@ from app.pipeline import DEFAULT_ITD_METHOD
 from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
 from avcore.itd import METHODS as ITD_METHODS
 from avcore.stereo import StereoCalibration, calibrate_stereo, find_chessboard
+
+if TYPE_CHECKING:
+    from app.av_calibration import CalibrationResult
 
 log = logging.getLogger(__name__)
 
@@ -281,17 +286,12 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run_av)
 
 
-def run_av(args: argparse.Namespace) -> int:
-    from app.av_calibration import calibrate_recording
-    from app.console.calibration import log_calibration_rrd
-    from app.eval.calibration_figure import save_calibration_figure
-    from app.sources.recording import open_recording
-
+def _check_av_inputs(args: argparse.Namespace) -> tuple[RigConfig, Path]:
+    """The rig (with microphones), the recording's existence and every output path, before any work; returns the
+    rig and the figure's path."""
     rig = load_rig(args.rig)
     if rig.microphones is None:
-        raise UserError(f"{args.rig}: has no 'microphones' section; measure the two microphone positions by hand "
-                        "(metres, scene frame: origin midway between the cameras, x right, y down, z forward) and "
-                        "add them, e.g.\nmicrophones:\n  left_m: [-0.06, 0.0, 0.0]\n  right_m: [0.06, 0.0, 0.0]")
+        raise UserError(f"{args.rig}: has no 'microphones' section: {MICROPHONES_HINT}")
     if not args.recording.exists():
         raise UserError(f"{args.recording}: no such recording folder; record the calibration sequence (a person "
                         "carrying a loudspeaker playing `avhear calibrate signal`'s white-noise bursts in a zig-zag "
@@ -301,11 +301,11 @@ def run_av(args: argparse.Namespace) -> int:
     output_file(figure, "--figure")
     if not args.no_rrd:
         output_file(figure.with_suffix(".rrd"), "the figure's .rrd (--no-rrd to skip it)")
-    recording = open_recording(args.recording)
-    mics = rig.microphones
-    n_frames = len(recording.frame_stamps_s)
-    print(f"calibrating {args.recording}: {n_frames} frames, {recording.n_samples / recording.samplerate_hz:.1f} s "
-          f"of audio; microphones from {args.rig} ({mics.distance_m * 100:.1f} cm apart)", flush=True)
+    return rig, figure
+
+
+def _frame_progress() -> Callable[[int, int], None]:
+    """A progress callback that prints at most every 2 s, and at the end."""
     last = [time.perf_counter()]
 
     def progress(done: int, total: int) -> None:
@@ -313,13 +313,11 @@ def run_av(args: argparse.Namespace) -> int:
         if now - last[0] >= 2.0 or done == total:
             last[0] = now
             print(f"  faces: frame {done}/{total}", flush=True)
+    return progress
 
-    try:
-        result = calibrate_recording(recording, mics, method=args.method, refine_positions=args.refine_positions,
-                                     itd_method=args.itd_method, energy_threshold=args.energy_threshold,
-                                     max_gap_s=args.pair_window, progress=progress)
-    finally:
-        recording.close()
+
+def _print_av_report(result: CalibrationResult, args: argparse.Namespace) -> None:
+    """What was found (faces, ITDs, pairs), the fit, and warnings a user can act on."""
     faces, rep = result.faces, result.report
     n_none = int((faces.n_faces == 0).sum())
     n_many = int((faces.n_faces > 1).sum())
@@ -345,12 +343,33 @@ def run_av(args: argparse.Namespace) -> int:
         print(f"warning: c1 = {rep.c1:.3f} is far from 1; check the microphone positions in {args.rig} and the "
               "speed of sound")
 
-    stereo = rig.stereo if rig.stereo is not None else recording.stereo
+
+def run_av(args: argparse.Namespace) -> int:
+    from app.av_calibration import calibrate_recording
+    from app.console.calibration import log_calibration_rrd
+    from app.eval.calibration_figure import save_calibration_figure
+    from app.sources.recording import open_recording
+
+    rig, figure = _check_av_inputs(args)
+    recording = open_recording(args.recording)
+    mics = rig.microphones
+    print(f"calibrating {args.recording}: {len(recording.frame_stamps_s)} frames, "
+          f"{recording.n_samples / recording.samplerate_hz:.1f} s of audio; microphones from {args.rig} "
+          f"({mics.distance_m * 100:.1f} cm apart)", flush=True)
+    try:
+        result = calibrate_recording(recording, mics, method=args.method, refine_positions=args.refine_positions,
+                                     itd_method=args.itd_method, energy_threshold=args.energy_threshold,
+                                     max_gap_s=args.pair_window, progress=_frame_progress())
+    finally:
+        recording.close()
+    _print_av_report(result, args)
+    rep = result.report
     header = (f"avhear rig calibration: audio-visual c1, c0 ({rep.method}) from {args.recording}, "
               f"{rep.n_pairs} face/ITD pairs, median |ITD residual| {rep.median_abs_before_s * 1e6:.1f} -> "
               f"{rep.median_abs_after_s * 1e6:.1f} us"
               + ("; microphone positions refined" if args.refine_positions and result.rejected_shift_m is None
                  else ""))
+    stereo = rig.stereo if rig.stereo is not None else recording.stereo
     save_rig(args.output, RigConfig(stereo=stereo, microphones=rep.mics), header=header)
     print(f"\nwrote {args.output}")
     save_calibration_figure(result, figure)
