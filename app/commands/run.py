@@ -18,7 +18,7 @@ from app.sources.live import LiveConfig, add_device_arguments, live_config
 from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config,
                          port)
 from app.paths import output_file
-from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.pipeline import FusionResult, Pipeline, PipelineConfig, PipelineStats
 from app.results import ResultsWriter
 from app.sources import open_source
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
@@ -141,6 +141,55 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                             wall_time=live is not None or spec == "bus")
 
 
+class _Sinks:
+    """Hands every result, as it is, to the sinks the user asked for: the results file, the bus, the console."""
+
+    def __init__(self, session: ViewerSession, console: Console | None, results: ResultsWriter | None,
+                 publisher: ResultPublisher | None) -> None:
+        self.session, self.console, self.results, self.publisher = session, console, results, publisher
+        self.pipeline: Pipeline | None = None
+
+    def __call__(self, result: FusionResult) -> None:
+        if self.results is not None:
+            self.results.write(result)
+        if self.publisher is not None:
+            self.publisher.publish(result)
+        if self.console is None:
+            return
+        assert self.pipeline is not None
+        diagnostics = {f"queue_depth/{name}": float(n) for name, n in self.pipeline.queue_depths().items()}
+        if result.latency_s == result.latency_s:
+            diagnostics["latency_ms/fusion"] = result.latency_s * 1e3
+        if self.session.part_due():
+            self.session.next_part()
+            self.console.new_part()
+        self.console.log(ConsoleFrame.from_result(result, diagnostics))
+
+
+def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: PipelineStats, source: Any,
+            sinks: _Sinks) -> None:
+    """The run's summary and where its outputs are."""
+    print(f"avhear: {stats.summary()}")
+    if spec == "bus":
+        print(f"avhear: from the bus: {source.gaps} gaps while the robot was away, {source.bad_payloads} payloads "
+              "that did not decode (skipped)")
+    if args.stats_json is not None:
+        args.stats_json.write_text(json.dumps(stats.as_dict(), indent=2))
+    if sinks.results is not None:
+        print(f"avhear: {sinks.results.written} results in {sinks.results.path}")
+    if sinks.publisher is not None:
+        sinks.publisher.close()
+        print(f"avhear: {sinks.publisher.published} results published on the bus ({sinks.publisher.dropped} dropped "
+              "by a slow bus)")
+    parts = sinks.session.parts
+    if len(parts) > 1:
+        pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
+        print(f"avhear: the console's data is in {len(parts)} parts, {parts[0]} to {parts[-1]}; open them together "
+              f"with: rerun {pattern}")
+    elif target.save is not None:
+        print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
+
+
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
     meta = getattr(getattr(source, "stream", None), "meta", None)
@@ -150,26 +199,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
     session = ViewerSession(target)
     rec = session.recording
     console = Console(source.rig, source.mics, recording=rec) if rec is not None else None
-    pipeline: Pipeline | None = None
-
-    def on_result(result: FusionResult) -> None:
-        if results is not None:
-            results.write(result)
-        if publisher is not None:
-            publisher.publish(result)
-        if console is None:
-            return
-        assert pipeline is not None
-        diagnostics = {f"queue_depth/{name}": float(n) for name, n in pipeline.queue_depths().items()}
-        if result.latency_s == result.latency_s:
-            diagnostics["latency_ms/fusion"] = result.latency_s * 1e3
-        frame = ConsoleFrame.from_result(result, diagnostics)
-        if session.part_due():
-            session.next_part()
-            console.new_part()
-        console.log(frame)
-
-    pipeline = Pipeline(source, config, on_result)
+    sinks = _Sinks(session, console, results, publisher)
+    pipeline = sinks.pipeline = Pipeline(source, config, sinks)
     terminated = threading.Event()
 
     def on_sigterm(*_: object) -> None:
@@ -192,25 +223,7 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
     stats.interrupted = stats.interrupted or terminated.is_set()
-    summary: dict[str, Any] = stats.as_dict()
-    print(f"avhear: {stats.summary()}")
-    if spec == "bus":
-        print(f"avhear: from the bus: {source.gaps} gaps while the robot was away, {source.bad_payloads} payloads "
-              "that did not decode (skipped)")
-    if args.stats_json is not None:
-        args.stats_json.write_text(json.dumps(summary, indent=2))
-    if results is not None:
-        print(f"avhear: {results.written} results in {results.path}")
-    if publisher is not None:
-        publisher.close()
-        print(f"avhear: {publisher.published} results published on the bus ({publisher.dropped} dropped by a slow "
-              "bus)")
-    if len(session.parts) > 1:
-        pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
-        print(f"avhear: the console's data is in {len(session.parts)} parts, {session.parts[0]} to "
-              f"{session.parts[-1]}; open them together with: rerun {pattern}")
-    elif target.save is not None:
-        print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
+    _report(spec, args, target, stats, source, sinks)
     if stats.interrupted:
         print("avhear: interrupted", file=sys.stderr)
         session.close(keep_serving=False)
