@@ -145,6 +145,7 @@ class ClockMessage:
 
 FusionMessage = VisionMessage | ItdMessage | FrameItdsMessage | ClockMessage
 
+_NO_IMAGE = np.zeros((0, 0), dtype=np.uint8)
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
 
@@ -175,6 +176,22 @@ class FusionResult:
         """"face" (Algorithm 2: ``xyz`` are the faces, ``boxes`` their boxes) or "motion" (Algorithm 1: ``xyz`` are
         the HM3D points, the people are ``output.positions``)."""
         return "face" if self.boxes is not None else "motion"
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 3) metres, the people: the F3D faces (face-guided) or each AV cluster's mean (motion-guided, eq.
+        hat_svect), in the order of ``output``'s arrays and ``person_ids``."""
+        xyz = self.xyz if self.boxes is not None else self.output.positions
+        return np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+
+    @property
+    def speaking(self) -> np.ndarray:
+        """(N,) bool, each person's speaking state (eq. audio_act)."""
+        return np.asarray(self.output.speaking, dtype=bool).reshape(-1)
+
+    def without_image(self) -> FusionResult:
+        """The same result without its image, for a sink that keeps many (the evaluation)."""
+        return replace(self, image=_NO_IMAGE)
 
     def as_dict(self) -> dict[str, Any]:
         """The result as one line of the results file (schema: :mod:`app.results`)."""

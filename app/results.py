@@ -41,7 +41,7 @@ def result_record(result: Any) -> dict[str, Any]:
     """One :class:`app.pipeline.FusionResult` as the JSON-ready dict of the module's schema."""
     out = result.output
     face = result.mode == "face"
-    positions = np.asarray(result.xyz if face else out.positions, dtype=float).reshape(-1, 3)
+    positions = result.positions
     people = []
     for n, pid in enumerate(np.asarray(result.person_ids).ravel()):
         person: dict[str, Any] = {

@@ -81,7 +81,6 @@ __all__ = [
     "PAPER_SCENARIOS",
     "SCENARIOS",
     "CalibrationFit",
-    "FusedFrame",
     "ScenarioScore",
     "SpeakingCounts",
     "TIMING_REFERENCE_S",
@@ -320,15 +319,6 @@ def _clean(x: float) -> float | None:
 
 
 @dataclass(frozen=True)
-class FusedFrame:
-    """What the scoring keeps of a :class:`FusionResult`: its stamp, positions (N, 3) m and speaking states (N,)."""
-
-    stamp_s: float
-    xyz: np.ndarray
-    speaking: np.ndarray
-
-
-@dataclass(frozen=True)
 class CalibrationFit:
     """c1, c0 fitted on the ``calibration`` preset (section 5.3) and the residuals before and after."""
 
@@ -390,14 +380,10 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     source = _open(name, seed, duration_s, progress)
     if mics is not None:
         source.mics = mics
-    fused: list[FusedFrame] = []
+    fused: list[FusionResult] = []
 
     def keep(result: FusionResult) -> None:
-        # face-guided: the speaking state of each F3D face; motion-guided: of each AV cluster (its mean position,
-        # eq. hat_svect), not of the HM3D points in result.xyz
-        xyz = result.output.positions if cfg.inference == "motion" else result.xyz
-        fused.append(FusedFrame(float(result.stamp_s), np.asarray(xyz, dtype=np.float64).reshape(-1, 3),
-                                np.asarray(result.output.speaking, dtype=bool).reshape(-1)))
+        fused.append(result.without_image())
 
     stats = Pipeline(source, cfg, keep).run()
     log.info("%s seed %d: %s", name, seed, stats.summary())
@@ -416,11 +402,12 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
 # scoring
 
 
-def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
+def score_run(scenario: Scenario, fused: Sequence[FusionResult], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
               config: PipelineConfig, *, frame_stamps_s: np.ndarray) -> ScenarioScore:
     """Score the fused results of one run of ``scenario`` (see the module docstring for the protocol).
 
-    fused : the results in any order (stamps in seconds from the scenario's start). audio : (n, 2) the microphone
+    fused : the results in any order (stamps in seconds from the scenario's start); what counts of each is its
+    people's positions and speaking states (:attr:`FusionResult.positions`, ``speaking``). audio : (n, 2) the microphone
     signals (left, right), full scale 1. frame_stamps_s : (F,) the stamps of the camera frames, seconds.
     """
     motion = config.inference == "motion"
@@ -454,15 +441,16 @@ def score_run(scenario: Scenario, fused: Sequence[FusedFrame], audio: np.ndarray
     for j, r in enumerate(ordered):
         k = min(int(r.stamp_s / INTERVAL_S + 1e-9), n_intervals - 1)
         tr = scenario.truth(r.stamp_s)
-        match = match_clusters(r.xyz, tr.positions_m, tau_loc=TAU_LOC_M)
+        xyz, judged_speaking = r.positions, r.speaking
+        match = match_clusters(xyz, tr.positions_m, tau_loc=TAU_LOC_M)
         results_per[k] += 1
         matched = set()
         for g, d in match.pairs:
             found[k, g] += 1
-            judged[k, g] += bool(r.speaking[d])
-            states[j, g] = int(bool(r.speaking[d]))
+            judged[k, g] += bool(judged_speaking[d])
+            states[j, g] = int(bool(judged_speaking[d]))
             matched.add(d)
-        false_speaking[k] += bool(any(r.speaking[d] for d in range(r.xyz.shape[0]) if d not in matched))
+        false_speaking[k] += bool(any(judged_speaking[d] for d in range(xyz.shape[0]) if d not in matched))
         if not motion:  # per-frame visual figures (the F3D faces)
             vis = np.flatnonzero(tr.visible)
             hit = {g for g, _ in match.pairs}

@@ -8,6 +8,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -120,7 +121,7 @@ def test_bus_mistakes_are_one_line(tmp_path: Path, argv: list[str], message: str
     assert len([line for line in done.stderr.splitlines() if "error" in line]) == 1
 
 
-def test_a_slow_bus_never_stalls_the_pipeline() -> None:
+def test_a_slow_bus_never_stalls_the_pipeline(people_result: Callable[..., object]) -> None:
     """The publisher's session takes 50 ms per message: publish() hands over without waiting, so the oldest
     results are dropped and counted, and what is published is whole."""
     from app.bus.publisher import ResultPublisher
@@ -143,20 +144,10 @@ def test_a_slow_bus_never_stalls_the_pipeline() -> None:
         def declare_publisher(self, key: str) -> SlowPublisher:
             return SlowPublisher(self.sent, key)
 
-    class Result:  # what result_record reads of a FusionResult
-        def __init__(self, k: int) -> None:
-            import numpy as np
-
-            self.stamp_s, self.index, self.boxes, self.latency_s = k / 30, k, None, float("nan")
-            self.mode = "motion"
-            self.xyz, self.itds_s, self.person_ids = np.zeros((0, 3)), np.zeros(3), np.array([1])
-            self.output = type("Out", (), {"positions": np.zeros((1, 3)), "speaking": np.array([True]),
-                                           "probability": np.array([0.9]), "itd_means": np.array([1e-4])})()
-
     session = SlowSession()
     publisher = ResultPublisher(session, queue_size=4)
     for k in range(40):
-        publisher.publish(Result(k))
+        publisher.publish(people_result(k / 30, [[0.1, 0.0, 2.0]], [True]))
     publisher.close(timeout_s=10)
     # a publish() that waited for the slow session would have lost nothing: dropping is the proof it did not wait
     assert publisher.dropped > 0 and publisher.published + publisher.dropped == 40

@@ -12,11 +12,10 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.pipeline import PipelineConfig
+from app.pipeline import FusionResult, PipelineConfig
 from app.eval.scenarios import (
     INTERVAL_S,
     PAPER_SCENARIOS,
-    FusedFrame,
     ScenarioScore,
     calibrate_on_preset,
     score_run,
@@ -31,18 +30,19 @@ def _scenario(name: str, duration_s: float = 8.0) -> Scenario:
     return make_scenario(name, clip_durations_s=[[0.5] * 10] * 3, duration_s=duration_s, seed=3)
 
 
-def _frames(scenario: Scenario, judge: Callable[[FrameTruth], np.ndarray]) -> tuple[list[FusedFrame], np.ndarray]:
+def _frames(make: Callable[..., FusionResult], scenario: Scenario, judge: Callable[[FrameTruth], np.ndarray]
+            ) -> tuple[list[FusionResult], np.ndarray]:
     """One fused result per camera frame: the visible people at their true positions, speaking as ``judge`` says."""
     stamps = np.arange(int(scenario.duration_s * FPS)) / FPS
     fused = []
     for t in stamps:
         tr = scenario.truth(float(t))
         vis = tr.visible
-        fused.append(FusedFrame(float(t), tr.positions_m[vis] + 0.01, judge(tr)[vis]))
+        fused.append(make(float(t), tr.positions_m[vis] + 0.01, judge(tr)[vis]))
     return fused, stamps
 
 
-def _score(scenario: Scenario, fused: list[FusedFrame], stamps: np.ndarray) -> ScenarioScore:
+def _score(scenario: Scenario, fused: list[FusionResult], stamps: np.ndarray) -> ScenarioScore:
     silence = np.zeros((int(scenario.duration_s * 16000), 2))
     return score_run(scenario, fused, silence, 16000.0, scenario.mics, PipelineConfig(), frame_stamps_s=stamps)
 
@@ -60,9 +60,9 @@ def _truth_counts(scenario: Scenario, stamps: np.ndarray) -> tuple[int, int]:
     return speaking, silent
 
 
-def test_perfect_detections_score_every_speaking_count_as_tp() -> None:
+def test_perfect_detections_score_every_speaking_count_as_tp(people_result: Callable[..., FusionResult]) -> None:
     scenario = _scenario("S2")
-    fused, stamps = _frames(scenario, lambda tr: tr.speaking)
+    fused, stamps = _frames(people_result, scenario, lambda tr: tr.speaking)
     score = _score(scenario, fused, stamps)
     c = score.counts
     speaking, silent = _truth_counts(scenario, stamps)
@@ -77,9 +77,9 @@ def test_perfect_detections_score_every_speaking_count_as_tp() -> None:
     assert score.itd_errors_s == [] and score.n_itds == 0  # silence: no ITD passes the energy gate
 
 
-def test_wrong_states_and_missed_faces_are_counted() -> None:
+def test_wrong_states_and_missed_faces_are_counted(people_result: Callable[..., FusionResult]) -> None:
     scenario = _scenario("S2")
-    fused, stamps = _frames(scenario, lambda tr: ~tr.speaking)  # everything inverted
+    fused, stamps = _frames(people_result, scenario, lambda tr: ~tr.speaking)  # everything inverted
     c = _score(scenario, fused, stamps).counts
     speaking, silent = _truth_counts(scenario, stamps)
     assert (c.tp, c.fn, c.fp, c.tn) == (0, speaking, silent, 0)
@@ -87,17 +87,17 @@ def test_wrong_states_and_missed_faces_are_counted() -> None:
     u = _score(scenario, fused, stamps).utterances
     assert u.tp == 0 and u.fn == sum(e.kind == "speech" for e in scenario.events) and u.fp > 0
     # nobody detected at all: every speaking count is a missed face, and there is nothing to call a false positive
-    empty = [FusedFrame(f.stamp_s, np.zeros((0, 3)), np.zeros(0, bool)) for f in fused]
+    empty = [people_result(f.stamp_s, np.zeros((0, 3)), np.zeros(0, bool)) for f in fused]
     c = _score(scenario, empty, stamps).counts
     assert (c.tp, c.fn, c.fn_missed_face, c.fp, c.tn) == (0, speaking, speaking, 0, silent)
     # a face where nobody is, always speaking: one false-face FP per interval
-    ghost = [FusedFrame(f.stamp_s, np.vstack([f.xyz, [[0.0, 0.5, 4.0]]]), np.append(f.speaking, True))
-             for f in _frames(scenario, lambda tr: tr.speaking)[0]]
+    ghost = [people_result(f.stamp_s, np.vstack([f.xyz, [[0.0, 0.5, 4.0]]]), np.append(f.speaking, True))
+             for f in _frames(people_result, scenario, lambda tr: tr.speaking)[0]]
     c = _score(scenario, ghost, stamps).counts
     assert c.fp == c.fp_false_face == 20 and c.tp == speaking
 
 
-def test_timing_reference_scores_the_truth_held_longer(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_timing_reference_scores_the_truth_held_longer(people_result: Callable[..., FusionResult], monkeypatch: pytest.MonkeyPatch) -> None:
     """The per-interval timing reference counts what a detector that knows the truth, but holds each number
     TIMING_REFERENCE_S longer at both ends, would score; held 0 s it is the truth's own counts."""
     import app.eval.scenarios as scenario_eval
@@ -111,7 +111,7 @@ def test_timing_reference_scores_the_truth_held_longer(monkeypatch: pytest.Monke
                              for i in range(len(scenario.actors))])
 
         monkeypatch.setattr(scenario_eval, "TIMING_REFERENCE_S", hold)
-        fused, stamps = _frames(scenario, held)
+        fused, stamps = _frames(people_result, scenario, held)
         score = _score(scenario, fused, stamps)
         r = score.timing_reference
         assert (r.tp, r.fn, r.fp, r.tn) == (score.counts.tp, score.counts.fn, score.counts.fp, score.counts.tn)
@@ -122,7 +122,7 @@ def test_timing_reference_scores_the_truth_held_longer(monkeypatch: pytest.Monke
             assert r.fp == 0
 
 
-def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals() -> None:
+def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals(people_result: Callable[..., FusionResult]) -> None:
     """An FP falls either in an interval where the person speaks in some (fewer than half) of the frames, a matter
     of timing, or in one where they say nothing at all; counted here independently of score_run."""
     scenario = _scenario("S2")
@@ -133,7 +133,7 @@ def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals() -> 
                          for i in range(len(scenario.actors))])
 
     for judge in (held, lambda tr: ~tr.speaking):
-        fused, stamps = _frames(scenario, judge)
+        fused, stamps = _frames(people_result, scenario, judge)
         c = _score(scenario, fused, stamps).counts
         k = (stamps / INTERVAL_S + 1e-9).astype(int)
         partly = wholly = 0
@@ -150,9 +150,9 @@ def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals() -> 
         assert c.as_dict()["fp_wholly_silent"] == wholly
 
 
-def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap() -> None:
+def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap(people_result: Callable[..., FusionResult]) -> None:
     scenario = _scenario("S5", duration_s=15.0)
-    fused, stamps = _frames(scenario, lambda tr: np.zeros_like(tr.speaking))  # nobody ever judged speaking
+    fused, stamps = _frames(people_result, scenario, lambda tr: np.zeros_like(tr.speaking))  # nobody ever judged speaking
     u = _score(scenario, fused, stamps).utterances
     speech = [e for e in scenario.events if e.kind == "speech"]
     visible = [e for e in speech if scenario.visible(0.5 * (e.start_s + e.end_s))[e.actor]]
@@ -163,15 +163,15 @@ def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap() -> 
     assert u.fn_overlap == len(overlapped)
     # S2's people count in turns: a miss there is never an overlap
     s2 = _scenario("S2")
-    fused, stamps = _frames(s2, lambda tr: np.zeros_like(tr.speaking))
+    fused, stamps = _frames(people_result, s2, lambda tr: np.zeros_like(tr.speaking))
     u2 = _score(s2, fused, stamps).utterances
     assert u2.fn > 0 and u2.fn_overlap == 0
 
 
-def test_s4_counts_the_unseen_talker_apart() -> None:
+def test_s4_counts_the_unseen_talker_apart(people_result: Callable[..., FusionResult]) -> None:
     scenario = _scenario("S4", duration_s=10.0)
     assert not scenario.truth(1.0).visible[0]  # person0 sits outside the field of view
-    fused, stamps = _frames(scenario, lambda tr: np.ones_like(tr.speaking))  # every visible person "speaks"
+    fused, stamps = _frames(people_result, scenario, lambda tr: np.ones_like(tr.speaking))  # every visible person "speaks"
     c = _score(scenario, fused, stamps).counts
     assert c.silent_while_unseen_talks > 0
     assert c.fp_while_unseen_talks == c.silent_while_unseen_talks  # all of them were turned into speakers
