@@ -12,7 +12,8 @@ from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.sources.live import LiveConfig, LiveSource
 from app.sources.recording import open_recording
-from app.sources.sim import SimSource, StreamSource
+from app.sources.replay import ReplayStream
+from app.sources.sim import SimSource
 from avcore.geometry import MicPair
 from sim.scenario import PRESETS
 
@@ -20,14 +21,14 @@ __all__ = ["StreamAdapter", "open_source"]
 
 
 class StreamAdapter(SourceBase):
-    """A :class:`~app.sources.sim.StreamSource` (the simulator or a recording) as a pipeline source.
+    """A :class:`~app.sources.replay.ReplayStream` (the simulator or a recording) as a pipeline source.
 
     realtime : deliver at capture pace on ``time.monotonic()`` (a live-like demo), or as fast as possible (then
     the pipeline applies back-pressure and loses nothing). Both threads share one start time, so frames and audio
     are on one clock.
     """
 
-    def __init__(self, stream: StreamSource, *, realtime: bool, channels: tuple[int, int] = (0, 1)) -> None:
+    def __init__(self, stream: ReplayStream, *, realtime: bool, channels: tuple[int, int] = (0, 1)) -> None:
         if stream.stereo is None:
             raise UserError("the source has no stereo calibration: add a 'stereo' section to its rig.yaml")
         self.stream = stream

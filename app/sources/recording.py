@@ -22,7 +22,7 @@ All stamps are seconds on one clock (the simulator: from 0; a live capture: ``ti
 
 :func:`write_recording` writes a source (the simulator) into a folder; :class:`RecordingWriter` writes frames and
 blocks as they come (for ``avhear record``); :func:`open_recording` validates a folder and returns a
-:class:`Recording`, a :class:`app.sources.sim.StreamSource` that yields the same stream of timestamped frames and audio
+:class:`Recording`, a :class:`app.sources.replay.ReplayStream` that yields the same stream of timestamped frames and audio
 blocks as the simulator did, at real speed or as fast as possible. Missing, truncated or corrupt files raise
 :class:`RecordingError` naming the file, what is wrong and what to do.
 """
@@ -44,7 +44,8 @@ import numpy as np
 
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
-from app.sources.sim import AudioBlock, StereoFrame, StreamSource
+from app.events import AudioBlock, StereoFrame
+from app.sources.replay import ReplayStream
 from avcore.evaluation import FrameTruth
 
 __all__ = ["RecordingError", "RecordingWriter", "Recording", "open_recording", "write_recording", "FORMAT"]
@@ -219,7 +220,7 @@ class RecordingWriter:
         self.close()
 
 
-def write_recording(folder: str | Path, source: StreamSource, *, video: str = "avi", overwrite: bool = False,
+def write_recording(folder: str | Path, source: ReplayStream, *, video: str = "avi", overwrite: bool = False,
                     progress: Callable[[int, int], None] | None = None,
                     stop: threading.Event | None = None) -> Path:
     """Write everything ``source`` streams (as fast as possible) into a recording folder; returns the folder.
@@ -309,7 +310,7 @@ def _wav_layout(path: Path) -> tuple[int, int, str, int, int]:
     return rate, channels, dtypes[(tag, bits)], offset, frames
 
 
-class Recording(StreamSource):
+class Recording(ReplayStream):
     """A recording folder opened for replay (see the module docstring for the format); made by
     :func:`open_recording`. Its stream is the same as the source that was recorded: frames with their recorded stamps
     (and truth when the folder has it), audio blocks of ``block_size`` samples stamped from ``audio_start_s``."""
@@ -505,7 +506,7 @@ class Recording(StreamSource):
             except (TypeError, ValueError) as exc:
                 raise RecordingError(f"{path}: {exc}; fix or delete the file (events are optional)") from None
 
-    # -------------------------------------------------------------- StreamSource
+    # -------------------------------------------------------------- ReplayStream
     def _reset(self) -> None:
         for cap in self._caps.values():
             cap.release()

@@ -16,7 +16,8 @@ from app.commands import calibrate
 from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
 from app.sources.recording import RecordingWriter, open_recording, write_recording
-from app.sources.sim import AudioBlock, SimSource, StereoFrame
+from app.events import AudioBlock, StereoFrame
+from app.sources.sim import SimSource
 from avcore.geometry import MicPair
 from avcore.itd import ItdTrack
 

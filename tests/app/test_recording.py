@@ -12,7 +12,8 @@ from scipy.io import wavfile
 
 from app.config import RigConfig, save_rig
 from app.sources.recording import RecordingError, open_recording, write_recording
-from app.sources.sim import AudioBlock, SimSource, StereoFrame
+from app.events import AudioBlock, StereoFrame
+from app.sources.sim import SimSource
 from avcore.stereo import StereoRig
 
 

@@ -11,13 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.sources.sim import (
-    AudioBlock,
-    SimSource,
-    StereoFrame,
-    load_clip_bank,
-    render_audio,
-)
+from app.events import AudioBlock, StereoFrame
+from app.sources.sim import SimSource, load_clip_bank, render_audio
 from avcore.faces import detect_faces
 from avcore.itd import extract_itds
 from sim.scenario import make_scenario

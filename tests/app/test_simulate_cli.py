@@ -6,7 +6,7 @@ import numpy as np
 
 from app.cli import main
 from app.sources.recording import open_recording
-from app.sources.sim import StereoFrame
+from app.events import StereoFrame
 from avcore.faces import locate_faces
 from avcore.itd import extract_itds
 
