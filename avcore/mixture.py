@@ -509,13 +509,7 @@ def initial_models(
     if data is None:
         data = BinnedSamples.from_samples(np.empty(0))
     models = [Mixture1D.outliers_only(support)]
-    if previous is None or previous.n_components == 0:
-        base = _seed_model(data, support, outlier_weight)
-    else:
-        base = Mixture1D(previous.weights, previous.means, previous.variances, support).ordered_by_weight()
-        if base.weights[-1] < outlier_weight / 10:
-            g = base.weights[:-1] * (1.0 - outlier_weight / 10) / base.weights[:-1].sum()
-            base = Mixture1D(np.append(g, outlier_weight / 10), base.means, base.variances, support)
+    base = _base_model(previous, data, support, outlier_weight)
     n_prev = base.n_components
     for n in range(1, min(n_prev, n_max) + 1):
         g = base.weights[:n]
@@ -525,27 +519,47 @@ def initial_models(
         return models
     if n_prev == 0:
         models.append(base)
-    # Growing one component at a time; the densities of the current model on the data bins and on the residual
-    # grid are updated incrementally (a split or an added component changes one or two terms).
+    return models + _grown(models[-1], n_max + 1 - len(models), data, grow_at_residual)
+
+
+def _base_model(previous: Mixture1D | None, data: BinnedSamples, support: tuple[float, float],
+                outlier_weight: float) -> Mixture1D:
+    """The previous interval's model, heaviest cluster first, its outlier prior at least ``outlier_weight / 10``;
+    with no previous cluster, one seeded on the moments of ``data``."""
+    if previous is None or previous.n_components == 0:
+        return _seed_model(data, support, outlier_weight)
+    base = Mixture1D(previous.weights, previous.means, previous.variances, support).ordered_by_weight()
+    if base.weights[-1] < outlier_weight / 10:
+        g = base.weights[:-1] * (1.0 - outlier_weight / 10) / base.weights[:-1].sum()
+        base = Mixture1D(np.append(g, outlier_weight / 10), base.means, base.variances, support)
+    return base
+
+
+def _split_change(prev: Mixture1D, idx: int, split: Mixture1D, z: np.ndarray) -> np.ndarray:
+    """How splitting component ``idx`` of ``prev`` into ``split``'s last two changes the density at ``z``."""
+    halves_mu, halves_var = split.means[-2:], split.variances[-1]
+    return prev.weights[idx] * (0.5 * _gauss(z, halves_mu[0], halves_var) + 0.5 * _gauss(z, halves_mu[1], halves_var)
+                                - _gauss(z, prev.means[idx], prev.variances[idx]))
+
+
+def _grown(prev: Mixture1D, count: int, data: BinnedSamples, grow_at_residual: bool) -> list[Mixture1D]:
+    """``count`` models, each with one component more than the one before, starting from ``prev``: the split of
+    the component with the highest Davies-Bouldin index, or (``grow_at_residual``) a new component at the data's
+    largest unexplained excess, whichever explains ``data`` better. The densities of the current model on the
+    data bins and on the residual grid are updated incrementally (a split or an added component changes one or
+    two terms)."""
     x = data.x_us / US
     cnt = data.stats[:, 0]
-    residual = _ResidualGrid(data, support, 15e-6) if grow_at_residual and data.total > 0 else None
-    prev = models[-1]
+    residual = _ResidualGrid(data, prev.support, 15e-6) if grow_at_residual and data.total > 0 else None
     dens_x = prev._density(x)
     dens_g = prev._density(residual.grid) if residual is not None else None
-    for _ in range(len(models), n_max + 1):
+    models = []
+    for _ in range(count):
         db = davies_bouldin(prev.means, np.sqrt(prev.variances))
         # ties (e.g. two components) go to the widest component
         idx = int(np.lexsort((-prev.variances, -db))[0])
         split = split_at_mean(prev, idx)
-        pi_i, mu_i, var_i = prev.weights[idx], prev.means[idx], prev.variances[idx]
-        halves = split.means[-2:], split.variances[-1]
-
-        def split_density(z: np.ndarray) -> np.ndarray:
-            return (pi_i * (0.5 * _gauss(z, halves[0][0], halves[1]) + 0.5 * _gauss(z, halves[0][1], halves[1])
-                            - _gauss(z, mu_i, var_i)))
-
-        new, new_x = split, dens_x + split_density(x)
+        new, new_x = split, dens_x + _split_change(prev, idx, split, x)
         added = residual.add_component(prev, dens_g) if residual is not None else None
         if added is not None:
             w, mu, var = added.weights[-2], added.means[-1], added.variances[-1]
@@ -554,7 +568,7 @@ def initial_models(
                 new, new_x = added, added_x
                 new_g = (1.0 - w) * dens_g + w * _gauss(residual.grid, mu, var)
             else:
-                new_g = dens_g + split_density(residual.grid)
+                new_g = dens_g + _split_change(prev, idx, split, residual.grid)
         else:
             new_g = None
         models.append(new)

@@ -22,11 +22,11 @@ VARIANT_LABELS = {"paper": "paper's method", "avhear": "avhear"}
 
 
 def synthetic_json(scores: list[SequenceScore], seeds: list[int]) -> dict[str, object]:
+    sequences = list(dict.fromkeys(s.sequence for s in scores))  # in the order run, so that the output is stable
     return {
         "seeds": seeds,
         "results": [s.as_dict() for s in scores],
-        "paper": {"visual": {k: PAPER_VISUAL[k] for k in {s.sequence for s in scores}},
-                  "audio": {k: PAPER_AUDIO[k] for k in {s.sequence for s in scores}}},
+        "paper": {"visual": {k: PAPER_VISUAL[k] for k in sequences}, "audio": {k: PAPER_AUDIO[k] for k in sequences}},
     }
 
 
