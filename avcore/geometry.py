@@ -137,13 +137,14 @@ ARRAY_PRESETS: dict[str, dict[str, object]] = {
 
 def _default_pairs(positions: np.ndarray) -> tuple[tuple[int, int], ...]:
     """Every pair once, ``i`` the microphone more to the left (smaller x; for a tie, the one further back), so
-    that a source on the right gives a positive ITD as for the paper's pair."""
+    that a source on the right gives a positive ITD as for the paper's pair; the widest left-right pair first
+    (it is the one shown where a single ITD axis is drawn), the others by decreasing left-right spread."""
     pairs = []
     for a in range(len(positions)):
         for b in range(a + 1, len(positions)):
             key_a, key_b = (positions[a, 0], positions[a, 2]), (positions[b, 0], positions[b, 2])
             pairs.append((a, b) if key_a <= key_b else (b, a))
-    return tuple(pairs)
+    return tuple(sorted(pairs, key=lambda ij: -round(abs(positions[ij[0], 0] - positions[ij[1], 0]), 9)))
 
 
 @dataclass(frozen=True)

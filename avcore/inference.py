@@ -13,19 +13,20 @@ paper's own evaluation showed missing (section 7.1), each measured by ``avhear e
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from avcore._packed_em import Packed, Updates, class_sums, e_step, log_likelihoods, run_em, run_fusion
 from avcore._validate import as_points, as_samples
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.mixture import (
     US,
     BinnedSamples,
     EMSettings,
     Mixture1D,
     bic_score,
+    fit_pairs_em,
     initial_models,
     pack,
     ridgeline_merge,
@@ -372,6 +373,8 @@ class FaceGuidedOutput:
     speaking : (N,) bool, eq. (audio_act). probability : (N,) in [0, 1], above 0.5 exactly when speaking.
     itd_means : (N,) seconds. itd_counts : (N,) beta_bar_n. model : the fitted 1-D model (for display).
     tau_a : K / (N + 2). n_iter : EM iterations run.
+    pair_itd_means : (N, P) seconds, each person's mean on each pair, with several pairs (``itd_means`` and
+    ``model`` are then the first pair's); None with one pair.
     """
 
     speaking: np.ndarray
@@ -381,6 +384,29 @@ class FaceGuidedOutput:
     model: Mixture1D
     tau_a: float
     n_iter: int
+    pair_itd_means: np.ndarray | None = None
+
+
+def _itd_vectors(itds: object, n_pairs: int, name: str) -> np.ndarray:
+    """ITDs of several pairs as (K, P) vectors, NaN where a pair has none: a (K, P) array is one vector per window
+    (the pairs' ITDs of one window, aligned); a sequence of P one-dimensional arrays gives each value alone (its
+    pair only: not aligned)."""
+    if isinstance(itds, np.ndarray) and itds.ndim == 2:
+        if itds.shape[1] != n_pairs:
+            raise ValueError(f"{name} must have one column per pair ({n_pairs}), got shape {itds.shape}")
+        out = itds.astype(np.float64)
+    else:
+        parts = [as_samples(a, f"{name}[{p}]") for p, a in enumerate(itds)]  # type: ignore[union-attr]
+        if len(parts) != n_pairs:
+            raise ValueError(f"{name} must give {n_pairs} arrays, one per pair, got {len(parts)}")
+        out = np.full((sum(a.size for a in parts), n_pairs), np.nan)
+        row = 0
+        for p, a in enumerate(parts):
+            out[row:row + a.size, p] = a
+            row += a.size
+    if np.isinf(out).any():
+        raise ValueError(f"{name} must be finite or NaN (a pair without an ITD)")
+    return out
 
 
 class FaceGuidedHearing:
@@ -391,12 +417,16 @@ class FaceGuidedHearing:
     eq. (audio_act). With no ITD nobody speaks (probability 0); with no face there is nothing to decide.
     """
 
-    def __init__(self, mics: MicPair, params: FaceGuidedParams | None = None) -> None:
-        if not isinstance(mics, MicPair):
-            raise TypeError(f"mics must be a MicPair, got {type(mics).__name__}")
-        self.mics = mics
+    def __init__(self, mics: MicPair | MicArray, params: FaceGuidedParams | None = None) -> None:
+        if isinstance(mics, MicArray) and mics.n_pairs == 1:
+            mics = mics.pair(0)
+        if not isinstance(mics, (MicPair, MicArray)):
+            raise TypeError(f"mics must be a MicPair or a MicArray, got {type(mics).__name__}")
         self.params = params if params is not None else FaceGuidedParams()
-        self.support = mics.itd_interval()
+        # several pairs: the model of avcore.mixture.fit_pairs_em, each face one ITD per pair
+        self.array = mics if isinstance(mics, MicArray) else None
+        self.mics = mics.pair(0) if isinstance(mics, MicArray) else mics
+        self.support = self.mics.itd_interval()
         # Algorithm 2's EM is the standard EM of section 4.1 on the ITDs alone (the engine of avcore.mixture, in
         # microseconds), with the means anchored or free and the variances fixed or kept in the params' range
         p = self.params
@@ -413,6 +443,8 @@ class FaceGuidedHearing:
         (:class:`SpeakingTest` ``frame_rescue``; EM does not see them); None: none.
         band_itds_s : (L,) seconds, the peaks of those frames' frequency bands, the third look; None: none."""
         faces = as_points(faces_xyz, "faces_xyz")
+        if self.array is not None:
+            return self._step_pairs(faces, itds_s, itd_offsets_s, frame_itds_s, band_itds_s)
         a = as_samples(itds_s, "itds_s")
         present = None
         if itd_offsets_s is not None and self.params.decision_window_s is not None:
@@ -441,3 +473,36 @@ class FaceGuidedHearing:
         band_itds = None if band_itds_s is None else as_samples(band_itds_s, "band_itds_s")
         speaking, prob, tau = p.speaking.decide(beta[:, :-1], a, model, present, frame_itds, band_itds)
         return FaceGuidedOutput(speaking, prob, model.means.copy(), bbar, model, tau, n_iter)
+
+    def _step_pairs(self, faces: np.ndarray, itds_s: object, itd_offsets_s: object, frame_itds_s: object,
+                    band_itds_s: object) -> FaceGuidedOutput:
+        """:meth:`step` with several pairs: the EM of :func:`avcore.mixture.fit_pairs_em` on the ITD vectors, the
+        speaking test of :meth:`SpeakingTest.decide_pairs`. ``model`` shows the first pair."""
+        p, array = self.params, self.array
+        assert array is not None
+        n_pairs = array.n_pairs
+        x = _itd_vectors(itds_s, n_pairs, "itds_s")
+        present = None
+        if itd_offsets_s is not None and p.decision_window_s is not None:
+            offsets = np.asarray(itd_offsets_s, dtype=np.float64).reshape(-1)
+            if offsets.shape != (x.shape[0],):
+                raise ValueError(f"itd_offsets_s must give one time per ITD vector: {offsets.size} times for "
+                                 f"{x.shape[0]} vectors")
+            present = np.abs(offsets) <= p.decision_window_s
+        n = faces.shape[0]
+        supports = array.itd_intervals()
+        means = array.itd(faces).reshape(n, n_pairs)
+        w = np.append(np.full(n, (1.0 - p.init_outlier_weight) / max(n, 1)), p.init_outlier_weight if n else 1.0)
+        fit = fit_pairs_em(x, w, means, np.full((n, n_pairs), p.sigma2_init_s2), supports,
+                           settings=replace(p.em, var_floor_s2=p.var_min_s2), update_means=not p.anchor_means,
+                           update_variances=p.update_variances, max_variance_s2=p.var_max_s2)
+        if not fit.converged:
+            warn_not_converged("the face-guided EM", p.em)
+        beta = fit.beta if n else np.zeros((x.shape[0], 1))
+        frames = None if frame_itds_s is None else _itd_vectors(frame_itds_s, n_pairs, "frame_itds_s")
+        bands = None if band_itds_s is None else _itd_vectors(band_itds_s, n_pairs, "band_itds_s")
+        speaking, prob, tau = p.speaking.decide_pairs(beta[:, :-1], x, fit.means, fit.variances, supports, present,
+                                                      frames, bands)
+        model = Mixture1D.unchecked(fit.weights, fit.means[:, 0].copy(), fit.variances[:, 0].copy(), self.support)
+        return FaceGuidedOutput(speaking, prob, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model, tau,
+                                fit.n_iter, fit.means.copy())

@@ -40,11 +40,13 @@ __all__ = [
     "EMSettings",
     "FitResult",
     "FusionResult",
+    "PairsFit",
     "Mixture1D",
     "bic_score",
     "davies_bouldin",
     "fit_em",
     "fit_fusion_em",
+    "fit_pairs_em",
     "initial_models",
     "ridgeline_merge",
     "split_at_mean",
@@ -636,3 +638,119 @@ def ridgeline_merge(model: Mixture1D) -> tuple[Mixture1D, list[list[int]]]:
             var.append(vi)
     merged = Mixture1D(np.append(w, model.weights[-1]), mu, var, model.support)
     return merged, groups
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Several microphone pairs: one ITD vector per window
+
+
+@dataclass(frozen=True)
+class PairsFit:
+    """Output of :func:`fit_pairs_em`.
+
+    weights : (N + 1,) priors, the outlier's last. means, variances : (N, P) seconds, s^2, per person and pair.
+    beta : (K, N + 1) the posteriors of the K ITD vectors (eq. beta_kn with the joint density). n_iter, converged :
+    as :class:`FitResult`.
+    """
+
+    weights: np.ndarray
+    means: np.ndarray
+    variances: np.ndarray
+    beta: np.ndarray
+    log_likelihood: float
+    n_iter: int
+    converged: bool
+
+
+def _pairs_log_densities(x: np.ndarray, seen: np.ndarray, means: np.ndarray, variances: np.ndarray,
+                         log_u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """log prod_p N(x_kp; mu_np, sigma_np^2) over the pairs each vector has (K, N), and log prod_p U_p (K,)."""
+    d = np.where(seen[:, None, :], x[:, None, :] - means[None, :, :], 0.0)
+    z2 = np.minimum(d * d / variances[None, :, :], _Z2_CLIP)
+    log_g = -0.5 * (z2 + np.log(2.0 * np.pi * variances)[None, :, :])
+    return (log_g * seen[:, None, :]).sum(axis=2), seen @ log_u
+
+
+def fit_pairs_em(
+    itds_s: np.ndarray,
+    weights: np.ndarray,
+    means_s: np.ndarray,
+    variances_s2: np.ndarray,
+    supports: np.ndarray,
+    *,
+    settings: EMSettings = EMSettings(),
+    update_means: bool = True,
+    update_variances: bool = True,
+    max_variance_s2: float = np.inf,
+) -> PairsFit:
+    """EM for the model of eq. (prob_model) extended to P microphone pairs (the paper's conclusion).
+
+    Each window gives one ITD per pair, a vector a_k = (a_k1 .. a_kP), all from the one source that dominates the
+    window. Person n maps to one ITD per pair, mu_n = (mu_n1 .. mu_nP) (eq. itd_up per pair), so
+
+        p(a_k; Theta) = sum_n pi_n prod_p N(a_kp; mu_np, sigma_np^2) + pi_{N+1} prod_p U(a_kp; A_p),
+
+    and the posterior beta_kn of eq. (beta_kn) takes the product over the pairs: a vector is a person's only when
+    it is near that person on every pair, so a peak that falls between two talkers on one pair (a phantom) is not
+    explained on the others and goes to the outlier class. A pair the window has no ITD for (NaN, its energy gate)
+    leaves the product. The M-step is the paper's per pair: pi_n = gamma_n / K, and mu_np, sigma_np^2 the
+    beta-weighted moments over the vectors that have pair p; ``update_means`` / ``update_variances`` False keep them
+    (Algorithm 2's anchored means), variances in ``[settings.var_floor_s2, max_variance_s2]``, the outlier prior at
+    least ``settings.min_outlier_weight``. With P = 1 this is :func:`fit_em`.
+
+    itds_s : (K, P) seconds, NaN where a pair has no ITD. weights : (N + 1,). means_s, variances_s2 : (N, P).
+    supports : (P, 2) each pair's ITD interval.
+    """
+    x = np.asarray(itds_s, dtype=np.float64)
+    mu = np.array(means_s, dtype=np.float64)
+    var = np.array(variances_s2, dtype=np.float64)
+    w = np.array(weights, dtype=np.float64)
+    sup = np.asarray(supports, dtype=np.float64).reshape(-1, 2)
+    if x.ndim != 2 or mu.ndim != 2 or x.shape[1] != mu.shape[1] or var.shape != mu.shape or sup.shape[0] != mu.shape[1]:
+        raise ValueError(f"need itds (K, P), means and variances (N, P), supports (P, 2); got {x.shape}, {mu.shape}, "
+                         f"{var.shape}, {sup.shape}")
+    if w.shape != (mu.shape[0] + 1,):
+        raise ValueError(f"weights must have N + 1 = {mu.shape[0] + 1} entries, got {w.shape}")
+    seen = np.isfinite(x)
+    log_u = -np.log(sup[:, 1] - sup[:, 0])
+    k = x.shape[0]
+    min_wo = settings.min_outlier_weight
+    prev = -np.inf
+    beta = np.zeros((k, w.size))
+    ll, n_iter, converged = 0.0, 0, True
+    if k == 0 or mu.shape[0] == 0:
+        return PairsFit(w, mu, var, np.ones((k, 1)) if mu.shape[0] == 0 else beta, 0.0, 0, True)
+    for it in range(settings.max_iter + 1):
+        log_g, log_o = _pairs_log_densities(x, seen, mu, var, log_u)
+        log_d = np.concatenate([log_g + np.log(np.maximum(w[:-1], 1e-300))[None, :],
+                                (log_o + np.log(max(w[-1], 1e-300)))[:, None]], axis=1)
+        top = log_d.max(axis=1, keepdims=True)
+        dens = np.exp(log_d - top)
+        tot = dens.sum(axis=1, keepdims=True)
+        beta = dens / tot
+        ll = float((np.log(tot) + top).sum())
+        if abs(ll - prev) < settings.tol * k:
+            break
+        if it == settings.max_iter:
+            converged = False
+            break
+        prev = ll
+        gamma = beta.sum(axis=0)
+        w = gamma / k
+        if w[-1] < min_wo:
+            w[:-1] *= (1.0 - min_wo) / max(w[:-1].sum(), 1e-300)
+            w[-1] = min_wo
+        n_iter += 1
+        if not (update_means or update_variances):
+            continue
+        r = beta[:, :-1, None] * seen[:, None, :]  # (K, N, P): responsibilities where the pair has an ITD
+        g = r.sum(axis=0)
+        alive = g > 1e-10
+        safe = np.where(alive, g, 1.0)
+        xs = np.where(seen, x, 0.0)[:, None, :]
+        if update_means:
+            mu = np.where(alive, (r * xs).sum(axis=0) / safe, mu)
+        if update_variances:
+            d = np.where(seen[:, None, :], xs - mu[None, :, :], 0.0)
+            var = np.where(alive, np.clip((r * d * d).sum(axis=0) / safe, settings.var_floor_s2, max_variance_s2), var)
+    return PairsFit(w / w.sum(), mu, var, beta, ll, n_iter, converged)

@@ -189,6 +189,109 @@ class SpeakingTest:
         thr = np.maximum(_poisson_quantile(self.frame_quantile, lam) + 1.0, self.frame_min) - 1e-9
         return speaking | (counts > thr), np.maximum(prob, counts / (counts + thr))
 
+    def decide_pairs(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray, variances: np.ndarray,
+                     supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
+                     band_itds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+        """:meth:`decide` for several microphone pairs: the same three looks, in the space of ITD vectors.
+
+        itds : (K, P) one vector per window (NaN where a pair has none); means, variances : (N, P) each person's
+        Gaussian on each pair; supports : (P, 2) each pair's ITD interval; frame_itds (M, P) and band_itds (L, P)
+        likewise (a band's peaks are not matched across pairs, so a band row has one pair). A person's window is
+        the box of +-``window_sd`` sigma on every pair a vector has, and a vector counts for the person it lies
+        nearest to (summed squares over its pairs). Chance is the same Poisson count with each interval's share
+        replaced by the box's: the product over the vector's pairs of each pair's share, and the spill-over from
+        another person the product of the per-pair spills (independent errors per pair). Rows with different
+        pairs count separately, and their counts and Poisson means add up. With P = 1 this is :meth:`decide`.
+        """
+        x = np.asarray(itds, dtype=np.float64).reshape(len(beta), means.shape[1])
+        if present is not None:
+            beta, x = beta[present], x[present]
+        beta_counts = beta.sum(axis=0)
+        n, k = beta_counts.size, x.shape[0]
+        tau = speaking_threshold(k, n)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            prob = np.where(beta_counts + tau > 0, beta_counts / (beta_counts + tau), 0.0)
+        speaking = beta_counts > tau
+        if not (self.outlier_aware and n):
+            return speaking, prob, tau
+        u = 1.0 / (supports[:, 1] - supports[:, 0])
+        half = self.window_sd * np.maximum(np.sqrt(variances), self.min_sd_s)  # (N, P)
+        counts, lam = np.zeros(n), np.zeros(n)
+        for rows, pairs in _groups(x):
+            d = x[rows][:, None, pairs] - means[None, :, pairs]
+            inside = (np.abs(d) <= half[None, :, pairs]).all(axis=2)
+            b = beta[rows]
+            if self.count_by == "posterior":
+                share = b
+            elif self.count_by == "nearest":
+                share = b.sum(axis=1, keepdims=True) * _nearest(d)
+            else:
+                share = np.ones_like(b)
+            counts += (share * inside).sum(axis=0)
+            lam += self.outlier_share * rows.sum() * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).prod(axis=1)
+        thr = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds) - 1e-9
+        count_prob = counts / (counts + thr)
+        if self.use_tau_a:
+            speaking &= counts > thr
+            prob = np.minimum(prob, count_prob)
+        else:
+            speaking, prob = counts > thr, count_prob
+        if self.frame_rescue and frame_itds is not None and len(frame_itds):
+            speaking, prob = self._rescue_pairs(speaking, prob, np.asarray(frame_itds, dtype=np.float64), means, u,
+                                                self.frame_spread_s)
+        if self.frame_rescue and band_itds is not None and len(band_itds):
+            lo = means[None, :, :] < means[:, None, :]  # (person, other, pair): the other is below
+            hi = means[None, :, :] > means[:, None, :]
+            between = np.zeros(n, dtype=bool)
+            for i in range(n):
+                for a in np.flatnonzero(speaking):
+                    for b2 in np.flatnonzero(speaking):
+                        if (lo[i, a] & hi[i, b2]).all() or (hi[i, a] & lo[i, b2]).all():
+                            between[i] = True
+            found, found_prob = self._rescue_pairs(speaking, prob, np.asarray(band_itds, dtype=np.float64), means,
+                                                   u, self.band_spread_s)
+            speaking = np.where(between, speaking, found)
+            prob = np.where(between, prob, found_prob)
+        return speaking, prob, tau
+
+    def _rescue_pairs(self, speaking: np.ndarray, prob: np.ndarray, obs: np.ndarray, means: np.ndarray,
+                      u: np.ndarray, b: float) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_rescue` with vectors: within ``frame_within_s`` on every pair a row has, nearest, against the
+        per-group Poisson chance (uniform strays in the box, and the other people's spill, products over pairs)."""
+        delta = self.frame_within_s
+        n = means.shape[0]
+        counts, lam = np.zeros(n), np.zeros(n)
+        gap = np.abs(means[:, None, :] - means[None, :, :])  # (source, person, pair)
+        lo, hi = np.maximum(gap / 2, gap - delta), gap + delta
+        spill = 0.5 * (np.exp(-lo / b) - np.exp(-hi / b))
+        for rows, pairs in _groups(obs.reshape(-1, means.shape[1])):
+            d = obs.reshape(-1, means.shape[1])[rows][:, None, pairs] - means[None, :, pairs]
+            c = ((np.abs(d) <= delta).all(axis=2) & _nearest(d)).sum(axis=0)
+            lam_g = np.full(n, self.outlier_share * rows.sum() * np.minimum(2.0 * delta * u[pairs], 1.0).prod())
+            if n > 1:
+                sp = spill[:, :, pairs].prod(axis=2)
+                np.fill_diagonal(sp, 0.0)
+                lam_g += (c / (1.0 - np.exp(-delta / b)) ** pairs.sum()) @ sp
+            counts += c
+            lam += lam_g
+        thr = np.maximum(_poisson_quantile(self.frame_quantile, lam) + 1.0, self.frame_min) - 1e-9
+        return speaking | (counts > thr), np.maximum(prob, counts / (counts + thr))
+
+
+def _groups(x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Rows of ``x`` (K, P) grouped by which pairs they have (finite entries): ``(rows, pairs)`` masks, empty rows
+    (no pair) left out."""
+    seen = np.isfinite(x)
+    patterns, inverse = np.unique(seen, axis=0, return_inverse=True)
+    inverse = np.asarray(inverse).reshape(-1)
+    return [(inverse == g, pat) for g, pat in enumerate(patterns) if pat.any()]
+
+
+def _nearest(d: np.ndarray) -> np.ndarray:
+    """(K, N) True for the person each vector lies nearest to (summed squares over the pairs of ``d`` (K, N, P))."""
+    dist2 = (d * d).sum(axis=2)
+    return dist2 == dist2.min(axis=1, keepdims=True)
+
 
 def vote_speaking(ids: np.ndarray, speaking: np.ndarray, probability: np.ndarray,
                   window: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:

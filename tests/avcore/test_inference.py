@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.inference import (
     FaceGuidedHearing,
     FaceGuidedParams,
@@ -217,3 +217,54 @@ def test_face_guided_em_warns_when_it_does_not_converge_and_reports_its_final_mo
     assert not np.allclose(out.itd_means, mics.itd(faces))  # the paper's means move with EM
     anchored = FaceGuidedHearing(mics).step(faces, itds)
     assert np.array_equal(anchored.itd_means, mics.itd(faces))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# several microphone pairs
+
+FOUR_MICS = MicArray(((-0.06, 0.0, 0.0), (0.06, 0.0, 0.0), (0.0, 0.0, 0.05), (0.0, 0.0, -0.05)),
+                     pairs=((0, 1), (3, 2)))  # left-right, and back-front
+
+
+def test_two_pairs_tell_a_talker_behind_the_robot_from_the_face_in_front() -> None:
+    """A talker behind the robot, unseen, on the left: the left-right pair alone gives the same ITD as the face in
+    front on that side (front/back ambiguity), so one pair judges that face speaking; the back-front pair tells
+    them apart."""
+    rng = np.random.default_rng(7)
+    faces = np.array([[-1.0, 0.0, 1.0], [1.0, 0.0, 1.5]])
+    behind = np.array([-1.0, 0.0, -1.0])
+    itds = FOUR_MICS.itd(behind) + rng.normal(0.0, 10e-6, (25, 2))
+    one = FaceGuidedHearing(FOUR_MICS.pair(0)).step(faces, itds[:, 0])
+    assert one.speaking[0], "the left-right pair alone cannot tell front from back"
+    both = FaceGuidedHearing(FOUR_MICS).step(faces, itds)
+    assert not both.speaking.any()
+    assert both.pair_itd_means.shape == (2, 2)
+    assert np.allclose(both.pair_itd_means, FOUR_MICS.itd(faces))
+    # the face in front that really talks is found with both pairs
+    front = FOUR_MICS.itd(faces[0]) + rng.normal(0.0, 10e-6, (25, 2))
+    assert FaceGuidedHearing(FOUR_MICS).step(faces, front).speaking.tolist() == [True, False]
+
+
+def test_pairs_accept_unaligned_itds_and_missing_pairs() -> None:
+    """A sequence of P arrays (not aligned across pairs) counts each value on its own pair; NaN marks a pair a
+    window has no ITD for; the wrong number of pairs is a ValueError naming the argument."""
+    faces = np.array([[-1.0, 0.0, 1.0], [1.0, 0.0, 1.5]])
+    rng = np.random.default_rng(8)
+    mu = FOUR_MICS.itd(faces[1])
+    fg = FaceGuidedHearing(FOUR_MICS)
+    out = fg.step(faces, [mu[0] + rng.normal(0, 1e-5, 20), mu[1] + rng.normal(0, 1e-5, 12)])
+    assert out.speaking.tolist() == [False, True]
+    vectors = mu + rng.normal(0, 1e-5, (20, 2))
+    vectors[::2, 1] = np.nan
+    assert fg.step(faces, vectors).speaking.tolist() == [False, True]
+    with pytest.raises(ValueError, match="itds_s"):
+        fg.step(faces, np.zeros((4, 3)))
+
+
+def test_one_pair_array_is_the_pair() -> None:
+    """A MicArray of one pair gives exactly what its MicPair gives."""
+    rng = np.random.default_rng(9)
+    itds = np.concatenate([rng.normal(MICS.itd(PEOPLE[0]), 25e-6, 16), rng.uniform(-3e-4, 3e-4, 6)])
+    a = FaceGuidedHearing(MicArray.from_pair(MICS)).step(PEOPLE, itds)
+    b = FaceGuidedHearing(MICS).step(PEOPLE, itds)
+    assert np.array_equal(a.speaking, b.speaking) and np.array_equal(a.probability, b.probability)

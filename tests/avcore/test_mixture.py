@@ -226,3 +226,21 @@ def test_em_with_anchored_means_and_bounded_variances() -> None:
     assert frozen.model_.weights[0] == pytest.approx(0.6, abs=0.05)
     with pytest.raises(ValueError, match="max_variance_s2"):
         fit_em(x, init, max_variance_s2=1e-20)
+
+
+@pytest.mark.parametrize(("means", "variances"), [(False, False), (True, True), (False, True)])
+def test_pairs_em_with_one_pair_is_the_standard_em(means: bool, variances: bool) -> None:
+    from avcore.mixture import fit_pairs_em
+
+    rng = np.random.default_rng(1)
+    x = np.concatenate([rng.normal(-1e-4, 3e-5, 40), rng.uniform(-4e-4, 4e-4, 20)])
+    init = Mixture1D(np.array([0.4, 0.4, 0.2]), np.array([-9e-5, 1e-4]), np.array([1e-9, 1e-9]), (-4e-4, 4e-4))
+    settings = EMSettings(max_iter=50)
+    one = fit_em(x, init, settings=settings, update_means=means, update_variances=variances, max_variance_s2=4e-9)
+    pairs = fit_pairs_em(x[:, None], init.weights, init.means[:, None], init.variances[:, None],
+                         np.array([init.support]), settings=settings, update_means=means, update_variances=variances,
+                         max_variance_s2=4e-9)
+    assert pairs.weights == pytest.approx(one.model_.weights, abs=1e-12)
+    assert pairs.means[:, 0] == pytest.approx(one.model_.means, abs=1e-15)
+    assert pairs.variances[:, 0] == pytest.approx(one.model_.variances, rel=1e-9)
+    assert pairs.n_iter == one.n_iter_ and pairs.log_likelihood == pytest.approx(one.log_likelihood_)

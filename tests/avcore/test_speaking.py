@@ -178,3 +178,23 @@ def test_speaking_vote_of_one_passes_through() -> None:
     assert got[0][0] == "r" and got[0][1].tolist() == [True, False] and vote.flush() == []
     with pytest.raises(ValueError, match="odd"):
         SpeakingVote(4)
+
+
+def test_the_pairs_test_with_one_pair_is_the_one_pair_test() -> None:
+    """decide_pairs on (K, 1) vectors gives decide's states, probabilities and tau on random cases (all three
+    looks, every count_by)."""
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        n, k = int(rng.integers(1, 4)), int(rng.integers(0, 40))
+        means = np.sort(rng.uniform(-3e-4, 3e-4, n))
+        var = np.full(n, 1e-9)
+        model = Mixture1D(np.append(np.full(n, 0.8 / n), 0.2), means, var, (-4e-4, 4e-4))
+        a = np.concatenate([rng.normal(means[0], 3e-5, k // 2), rng.uniform(-4e-4, 4e-4, k - k // 2)])
+        beta = model.responsibilities(a)[:, :-1]
+        frames = rng.normal(means[-1], 2e-5, int(rng.integers(0, 20)))
+        bands = rng.uniform(-4e-4, 4e-4, int(rng.integers(0, 30)))
+        for test in (SpeakingTest(count_by="nearest"), SpeakingTest(), SpeakingTest(count_by="window")):
+            s1, p1, t1 = test.decide(beta, a, model, None, frames, bands)
+            s2, p2, t2 = test.decide_pairs(beta, a[:, None], means[:, None], var[:, None], np.array([[-4e-4, 4e-4]]),
+                                           None, frames[:, None], bands[:, None])
+            assert np.array_equal(s1, s2) and np.allclose(p1, p2, atol=1e-12) and t1 == t2
