@@ -74,6 +74,16 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                         "centred on it (odd; default 9, 0.3 s at 30 FPS); 1: each frame decides alone")
 
 
+def add_mics_argument(p: argparse.ArgumentParser) -> None:
+    """``--mics``: the simulated robot's microphones, one of the array presets."""
+    from avcore.geometry import ARRAY_PRESETS
+
+    p.add_argument("--mics", default="pair", choices=list(ARRAY_PRESETS),
+                   help="the simulated robot's microphones: pair (default, the paper's 12 cm pair), nao (NAO's "
+                        "four), respeaker4, respeaker-usb, respeaker6, ps3eye, uma8; with several, the face-guided "
+                        "fusion uses every pair")
+
+
 def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline imports this module's types
     """The :class:`app.pipeline.PipelineConfig` of :func:`add_method_arguments`' options; a bad combination is a
     :class:`app.errors.UserError`."""

@@ -31,7 +31,7 @@ from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
-from avcore.itd import ItdStream, ItdTrack, geometry_options, gives_frame_itds
+from avcore.itd import ItdStream, ItdTrack, PairsItdStream, geometry_options, gives_frame_itds
 from avcore.motion import harris_motion_points
 from avcore.speaking import SpeakingVote
 from avcore.stereo import StereoRig
@@ -121,10 +121,11 @@ class VisionMessage:
 
 @dataclass(frozen=True)
 class ItdMessage:
-    """One window's ITD, stamped at the window's centre."""
+    """One window's ITD, stamped at the window's centre: a float, or with several pairs a (P,) vector (NaN where a
+    pair's energy gate rejected the window)."""
 
     stamp_s: float
-    itd_s: float
+    itd_s: float | np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,6 +147,12 @@ class ClockMessage:
 FusionMessage = VisionMessage | ItdMessage | FrameItdsMessage | ClockMessage
 
 _NO_IMAGE = np.zeros((0, 0), dtype=np.uint8)
+
+
+def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
+    """Several pairs' ITD vectors (K, P) as a track (no confidence or energy: they are per pair)."""
+    nan = np.full(times.size, np.nan)
+    return ItdTrack(times, itds, nan, nan)
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
 
@@ -156,7 +163,7 @@ class FusionResult:
     stamp_s : capture time of the vision result (a frame, or an interval's centre). index : its frame number.
     image : the left image (h, w[, 3]) uint8. boxes : (N, 4) face boxes in pixels (None for motion-guided).
     xyz : (N, 3) metres, the faces (face-guided) or the HM3D points (motion-guided). itds_s : (K,) the ITDs of its
-    time frame. output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp (nan
+    time frame; (K, P) with several microphone pairs, one vector per window (NaN: the pair has none). output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp (nan
     for a source replayed as fast as possible).
     person_ids : (N,) stable ids of the people of ``output`` (avcore.tracking), the same person keeping its id.
     """
@@ -434,8 +441,9 @@ class Pipeline:
         c = self.config
         src = self.source
         left, right = src.channels
+        array = getattr(src, "array", None)
         extra = geometry_options(c.itd_method, src.mics.distance_m, src.mics.speed_of_sound)
-        stream: ItdStream | None = None
+        stream: ItdStream | PairsItdStream | None = None
         frame_itds = c.frame_itds and c.inference == "face" and gives_frame_itds(c.itd_method)
         start_s = expected_s = 0.0
         n = 0
@@ -444,7 +452,8 @@ class Pipeline:
             self._wait_for_vision(block.stamp_s)
             t0 = time.perf_counter()
             samples = np.asarray(block.samples, dtype=np.float64)
-            if samples.ndim != 2 or samples.shape[1] <= max(left, right):
+            need = max(left, right) if array is None else max(array.channels)
+            if samples.ndim != 2 or samples.shape[1] <= need:
                 self.stats.bad_audio_blocks += 1
                 continue
             if not np.all(np.isfinite(samples)):
@@ -454,24 +463,44 @@ class Pipeline:
                 # first block, or samples were lost (an overflow, a dropped block): restart at this block's clock
                 if stream is not None:
                     self.stats.audio_gaps += 1
-                stream = ItdStream(src.samplerate_hz, method=c.itd_method, window_s=c.window_s, hop_s=c.hop_s,
-                                   energy_threshold=c.energy_threshold, max_itd_s=1.2 * src.mics.max_itd_s,
-                                   frame_itds=frame_itds, **extra)
+                options = dict(method=c.itd_method, window_s=c.window_s, hop_s=c.hop_s,
+                               energy_threshold=c.energy_threshold, frame_itds=frame_itds)
+                stream = (ItdStream(src.samplerate_hz, max_itd_s=1.2 * src.mics.max_itd_s, **options, **extra)
+                          if array is None else PairsItdStream(array, src.samplerate_hz, **options))
                 start_s = block.stamp_s
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
-            track = stream.push(samples[:, left], samples[:, right])
-            if frame_itds:  # before the windows' ITDs, which complete vision frames (frames run ahead of windows)
-                frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
-                if len(frames):
-                    self._offer(self._q_fusion, FrameItdsMessage(start_s, frames, bands))
-            for t, itd in zip(track.times_s, track.itds_s):
-                self._offer(self._q_fusion, ItdMessage(start_s + float(t), float(itd)))
-            self.stats.itds += len(track)
+            if array is None:
+                self._pass_itds(stream.push(samples[:, left], samples[:, right]), stream, start_s, frame_itds)
+            else:
+                self._pass_itd_vectors(stream.push(samples), stream, start_s, frame_itds)
             # the audio clock: windows centred before this time are all extracted
             self._offer(self._q_fusion, ClockMessage(expected_s - c.window_s / 2))
             n += 1
             self.stats.audio_blocks = n
             self._timed("itd", t0, n)
+
+    def _pass_itds(self, track: ItdTrack, stream: ItdStream, start_s: float, frame_itds: bool) -> None:
+        """One pair: the frames' ITDs (before the windows' ITDs, which complete vision frames: frames run ahead of
+        windows), then the windows' ITDs, to the fusion thread."""
+        if frame_itds:
+            frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
+            if len(frames):
+                self._offer(self._q_fusion, FrameItdsMessage(start_s, frames, bands))
+        for t, itd in zip(track.times_s, track.itds_s):
+            self._offer(self._q_fusion, ItdMessage(start_s + float(t), float(itd)))
+        self.stats.itds += len(track)
+
+    def _pass_itd_vectors(self, windows: tuple[np.ndarray, np.ndarray], stream: PairsItdStream, start_s: float,
+                          frame_itds: bool) -> None:
+        """:meth:`_pass_itds` with several pairs: one vector per window, frame and band row."""
+        if frame_itds:
+            frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
+            if len(frames[0]):
+                self._offer(self._q_fusion, FrameItdsMessage(start_s, _vectors(*frames), _vectors(*bands)))
+        times, itds = windows
+        for t, itd in zip(times, itds):
+            self._offer(self._q_fusion, ItdMessage(start_s + float(t), itd))
+        self.stats.itds += len(times)
 
     def _wait_for_vision(self, stamp: float) -> None:
         """A replay as fast as possible: hold the audio at ``stamp`` until vision has taken the frames up to
@@ -493,7 +522,10 @@ class Pipeline:
         c = self.config
         mics = self.source.mics
         sync = self._sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
-        hearing = (FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=c.decision_window_s))
+        array = getattr(self.source, "array", None)
+        # several pairs: the face-guided model of every pair; Algorithm 1 clusters on the first pair's ITDs
+        hearing = (FaceGuidedHearing(array if array is not None else mics,
+                                     FaceGuidedParams(decision_window_s=c.decision_window_s))
                    if c.inference == "face" else MotionGuidedHearing(mics))
         tracker = NearestTracker()
         while True:
@@ -541,12 +573,15 @@ class Pipeline:
               vision: VisionMessage, itds: list[tuple[float, float]]) -> None:
         t0 = time.perf_counter()
         stamp, frame, boxes, xyz = vision.stamp_s, vision.frame, vision.boxes, vision.xyz
-        timed = np.asarray(itds, dtype=np.float64).reshape(-1, 2)  # (window centre, ITD)
-        a = timed[:, 1].copy()
+        times = np.array([t for t, _ in itds], dtype=np.float64)
+        a = np.array([v for _, v in itds], dtype=np.float64)  # (K,), or (K, P) with several pairs
         if isinstance(hearing, FaceGuidedHearing):
-            output = hearing.step(xyz, a, timed[:, 0] - stamp, *self._frame_itds.near(stamp))
+            if hearing.array is not None:
+                a = a.reshape(times.size, hearing.array.n_pairs)
+            output = hearing.step(xyz, a, times - stamp, *self._frame_itds.near(stamp))
         else:
-            output = hearing.step(xyz, a)
+            first = a if a.ndim == 1 else a[:, 0][np.isfinite(a[:, 0])]
+            output = hearing.step(xyz, first)
         ids = tracker.update(xyz if boxes is not None else output.positions)
         result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, float("nan"), ids)
         for voted in self._vote.push(result, ids, output.speaking, output.probability):

@@ -58,7 +58,7 @@ def result_record(result: Any) -> dict[str, Any]:
         "stamp_s": round(float(result.stamp_s), 6),
         "index": int(result.index),
         "mode": result.mode,
-        "n_itds": int(np.asarray(result.itds_s).size),
+        "n_itds": int(np.asarray(result.itds_s).shape[0]),
         "latency_s": _num(result.latency_s),
         "people": people,
     }

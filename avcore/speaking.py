@@ -199,9 +199,11 @@ class SpeakingTest:
         likewise (a band's peaks are not matched across pairs, so a band row has one pair). A person's window is
         the box of +-``window_sd`` sigma on every pair a vector has, and a vector counts for the person it lies
         nearest to (summed squares over its pairs). Chance is the same Poisson count with each interval's share
-        replaced by the box's: the product over the vector's pairs of each pair's share, and the spill-over from
-        another person the product of the per-pair spills (independent errors per pair). Rows with different
-        pairs count separately, and their counts and Poisson means add up. With P = 1 this is :meth:`decide`.
+        replaced by the box's, bounded by its tightest pair: the smallest of the pairs' shares, and for the
+        spill-over from another person the smallest of the per-pair spills. The product (independent pairs) would
+        be far too small: the ITDs of one sound on every pair follow from one direction (two degrees of freedom),
+        so a reflection or a stray sound is as consistent across the pairs as a talker. Rows with different pairs
+        count separately, and their counts and Poisson means add up. With P = 1 this is :meth:`decide`.
         """
         x = np.asarray(itds, dtype=np.float64).reshape(len(beta), means.shape[1])
         if present is not None:
@@ -228,7 +230,7 @@ class SpeakingTest:
             else:
                 share = np.ones_like(b)
             counts += (share * inside).sum(axis=0)
-            lam += self.outlier_share * rows.sum() * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).prod(axis=1)
+            lam += self.outlier_share * rows.sum() * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).min(axis=1)
         thr = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds) - 1e-9
         count_prob = counts / (counts + thr)
         if self.use_tau_a:
@@ -267,11 +269,11 @@ class SpeakingTest:
         for rows, pairs in _groups(obs.reshape(-1, means.shape[1])):
             d = obs.reshape(-1, means.shape[1])[rows][:, None, pairs] - means[None, :, pairs]
             c = ((np.abs(d) <= delta).all(axis=2) & _nearest(d)).sum(axis=0)
-            lam_g = np.full(n, self.outlier_share * rows.sum() * np.minimum(2.0 * delta * u[pairs], 1.0).prod())
+            lam_g = np.full(n, self.outlier_share * rows.sum() * np.minimum(2.0 * delta * u[pairs], 1.0).min())
             if n > 1:
-                sp = spill[:, :, pairs].prod(axis=2)
+                sp = spill[:, :, pairs].min(axis=2)
                 np.fill_diagonal(sp, 0.0)
-                lam_g += (c / (1.0 - np.exp(-delta / b)) ** pairs.sum()) @ sp
+                lam_g += (c / (1.0 - np.exp(-delta / b))) @ sp
             counts += c
             lam += lam_g
         thr = np.maximum(_poisson_quantile(self.frame_quantile, lam) + 1.0, self.frame_min) - 1e-9

@@ -49,6 +49,7 @@ def default_blueprint() -> rrb.Blueprint:
     itd_space = rrb.Spatial2DView(origin="itd", contents=["+ $origin/**", "- $origin/bars"],
                                   name="ITD space (us; fraction of ITDs per bin)")
     itd_bars = rrb.BarChartView(origin="itd/bars", name="ITD histogram (counts)")
+    itd_pairs = rrb.Spatial2DView(origin="itd_pairs", name="ITDs per pair (us; one row per microphone pair)")
     speaking = rrb.TimeSeriesView(origin="people", name="Speaking probability",
                                   axis_y=rrb.ScalarAxis(range=(0.0, 1.0), zoom_lock=True),
                                   plot_legend=rrb.PlotLegend(rrb.Corner2D.LeftTop), time_ranges=_recent())
@@ -65,7 +66,7 @@ def default_blueprint() -> rrb.Blueprint:
 
     paper = rrb.Vertical(
         rrb.Horizontal(image, birdseye, column_shares=[4, 3]),
-        rrb.Horizontal(rrb.Tabs(itd_space, itd_bars, active_tab=0), speaking, column_shares=[4, 3]),
+        rrb.Horizontal(rrb.Tabs(itd_space, itd_bars, itd_pairs, active_tab=0), speaking, column_shares=[4, 3]),
         row_shares=[3, 2],
         name="Vision-guided robot hearing",
     )

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -61,7 +61,8 @@ def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = Non
 class SimAudio:
     """The microphone signals of a whole scenario.
 
-    samples : (n, 2) int16 -- left, right, as a 16-bit sound card gives them (full scale 32768);
+    samples : (n, Q) int16 -- one channel per microphone (left, right for the pair), as a 16-bit sound card gives
+        them (full scale 32768);
     dry : (N, n) float32 -- what each actor emits (speech, claps, loudspeaker noise), at the source, by actor;
     measured_rt60_s : the reverberation time measured on the simulated responses; n_sources : how many responses
     were computed; clipped : samples that hit full scale.
@@ -141,7 +142,8 @@ def _source_pieces(scenario: Scenario, bank: ClipBank, n: int, fs: int, max_step
 def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float = 0.1, fan_snr_db: float = 25.0,
                  sensor_noise_rms: float = 1e-4, max_step_m: float = 0.08,
                  progress: Callable[[str], None] | None = None) -> SimAudio:
-    """The two microphone signals of ``scenario`` (paper section 7.3's room: reverberation, the robot's fan).
+    """The microphones' signals of ``scenario`` (paper section 7.3's room: reverberation, the robot's fan), one
+    channel per microphone of ``scenario.room`` (two for the default pair).
 
     Every sound event leaves from its actor (mouth, hands, loudspeaker: ``SOURCE_OFFSETS_M``) and reaches the
     microphones through the room's image-source response. A moving source is cut into pieces with triangular
@@ -173,7 +175,8 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
 
     gain = speech_level_rms * REFERENCE_DISTANCE_M  # pyroomacoustics' direct path has amplitude 1/r (r in metres)
     length = n + rirs.shape[2]
-    out = np.zeros((2, length))
+    n_mics = rirs.shape[1]
+    out = np.zeros((n_mics, length))
     by_source: dict[int, list[tuple[int, np.ndarray]]] = {}
     for pos, s0, sig in pieces:
         by_source.setdefault(keys[tuple(int(v) for v in np.round(pos * 1000))], []).append((s0, sig))
@@ -183,12 +186,12 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
         track = np.zeros(hi - lo)
         for s0, sig in items:
             track[s0 - lo:s0 - lo + sig.size] += sig
-        for m in range(2):
+        for m in range(n_mics):
             y = fftconvolve(track, rirs[src, m])
             out[m, lo:lo + y.size] += gain * y
     out = out[:, :n]
 
-    fan = np.stack([fftconvolve(fan_noise(n, fs, rng), rirs[-1, m])[:n] for m in range(2)])
+    fan = np.stack([fftconvolve(fan_noise(n, fs, rng), rirs[-1, m])[:n] for m in range(n_mics)])
     fan_rms = float(np.sqrt(np.mean(fan[0] ** 2)))
     if fan_rms > 0:
         out += fan * (speech_level_rms * 10 ** (-fan_snr_db / 20) / fan_rms)
@@ -206,10 +209,10 @@ def _impulse_responses(room: AcousticRoom, positions: np.ndarray) -> tuple[np.nd
     correction does not depend on where the source is, and building the room twice for every source costs twice)."""
     if not room.match_rt60:
         return room.impulse_responses(positions)
-    plain = AcousticRoom(room.dims_m, room.rt60_s, room.head_m, room.mic_distance_m, room.samplerate_hz, match_rt60=False)
+    plain = replace(room, match_rt60=False)
     _, measured = plain.impulse_responses(positions[:1])
     target = room.rt60_s
     if abs(measured - target) > 0.05 * target:
         target = max(0.05, min(3.0, target * target / measured))
-    corrected = AcousticRoom(room.dims_m, target, room.head_m, room.mic_distance_m, room.samplerate_hz, match_rt60=False)
+    corrected = replace(room, rt60_s=target, match_rt60=False)
     return corrected.impulse_responses(positions)

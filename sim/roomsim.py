@@ -30,7 +30,7 @@ from scipy.io import wavfile
 from scipy.signal import fftconvolve, lfilter, resample_poly
 
 from avcore._validate import as_points
-from avcore.geometry import SPEED_OF_SOUND, MicPair
+from avcore.geometry import SPEED_OF_SOUND, MicArray, MicPair
 
 __all__ = [
     "DEFAULT_DATA_DIR",
@@ -207,6 +207,9 @@ class AcousticRoom:
     mic_distance_m : float, metres
         Distance between the two microphones (12 cm by default), on the scene x axis.
     samplerate_hz : int
+    mic_positions_m : (Q, 3) metres, scene frame, or None
+        Several microphones (an array such as :data:`avcore.geometry.ARRAY_PRESETS`' on the robot's head, origin
+        at the head); None: the pair of ``mic_distance_m``.
     match_rt60 : bool
         The image-source model decays more slowly than Sabine's formula predicts; if True, the absorption is
         corrected once so that the RT60 measured on the simulated responses is close to ``rt60_s``.
@@ -218,6 +221,7 @@ class AcousticRoom:
     mic_distance_m: float = 0.12
     samplerate_hz: int = 16000
     match_rt60: bool = True
+    mic_positions_m: tuple[tuple[float, float, float], ...] | None = None
 
     def __post_init__(self) -> None:
         dims = np.asarray(self.dims_m, dtype=np.float64)
@@ -229,11 +233,28 @@ class AcousticRoom:
             raise ValueError(f"mic_distance_m must be in (0, 1) metres, got {self.mic_distance_m!r}")
         if not isinstance(self.samplerate_hz, (int, np.integer)) or self.samplerate_hz < 4000:
             raise ValueError(f"samplerate_hz must be an integer >= 4000, got {self.samplerate_hz!r}")
-        self._check_inside(self.scene_to_room(self.mic_pair().left), "the left microphone")
-        self._check_inside(self.scene_to_room(self.mic_pair().right), "the right microphone")
+        if self.mic_positions_m is not None:
+            object.__setattr__(self, "mic_positions_m", MicArray(tuple(self.mic_positions_m)).positions)
+        for q, position in enumerate(self.mic_positions()):
+            self._check_inside(self.scene_to_room(position), f"microphone {q}")
+
+    def mic_positions(self) -> np.ndarray:
+        """(Q, 3) the microphones in the scene frame: ``mic_positions_m``, or the pair ``(-+d/2, 0, 0)``."""
+        if self.mic_positions_m is not None:
+            return np.asarray(self.mic_positions_m, dtype=np.float64)
+        h = self.mic_distance_m / 2
+        return np.array([(-h, 0.0, 0.0), (h, 0.0, 0.0)])
+
+    def mic_array(self, speed_of_sound: float = SPEED_OF_SOUND) -> MicArray:
+        """The microphones as a :class:`MicArray` (every pair, the widest left-right first); channel q is
+        microphone q."""
+        return MicArray(tuple(map(tuple, self.mic_positions())), speed_of_sound=speed_of_sound)
 
     def mic_pair(self, speed_of_sound: float = SPEED_OF_SOUND) -> MicPair:
-        """The microphones in the scene frame: ``(-d/2, 0, 0)`` and ``(+d/2, 0, 0)``."""
+        """The microphone pair in the scene frame: ``(-d/2, 0, 0)`` and ``(+d/2, 0, 0)``, or an array's first
+        pair."""
+        if self.mic_positions_m is not None:
+            return self.mic_array(speed_of_sound).pair(0)
         h = self.mic_distance_m / 2
         return MicPair(left=(-h, 0.0, 0.0), right=(h, 0.0, 0.0), speed_of_sound=speed_of_sound)
 
@@ -255,10 +276,10 @@ class AcousticRoom:
                              f"the room {list(self.dims_m)} with a {margin} m margin; move it or enlarge the room")
 
     def impulse_responses(self, sources_scene: object) -> tuple[np.ndarray, float]:
-        """AcousticRoom impulse responses from each source to the left and right microphones.
+        """AcousticRoom impulse responses from each source to each microphone (:meth:`mic_positions`).
 
         sources_scene : (S, 3) float, metres, scene frame.
-        Returns ``(S, 2, L)`` responses (pyroomacoustics' global delay of 40 samples included, the same for both
+        Returns ``(S, Q, L)`` responses (pyroomacoustics' global delay of 40 samples included, the same for both
         microphones) and the RT60 measured on them, seconds.
         """
         pra = _pyroomacoustics()
@@ -266,7 +287,7 @@ class AcousticRoom:
         room_src = self.scene_to_room(src)
         for i, p in enumerate(room_src):
             self._check_inside(p, f"source {i}")
-        mics = self.scene_to_room(np.array([self.mic_pair().left, self.mic_pair().right])).T  # (3, 2)
+        mics = self.scene_to_room(self.mic_positions()).T  # (3, Q)
 
         def build(rt60: float):
             e_absorption, max_order = pra.inverse_sabine(rt60, list(self.dims_m))
@@ -283,10 +304,11 @@ class AcousticRoom:
         if self.match_rt60 and abs(measured - self.rt60_s) > 0.05 * self.rt60_s:
             room = build(max(0.05, self.rt60_s * self.rt60_s / measured))
             measured = float(np.mean(room.measure_rt60()))
-        length = max(len(room.rir[m][s]) for m in range(2) for s in range(len(room_src)))
-        rirs = np.zeros((len(room_src), 2, length))
+        n_mics = mics.shape[1]
+        length = max(len(room.rir[m][s]) for m in range(n_mics) for s in range(len(room_src)))
+        rirs = np.zeros((len(room_src), n_mics, length))
         for s in range(len(room_src)):
-            for m in range(2):
+            for m in range(n_mics):
                 r = room.rir[m][s]
                 rirs[s, m, :len(r)] = r
         return rirs, measured

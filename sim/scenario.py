@@ -27,14 +27,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
 
 from avcore.calibration import CALIBRATION_BURST_S
 from avcore.evaluation import FrameTruth
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from sim.render import VisualRoom
 from sim.roomsim import AcousticRoom
 from sim.roomsim import synthetic_speech
@@ -270,6 +270,11 @@ class Scenario:
         return self.room.mic_pair()
 
     @property
+    def array(self) -> MicArray:
+        """All the microphones (channel q is microphone q), every pair, the widest left-right first."""
+        return self.room.mic_array()
+
+    @property
     def visual_room(self) -> VisualRoom:
         """The same room for the renderer: walls at the acoustic room's walls, seen from the head."""
         dims, head = self.room.dims_m, self.room.head_m
@@ -488,8 +493,11 @@ _DESCRIPTIONS = {
 
 
 def make_scenario(name: str, *, clip_durations_s: Sequence[Sequence[float]], duration_s: float | None = None,
-                  seed: int = 0, rt60_s: float = 0.4) -> Scenario:
+                  seed: int = 0, rt60_s: float = 0.4, mics: str = "pair") -> Scenario:
     """A preset of :data:`PRESETS`, ``duration_s`` seconds long (default :data:`DEFAULT_DURATION_S`).
+
+    mics : the robot's microphones, a name of :data:`avcore.geometry.ARRAY_PRESETS` placed on the head (the scene
+    origin); "pair" is the 12 cm pair of the paper's setting.
 
     clip_durations_s : ``ClipBank.durations_s`` of the clips the audio will be made of; the speech timeline is laid
     out with them so that utterances never overlap their own speaker's next one.
@@ -508,6 +516,8 @@ def make_scenario(name: str, *, clip_durations_s: Sequence[Sequence[float]], dur
     voices = [int(order[i % order.size]) for i in range(3)]
     rig = default_rig()
     room = default_acoustic_room(rt60_s)
+    if mics != "pair":
+        room = replace(room, mic_positions_m=MicArray.preset(mics).positions)
     seated = [(-0.75, -0.15, 1.9), (0.0, -0.1, 2.4), (0.8, -0.15, 2.0)]
 
     def actor(i: int, path: Path3D, posture: str = "seated") -> Actor:

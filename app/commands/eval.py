@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.options import MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config
+from app.options import MAX_SIMULATED_S, add_method_arguments, add_mics_argument, count, duration, pipeline_config
 from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets, signed_us,
                              synthetic_json)
 from app.paths import output_dir
@@ -75,6 +75,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     sce.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="SECONDS",
                      help="seconds of each scenario (default: the preset's, 20 s; 25 s for S5)")
     add_method_arguments(sce)
+    add_mics_argument(sce)
     sce.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
                      help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
                           "(40 s), as a user of the rig would, and fuse with it (default); --no-calibrate fuses "
@@ -131,7 +132,10 @@ def run_scenarios(args: argparse.Namespace) -> int:
         output_dir(args.timeline, "--timeline")
     start = time.perf_counter()
     calibration: CalibrationFit | None = None
-    if args.calibrate:
+    if args.calibrate and args.mics != "pair":
+        _progress(f"--mics {args.mics}: no audio-visual calibration (it fits one pair; the simulated microphones are "
+                  "exact)")
+    if args.calibrate and args.mics == "pair":
         _progress("calibration preset (section 5.3): fitting c1, c0 ...")
         calibration = calibrate_on_preset(seed=args.seed[0], config=config)
         c = calibration.as_dict()
@@ -144,7 +148,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
             _progress(f"{name} seed {seed}: simulating and running the {config.inference}-guided pipeline ...")
             t0 = time.perf_counter()
             score = evaluate_scenario(name, seed, duration_s=args.duration, config=config,
-                                      mics=calibration.mics if calibration else None)
+                                      mics=calibration.mics if calibration else None, mic_array=args.mics)
             c = score.counts
             _progress(f"{name} seed {seed}: TP {c.tp}, FN {c.fn}, FP {c.fp} ({time.perf_counter() - t0:.0f} s)")
             if args.timeline is not None and score.timeline is not None:

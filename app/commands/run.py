@@ -15,8 +15,8 @@ from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_sess
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.sources.live import LiveConfig, add_device_arguments, live_config
-from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_method_arguments, count, duration, pipeline_config,
-                         port)
+from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_method_arguments, add_mics_argument, count, duration,
+                         pipeline_config, port)
 from app.paths import output_file
 from app.pipeline import FusionResult, Pipeline, PipelineConfig, PipelineStats
 from app.results import ResultsWriter
@@ -30,6 +30,7 @@ DEMO_RRD = Path("recordings/demo.rrd")
 def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: float = MAX_DURATION_S) -> None:
     p.add_argument("--duration", type=duration(max_duration_s), default=None, metavar="SECONDS", help=duration_help)
     add_method_arguments(p)
+    add_mics_argument(p)
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
     where.add_argument("--save", type=Path, default=None, metavar="FILE.rrd",
                        help="save the console's data to this file")
@@ -108,6 +109,9 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
     if spec.startswith("sim:") and args.duration is not None and args.duration > MAX_SIMULATED_S:
         raise UserError(f"--duration {args.duration:g}: the simulated room runs at most {MAX_SIMULATED_S:g} s "
                         "(it renders the whole scenario's audio in memory); for longer runs, repeat or use a recording")
+    if args.mics != "pair" and not spec.startswith("sim:"):
+        raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {spec} brings its own (one "
+                        "pair from the rig file or the recording)")
     if target.save is not None:
         output_file(target.save, "--save")
     if args.stats_json is not None:
@@ -135,7 +139,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         else:
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
-                                 progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+                                 mics=args.mics, progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
         return _run_checked(spec, args, target, config, source, results, publisher,
                             wall_time=live is not None or spec == "bus")
@@ -198,7 +202,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
               f"{meta.get('speech')} speech", file=sys.stderr, flush=True)
     session = ViewerSession(target)
     rec = session.recording
-    console = Console(source.rig, source.mics, recording=rec) if rec is not None else None
+    console = (Console(source.rig, source.mics, recording=rec, array=getattr(source, "array", None))
+               if rec is not None else None)
     sinks = _Sinks(session, console, results, publisher)
     pipeline = sinks.pipeline = Pipeline(source, config, sinks)
     terminated = threading.Event()

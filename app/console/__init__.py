@@ -61,7 +61,7 @@ import pyarrow as pa
 import rerun as rr
 
 from app.console import geometry as geo
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.mixture import Mixture1D
 from avcore.stereo import StereoRig
 from layouts.blueprint import APPLICATION_ID
@@ -88,6 +88,9 @@ BIRDSEYE_HEADS = "birdseye/heads/circles"
 ITD = "itd"
 ITD_GAUSSIANS = "itd/faces/gaussians"
 ITD_BARS = "itd/bars"
+ITD_PAIRS_HIST = "itd_pairs/histograms"
+ITD_PAIRS_PEOPLE = "itd_pairs/people"
+_PAIR_ROW = 200.0  # display units (us) between two pairs' rows; a bin of 100 % of a pair's ITDs fills its row
 PEOPLE = "people"
 COUNTS = "counts"
 COUNT_SERIES = ("people", "speakers", "ITDs in the interval")  # the three series of ``counts``, in this order
@@ -168,8 +171,9 @@ class ConsoleFrame:
         Head (face) centres in the scene frame.
     speaking : (N,) bool; probability : (N,) float in [0, 1]
         The speaking states and probabilities of inference (eq. audio_act).
-    itds_s : (K,) float, seconds
-        The ITDs of the interval.
+    itds_s : (K,) float, seconds, or (K, P) with several microphone pairs
+        The ITDs of the interval. With P pairs, the ITD-space pane shows the first pair's (the one ``model`` is
+        fitted on) and each pair gets its own histogram in the "ITDs per pair" pane (``pair_itds_s``).
     model : Mixture1D or None
         The fitted 1-D model, its N Gaussian components in the order of the faces; None draws no curve.
     person_ids : (N,) int or None
@@ -193,6 +197,7 @@ class ConsoleFrame:
     person_ids: np.ndarray | None = None
     points_xyz: np.ndarray | None = None
     diagnostics: Mapping[str, float] = field(default_factory=dict)
+    pair_itds_s: np.ndarray | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         if not (isinstance(self.stamp_s, (int, float, np.floating, np.integer)) and np.isfinite(self.stamp_s)):
@@ -230,9 +235,12 @@ class ConsoleFrame:
             raise ValueError("faces_xyz and boxes must be finite; drop unmatched faces before building the frame")
         if np.any(~((prob >= 0) & (prob <= 1))):
             raise ValueError(f"probability must lie in [0, 1], got {prob.tolist()}")
-        if np.ndim(self.itds_s) != 1:
-            raise ValueError(f"itds_s must be a 1-D array of seconds, got shape {np.shape(self.itds_s)}")
+        if np.ndim(self.itds_s) not in (1, 2):
+            raise ValueError(f"itds_s must be a (K,) or (K, P) array of seconds, got shape {np.shape(self.itds_s)}")
         itds = np.asarray(self.itds_s, dtype=np.float64)
+        if itds.ndim == 2:
+            object.__setattr__(self, "pair_itds_s", itds)
+            itds = itds[np.isfinite(itds[:, 0]), 0] if itds.shape[1] else np.zeros(0)
         if self.model is not None:
             if not isinstance(self.model, Mixture1D):
                 raise TypeError(f"model must be a Mixture1D or None, got {type(self.model).__name__}")
@@ -317,7 +325,7 @@ class Console:
     def __init__(self, rig: StereoRig, mics: MicPair, *, recording: rr.RecordingStream | None = None,
                  jpeg_quality: int | None = 80, image_every: int = 1, itd_bin_s: float = 10e-6,
                  capture_epoch_s: float | None = None, head_radius_m: float = 0.09,
-                 fov_depth_m: float = 6.0) -> None:
+                 fov_depth_m: float = 6.0, array: MicArray | None = None) -> None:
         if not isinstance(rig, StereoRig):
             raise TypeError(f"rig must be a StereoRig, got {type(rig).__name__}")
         if not isinstance(mics, MicPair):
@@ -341,6 +349,9 @@ class Console:
         self.fov_depth_m = float(fov_depth_m)
         self.itd_pane = geo.ItdPane.for_mics(mics, bin_s=itd_bin_s)
         self._edges_s = self.itd_pane.edges_s
+        self.array = array if array is not None and array.n_pairs > 1 else None
+        self._pair_panes = ([geo.ItdPane.for_mics(array.pair(k), bin_s=itd_bin_s) for k in range(array.n_pairs)]
+                            if self.array is not None else [])
         self.frames_logged = 0
         self.new_part()
 
@@ -452,6 +463,7 @@ class Console:
         self._log_faces(frame, colors, labels, discs)
         self._log_heads(frame, colors, labels, discs)
         self._log_itd_space(frame, ids, colors)
+        self._log_pairs(frame, colors)
         self._log_series(frame, ids, colors)
         self._log_points(frame.points_xyz)
         self.frames_logged += 1
@@ -549,6 +561,29 @@ class Console:
                                          labels=[f"{pid}: mu {mu:+.0f} us" for pid, mu in zip(ids, means_us,
                                                                                               strict=True)]),
                          rr.Points2D(pane.xy(mapped_s, np.zeros(n)), radii=4.0, colors=colors))
+
+    def _log_pairs(self, frame: ConsoleFrame, colors: np.ndarray) -> None:
+        """The "ITDs per pair" pane: each pair's histogram, one row per pair (the first at the top), and each
+        person's mapped ITD on it as a dot."""
+        if self.array is None or frame.pair_itds_s is None or frame.pair_itds_s.shape[1] != self.array.n_pairs:
+            return
+        strips, labels, dots, dot_colors = [], [], [], []
+        mapped = self.array.itd(frame.faces_xyz).reshape(-1, self.array.n_pairs)
+        for k, pane in enumerate(self._pair_panes):
+            column = frame.pair_itds_s[:, k]
+            values = column[np.isfinite(column)]
+            edges = pane.edges_s
+            counts, _ = geo.itd_histogram(values, edges)
+            xs, ys = geo.histogram_outline(edges, counts / values.size if values.size else np.zeros(counts.shape))
+            row = k * _PAIR_ROW
+            strips.append(pane.xy(xs, ys * _PAIR_ROW / pane.height_per_fraction) + (0.0, row))
+            i, j = self.array.pairs[k]  # type: ignore[index]
+            labels.append(f"mics {i}-{j}: {values.size} ITDs")
+            dots.append(np.stack([mapped[:, k] * 1e6, np.full(mapped.shape[0], row)], axis=1))
+            dot_colors.append(colors)
+        self._log(ITD_PAIRS_HIST, rr.LineStrips2D(_strips_2d(strips), radii=0.8, colors=[(40, 40, 40)],
+                                                  labels=labels))
+        self._log(ITD_PAIRS_PEOPLE, rr.Points2D(np.concatenate(dots), radii=4.0, colors=np.concatenate(dot_colors)))
 
     def _log_bars(self, counts: np.ndarray) -> None:
         if self._counts_tensor is not None:

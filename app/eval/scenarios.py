@@ -335,8 +335,10 @@ class CalibrationFit:
                 "median_abs_residual_after_us": round(self.median_abs_after_s * 1e6, 2)}
 
 
-def _open(name: str, seed: int, duration_s: float | None, progress: Progress | None) -> StreamAdapter:
-    source = open_source(f"sim:{name}", realtime=False, duration_s=duration_s, seed=seed, progress=progress)
+def _open(name: str, seed: int, duration_s: float | None, progress: Progress | None,
+          mic_array: str = "pair") -> StreamAdapter:
+    source = open_source(f"sim:{name}", realtime=False, duration_s=duration_s, seed=seed, mics=mic_array,
+                         progress=progress)
     assert isinstance(source, StreamAdapter)
     return source
 
@@ -367,17 +369,21 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
 
 def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = None,
                       config: PipelineConfig | None = None, mics: MicPair | None = None,
-                      progress: Progress | None = None) -> ScenarioScore:
+                      mic_array: str = "pair", progress: Progress | None = None) -> ScenarioScore:
     """Simulate scenario ``name`` (S1-S5) with ``seed``, run it through the pipeline and score it (section 7.3).
 
     duration_s : seconds of scenario (default the preset's, 20-25 s). config : the pipeline's settings (default
     face-guided, the paper's on NAO). mics : the microphone pair with an audio-visual correction (e.g.
-    :func:`calibrate_on_preset`); default the simulator's nominal pair with c1 = 1, c0 = 0.
+    :func:`calibrate_on_preset`); default the simulator's nominal pair with c1 = 1, c0 = 0. mic_array : the
+    robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); with several pairs the fusion uses them all and
+    ``mics`` must be None (the simulated microphones are exact).
     """
+    if mics is not None and mic_array != "pair":
+        raise ValueError("an audio-visual correction (mics) applies to the one pair; use mic_array='pair' with it")
     if name not in SCENARIOS:
         raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}, got {name!r}")
     cfg = config or PipelineConfig()
-    source = _open(name, seed, duration_s, progress)
+    source = _open(name, seed, duration_s, progress, mic_array)
     if mics is not None:
         source.mics = mics
     fused: list[FusionResult] = []
@@ -390,8 +396,8 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     stream = source.stream
     scenario: Scenario = stream.scenario  # type: ignore[attr-defined]
     audio = np.concatenate([b.samples for b in stream.audio_blocks()], axis=0).astype(np.float64)
-    score = score_run(scenario, fused, audio, float(stream.samplerate_hz), source.mics, cfg,
-                      frame_stamps_s=np.asarray(stream.frame_stamps_s))
+    score = score_run(scenario, fused, audio[:, list(source.channels)], float(stream.samplerate_hz), source.mics,
+                      cfg, frame_stamps_s=np.asarray(stream.frame_stamps_s))
     score.seeds = [seed]
     meta = getattr(stream, "meta", {})
     score.speech, score.faces = str(meta.get("speech", "")), str(meta.get("faces", ""))

@@ -36,6 +36,12 @@ class StreamAdapter(SourceBase):
         self.mics = stream.mics if stream.mics is not None else MicPair()
         self.samplerate_hz = float(stream.samplerate_hz)
         self.channels = channels
+        # several microphones (the simulator with --mics): every pair's channels are the array's
+        array = getattr(stream, "array", None)
+        self.array = array if array is not None and array.n_pairs > 1 else None
+        if self.array is not None:
+            pair = self.array.pairs[0]
+            self.channels = (self.array.channels[pair[0]], self.array.channels[pair[1]])
         self.realtime = realtime
         self._start_s: float | None = None
         self._lock = threading.Lock()
@@ -74,9 +80,10 @@ class StreamAdapter(SourceBase):
 
 
 def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, seed: int = 0,
-                rig_path: str | None = None, live: LiveConfig | None = None,
+                rig_path: str | None = None, live: LiveConfig | None = None, mics: str = "pair",
                 progress=None) -> StreamAdapter | LiveSource:  # noqa: ANN001
-    """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER`` or ``live`` (with ``rig_path`` and ``live``)."""
+    """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER`` or ``live`` (with ``rig_path`` and ``live``);
+    ``mics`` names the simulated room's microphones (:data:`avcore.geometry.ARRAY_PRESETS`)."""
     kind, _, arg = spec.partition(":")
     if kind == "sim":
         try:
@@ -86,8 +93,8 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
         preset = arg or "S2"
         if preset not in PRESETS:
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
-        return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, progress=progress),
-                             realtime=realtime)
+        return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, mics=mics,
+                                                   progress=progress), realtime=realtime)
     if kind == "replay":
         if not arg:
             raise UserError("give the recording folder: --source replay:recordings/NAME")

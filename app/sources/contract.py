@@ -7,7 +7,7 @@ from collections.abc import Iterator
 from typing import Protocol
 
 from app.events import AudioBlock, StereoFrame
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.stereo import StereoRig
 
 __all__ = ["Source", "SourceBase"]
@@ -18,6 +18,8 @@ class Source(Protocol):
 
     rig : the rectifying stereo calibration; mics : the microphone pair (with c1, c0); samplerate_hz : of the audio
     blocks; channels : the (left, right) channel numbers within a block.
+    array : several microphones (a :class:`MicArray` of two pairs or more, its ``channels`` within a block), or
+        None for the one pair ``mics``; with an array, ``mics`` and ``channels`` are its first pair.
     frames(stop), audio(stop) : blocking iterators of stamped frames and audio blocks, on one clock, paced by the
         source (real time, or as fast as possible for a replay); they end when the source is exhausted or ``stop``
         is set.
@@ -33,6 +35,7 @@ class Source(Protocol):
     samplerate_hz: float
     channels: tuple[int, int]
     realtime: bool
+    array: MicArray | None
 
     @property
     def overflows(self) -> int: ...
@@ -51,6 +54,7 @@ class SourceBase:
     """Defaults of the contract: real time, nothing counted, nothing to close; a context manager."""
 
     realtime: bool = True
+    array: MicArray | None = None
     overflows: int = 0
     frames_dropped: int = 0
 

@@ -103,9 +103,10 @@ class SimSource(ReplayStream):
         self._face_of = [int(order[i % len(order)]) for i in range(len(scenario.actors))]
         self.stereo = scenario.rig
         self.mics = scenario.mics
+        self.array = scenario.array
         self.fps = float(fps)
         self.samplerate_hz = scenario.room.samplerate_hz
-        self.n_channels = 2
+        self.n_channels = len(self.array.positions)
         self.block_size = int(block_size)
         self.noise_std = float(noise_std)
         n_frames = int(np.floor(scenario.duration_s * self.fps - 1e-9)) + 1
@@ -113,9 +114,9 @@ class SimSource(ReplayStream):
         self.right_stamps_s = self.frame_stamps_s.copy()
         self.audio_start_s = 0.0
         self.audio = audio if audio is not None else render_audio(scenario, bank, progress=progress)
-        if self.audio.samples.shape != (round(scenario.duration_s * self.samplerate_hz), 2):
-            raise ValueError(f"audio holds {self.audio.samples.shape} samples, not the scenario's "
-                             f"({round(scenario.duration_s * self.samplerate_hz)}, 2)")
+        expected = (round(scenario.duration_s * self.samplerate_hz), self.n_channels)
+        if self.audio.samples.shape != expected:
+            raise ValueError(f"audio holds {self.audio.samples.shape} samples, not the scenario's {expected}")
         self.n_samples = int(self.audio.samples.shape[0])
         self.meta = {"scenario": scenario.name, "seed": scenario.seed, "duration_s": scenario.duration_s,
                      "speech": bank.source, "faces": faces_kind, "measured_rt60_s": self.audio.measured_rt60_s,
@@ -132,12 +133,13 @@ class SimSource(ReplayStream):
     @classmethod
     def from_preset(cls, name: str, *, duration_s: float | None = None, seed: int = 0, fps: float = 30.0,
                     data_dir: str | Path | None = None, block_size: int = 512, rt60_s: float = 0.4,
-                    progress: Callable[[str], None] | None = None) -> SimSource:
+                    mics: str = "pair", progress: Callable[[str], None] | None = None) -> SimSource:
         """A preset of :data:`sim.scenario.PRESETS` with real faces and digits from ``data_dir`` (default
-        ``../shared/data``; drawn faces and synthetic clips when it is absent)."""
+        ``../shared/data``; drawn faces and synthetic clips when it is absent), heard by the microphones ``mics``
+        (:data:`avcore.geometry.ARRAY_PRESETS`)."""
         bank = load_clip_bank(16000, data_dir, seed=seed)
         scenario = make_scenario(name, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,
-                                 rt60_s=rt60_s)
+                                 rt60_s=rt60_s, mics=mics)
         return cls(scenario, bank, data_dir=data_dir, fps=fps, block_size=block_size, progress=progress)
 
     # -------------------------------------------------------------- ReplayStream

@@ -19,6 +19,7 @@ from ._base import ItdMethod
 from ._extract import METHODS, ItdStream, ItdTrack, extract_itds, geometry_options, gives_frame_itds, make_method
 from .correlogram import Correlogram
 from .gcc_phat import GccPhat
+from .pairs import PairsItdStream, join_pairs
 from .robust import RobustCorrelogram, RobustGccPhat
 
 __all__ = [
@@ -28,10 +29,12 @@ __all__ = [
            "ItdMethod",
            "ItdStream",
            "ItdTrack",
+           "PairsItdStream",
            "RobustCorrelogram",
            "RobustGccPhat",
            "extract_itds",
            "geometry_options",
            "gives_frame_itds",
+           "join_pairs",
            "make_method",
 ]

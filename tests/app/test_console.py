@@ -20,7 +20,7 @@ from app.console import geometry as geo
 from app.console import Console, ConsoleFrame
 from app.console.viewer import ViewerSession, ViewerTarget, rerun_executable
 from avcore.faces import locate_faces
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.inference import FaceGuidedHearing
 from avcore.mixture import Mixture1D
 from sim.render import default_scene
@@ -251,7 +251,7 @@ def test_console_frame_defaults_and_empty_scene() -> None:
     ({"boxes": np.zeros((2, 4))}, "boxes must have one row per face"),
     ({"probability": np.array([1.5])}, r"probability must lie in \[0, 1\]"),
     ({"image": np.zeros((4, 4), np.float32)}, "uint8"),
-    ({"itds_s": np.zeros((2, 2))}, "itds_s must be a 1-D array"),
+    ({"itds_s": np.zeros((2, 2, 2))}, r"itds_s must be a \(K,\) or \(K, P\) array"),
     ({"probability": np.array([[0.5]])}, "probability must be a 1-D array"),
     ({"faces_xyz": np.array([[np.nan, 0.0, 1.0]])}, "finite"),
     ({"person_ids": np.array([4, 4]), "faces_xyz": np.ones((2, 3)), "boxes": np.ones((2, 4)), "speaking": [True, False],
@@ -563,13 +563,47 @@ def _origins(path: Path) -> set[str]:
     return out
 
 
-def test_blueprint_views_look_at_what_the_console_logs(recorded: dict, tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def recorded_pairs(scene: dict, tmp_path_factory: pytest.TempPathFactory) -> dict:
+    """Three frames of a console with NAO's four microphones (six pairs): (K, P) ITD vectors of person 0."""
+    array = MicArray.preset("nao")
+    path = tmp_path_factory.mktemp("console") / "pairs.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(scene["rig"], array.pair(0), recording=rec, array=array)
+    fg = FaceGuidedHearing(array)
+    rng = np.random.default_rng(1)
+    xyz = scene["xyz"]
+    for i in range(3):
+        itds = array.itd(xyz[0]) + rng.normal(0.0, 15e-6, (20, array.n_pairs))
+        itds[::4, 3] = np.nan  # a pair's energy gate rejected some windows
+        out = fg.step(xyz, itds)
+        console.log(ConsoleFrame.from_face_guided(10.0 + i / 30.0, i, scene["image"], scene["boxes"], xyz, itds,
+                                                  out))
+    rec.disconnect()
+    return {"rrd": Rrd(path), "array": array, "xyz": xyz}
+
+
+def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict) -> None:
+    rrd, array = recorded_pairs["rrd"], recorded_pairs["array"]
+    strips = rrd.values("/itd_pairs/histograms", "LineStrips2D:strips")
+    assert len(strips) == 3 and len(strips[-1]) == array.n_pairs
+    labels = rrd.values("/itd_pairs/histograms", "LineStrips2D:labels")[-1]
+    assert labels[0] == f"mics {array.pairs[0][0]}-{array.pairs[0][1]}: 20 ITDs" and labels[3].endswith(": 15 ITDs")
+    dots = np.array(rrd.values("/itd_pairs/people", "Points2D:positions")[-1])
+    mapped = array.itd(recorded_pairs["xyz"]) * 1e6  # (N, P): one dot per person and pair, at its ITD
+    np.testing.assert_allclose(np.sort(dots[:, 0]), np.sort(mapped.T.reshape(-1)), atol=1e-6)
+    # the ITD-space pane shows the first pair's ITDs
+    assert rrd.values("/itd/histogram", "LineStrips2D:labels")[-1] == ["20 ITDs"]
+
+
+def test_blueprint_views_look_at_what_the_console_logs(recorded: dict, recorded_pairs: dict, tmp_path: Path) -> None:
     assert default_blueprint() is not None
     path = save_default_blueprint(tmp_path / "console.rbl")
     origins = _origins(path)
-    assert {"scene/cameras/left", "birdseye", "itd", "itd/bars", "people", "scene", "counts",
+    assert {"scene/cameras/left", "birdseye", "itd", "itd/bars", "itd_pairs", "people", "scene", "counts",
             "diagnostics/fps", "diagnostics/latency_ms", "events"} <= origins
-    logged = set(recorded["rrd"].rows)
+    logged = set(recorded["rrd"].rows) | set(recorded_pairs["rrd"].rows)
     for origin in origins:
         assert any(p == f"/{origin}" or p.startswith(f"/{origin}/") for p in logged), origin
 

@@ -381,3 +381,34 @@ def test_band_itds_of_the_robust_stream():
         ItdStream(fs, method="gcc-phat-robust", band_edges_hz=(1600.0, 800.0))
     with pytest.raises(RuntimeError, match="frame_itds=True"):
         ItdStream(fs, method="gcc-phat-robust").pop_band_itds()
+
+
+def test_pairs_stream_gives_every_pairs_itd_of_one_window_as_one_vector() -> None:
+    """Four microphones hearing one noise source: each pair's ITDs equal those of its own ItdStream, joined by
+    window into (K, P) vectors, and they match the array's geometry."""
+    from avcore.geometry import MicArray
+    from avcore.itd import ItdStream, PairsItdStream
+
+    fs = 16000
+    array = MicArray(((-0.06, 0.0, 0.0), (0.06, 0.0, 0.0), (0.0, 0.0, 0.05), (0.0, 0.0, -0.05)),
+                     pairs=((0, 1), (3, 2), (0, 2)))
+    source = np.array([1.0, 0.0, 1.5])
+    delays = np.linalg.norm(np.array(array.positions) - source, axis=1) / array.speed_of_sound
+    rng = np.random.default_rng(2)
+    dry = rng.standard_normal(fs + 400)
+    spectrum = np.fft.rfft(dry)
+    freqs = np.fft.rfftfreq(dry.size, 1 / fs)
+    channels = np.stack([np.fft.irfft(spectrum * np.exp(-2j * np.pi * freqs * d), dry.size) for d in delays], axis=1)
+    channels = 0.1 * channels[200:-200] / channels.std()
+    stream = PairsItdStream(array, fs, method="gcc-phat")
+    parts = [stream.push(channels[i:i + 512]) for i in range(0, channels.shape[0], 512)]
+    times = np.concatenate([p[0] for p in parts])
+    vectors = np.concatenate([p[1] for p in parts])
+    assert vectors.shape == (times.size, 3) and times.size > 30
+    for k, (i, j) in enumerate(array.pairs):
+        single = ItdStream(fs, method="gcc-phat", max_itd_s=1.2 * array.pair(k).max_itd_s)
+        track = [single.push(channels[a:a + 512, i], channels[a:a + 512, j]) for a in range(0, channels.shape[0], 512)]
+        np.testing.assert_array_equal(vectors[:, k], np.concatenate([t.itds_s for t in track]))
+    np.testing.assert_allclose(np.median(vectors, axis=0), array.itd(source), atol=1.5 / fs)
+    with pytest.raises(ValueError, match="channels"):
+        stream.push(np.zeros((10, 3)))

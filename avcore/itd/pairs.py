@@ -1,0 +1,82 @@
+"""ITDs on every pair of a microphone array, streamed: one :class:`ItdStream` per pair, their windows joined into
+vectors.
+
+Every pair's stream cuts the same windows (sample ``k * hop`` of the stream) and frames, so a window's ITDs on the
+P pairs are one vector, the input of :func:`avcore.mixture.fit_pairs_em`. A pair whose energy gate rejected the
+window leaves NaN in it. A frame's band peaks are not matched across pairs (a band may carry weight on one pair
+and not on another), so each band row holds one pair's peak and NaN elsewhere. The cost is P streams: linear in
+the number of pairs.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from avcore.geometry import MicArray
+
+from ._extract import ItdStream, ItdTrack, geometry_options
+
+__all__ = ["PairsItdStream", "join_pairs"]
+
+
+def join_pairs(tracks: list[ItdTrack]) -> tuple[np.ndarray, np.ndarray]:
+    """The P pairs' tracks of the same windows as ``(times (K,), itds (K, P))``: one row per window centre that any
+    pair has, NaN where a pair has none."""
+    times = np.unique(np.concatenate([t.times_s for t in tracks])) if tracks else np.zeros(0)
+    out = np.full((times.size, len(tracks)), np.nan)
+    for p, t in enumerate(tracks):
+        out[np.searchsorted(times, t.times_s), p] = t.itds_s
+    return times, out
+
+
+def _one_pair_rows(tracks: list[ItdTrack]) -> tuple[np.ndarray, np.ndarray]:
+    """Each pair's values on rows of their own: ``(times (L,), itds (L, P))`` with one finite entry per row."""
+    n_pairs = len(tracks)
+    times = np.concatenate([t.times_s for t in tracks]) if tracks else np.zeros(0)
+    out = np.full((times.size, n_pairs), np.nan)
+    row = 0
+    for p, t in enumerate(tracks):
+        out[row:row + len(t), p] = t.itds_s
+        row += len(t)
+    return times, out
+
+
+class PairsItdStream:
+    """:class:`ItdStream` on every pair of ``array``: ``push(block)`` takes ``(n, C)`` samples of all channels
+    (``array.channels`` name each microphone's) and returns the completed windows as ``(times (K,), itds (K, P))``;
+    ``pop_frame_itds`` and ``pop_band_itds`` likewise for the single frames and their bands (with
+    ``frame_itds=True``). Options are :class:`ItdStream`'s; each pair gets its own geometry (its distance for the
+    robust methods' diffuse-field model, its ``max_itd_s`` scaled by ``max_itd_scale``)."""
+
+    def __init__(self, array: MicArray, samplerate: float, method: str = "correlogram", *,
+                 max_itd_scale: float = 1.2, frame_itds: bool = False, **options: Any) -> None:
+        self.array = array
+        self.columns = [(array.channels[i], array.channels[j]) for i, j in array.pairs]  # type: ignore[index]
+        self._streams = []
+        for p in range(array.n_pairs):
+            pair = array.pair(p)
+            extra = geometry_options(method, pair.distance_m, pair.speed_of_sound)
+            self._streams.append(ItdStream(samplerate, method=method, max_itd_s=max_itd_scale * pair.max_itd_s,
+                                           frame_itds=frame_itds, **options, **extra))
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self._streams)
+
+    def push(self, block: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One block ``(n, C)`` of every channel; the windows it completed, as vectors."""
+        samples = np.asarray(block, dtype=np.float64)
+        need = max(max(c) for c in self.columns)
+        if samples.ndim != 2 or samples.shape[1] <= need:
+            raise ValueError(f"block must have shape (n, C) with C > {need} (the array's channels), got "
+                             f"{samples.shape}")
+        return join_pairs([s.push(samples[:, i], samples[:, j]) for s, (i, j) in zip(self._streams, self.columns)])
+
+    def pop_frame_itds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The single frames analysed since the last call, one vector per frame centre."""
+        return join_pairs([s.pop_frame_itds() for s in self._streams])
+
+    def pop_band_itds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The frames' band peaks since the last call, one pair's peak per row."""
+        return _one_pair_rows([s.pop_band_itds() for s in self._streams])
