@@ -18,7 +18,15 @@ The rig calibration file (one per robot or laptop) holds the stereo rig and the 
       c1: 1.0                     # affine audio-visual correction, paper eq. (itd_up)
       c0_s: 0.0
 
-Either section may be absent (a rig calibrated for its cameras but not yet for sound), not both.
+    array:                        # several microphones (avcore.geometry.MicArray) instead of, or beside, one pair
+      preset: nao                 # one of ARRAY_PRESETS (nao, respeaker4, respeaker-usb, respeaker6, ps3eye, uma8),
+                                  # or positions_m: [[x, y, z], ...] in the scene frame
+      rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # optional: the preset's frame -> the scene frame
+      translation_m: [0, -0.05, 0]                   # optional: where the preset's origin is in the scene frame
+      channels: [0, 1, 2, 3]      # optional: the input stream's channel of each microphone (default the preset's)
+
+Any section may be absent (a rig calibrated for its cameras but not yet for sound), not all. With an ``array``,
+a live run uses every pair of it; without, the ``microphones`` pair.
 """
 from __future__ import annotations
 
@@ -31,22 +39,24 @@ from typing import Any
 import yaml
 
 from app.errors import UserError
-from avcore.geometry import MicPair
+from avcore.geometry import ARRAY_PRESETS, SPEED_OF_SOUND, MicArray, MicPair
 from avcore.stereo import StereoRig
 
 __all__ = ["RigConfig", "load_rig", "save_rig", "rig_to_dict", "rig_from_dict"]
 
-_TOP_KEYS = ("stereo", "microphones")
+_TOP_KEYS = ("stereo", "microphones", "array")
+_ARRAY_KEYS = ("preset", "positions_m", "rotation", "translation_m", "channels", "speed_of_sound_m_s")
 _MIC_KEYS = ("left_m", "right_m", "speed_of_sound_m_s", "c1", "c0_s")
 _MIC_REQUIRED = ("left_m", "right_m")
 
 
 @dataclass(frozen=True)
 class RigConfig:
-    """What a rig file holds: the stereo rig and the microphone pair, each optional."""
+    """What a rig file holds: the stereo rig, the microphone pair and a microphone array, each optional."""
 
     stereo: StereoRig | None = None
     microphones: MicPair | None = None
+    array: MicArray | None = None
 
 
 # ---------------------------------------------------------------------- validation helpers
@@ -136,7 +146,41 @@ def rig_from_dict(data: object, path: Path | str = "<rig>") -> RigConfig:
             mics = MicPair(**kwargs)
         except ValueError as exc:
             raise UserError(f"{path}: section 'microphones': {exc}") from None
-    return RigConfig(stereo=stereo, microphones=mics)
+    array = _array_from_dict(top["array"], path) if "array" in top else None
+    return RigConfig(stereo=stereo, microphones=mics, array=array)
+
+
+def _array_from_dict(value: object, path: Path | str) -> MicArray:
+    """The ``array`` section: a preset placed by ``rotation`` and ``translation_m``, or ``positions_m``."""
+    a = _check_mapping(value, path, "array", _ARRAY_KEYS, ())
+    if ("preset" in a) == ("positions_m" in a):
+        raise _fail(path, "array", "give either 'preset' (one of " + ", ".join(ARRAY_PRESETS) + ") or "
+                                   "'positions_m' (a list of [x, y, z] in metres)")
+    speed = _number(a["speed_of_sound_m_s"], path, "array.speed_of_sound_m_s") if "speed_of_sound_m_s" in a \
+        else SPEED_OF_SOUND
+    try:
+        if "preset" in a:
+            if a["preset"] not in ARRAY_PRESETS:
+                raise _fail(path, "array.preset", f"unknown array {a['preset']!r}; choose one of "
+                                                  f"{', '.join(ARRAY_PRESETS)}")
+            rotation = _numbers(a["rotation"], path, "array.rotation", (3, 3)) if "rotation" in a else None
+            translation = _numbers(a["translation_m"], path, "array.translation_m", (3,)) \
+                if "translation_m" in a else None
+            array = MicArray.preset(a["preset"], rotation=rotation, translation_m=translation, speed_of_sound=speed)
+        else:
+            positions = a["positions_m"]
+            if not isinstance(positions, list) or len(positions) < 2:
+                raise _fail(path, "array.positions_m", f"must list at least two [x, y, z], got {positions!r}")
+            array = MicArray(tuple(tuple(_numbers(p, path, f"array.positions_m[{i}]", (3,)))
+                                   for i, p in enumerate(positions)), speed_of_sound=speed)
+        if "channels" in a:
+            channels = a["channels"]
+            if not isinstance(channels, list) or any(isinstance(c, bool) or not isinstance(c, int) for c in channels):
+                raise _fail(path, "array.channels", f"must be a list of channel numbers, got {channels!r}")
+            array = MicArray(array.positions, array.pairs, array.speed_of_sound, array.c1, array.c0, tuple(channels))
+    except ValueError as exc:
+        raise UserError(f"{path}: section 'array': {exc}") from None
+    return array
 
 
 MICROPHONES_HINT = ("add the measured microphone positions to it, in metres in the scene frame (x right, y down, z "
@@ -150,7 +194,7 @@ def require_live_rig(path: str | Path) -> RigConfig:
     rig = load_rig(Path(path))
     if rig.stereo is None:
         raise UserError(f"{path} has no 'stereo' section: make one with avhear calibrate stereo")
-    if rig.microphones is None:
+    if rig.microphones is None and rig.array is None:
         raise UserError(f"{path} has no 'microphones' section: {MICROPHONES_HINT}")
     return rig
 
@@ -166,6 +210,10 @@ def rig_to_dict(rig: RigConfig) -> dict[str, Any]:
             "left_m": list(m.left), "right_m": list(m.right), "speed_of_sound_m_s": float(m.speed_of_sound),
             "c1": float(m.c1), "c0_s": float(m.c0),
         }
+    if rig.array is not None:
+        out["array"] = {"positions_m": [list(p) for p in rig.array.positions],
+                        "channels": list(rig.array.channels),  # type: ignore[arg-type]
+                        "speed_of_sound_m_s": float(rig.array.speed_of_sound)}
     return out
 
 
@@ -190,7 +238,7 @@ def load_rig(path: str | Path) -> RigConfig:
 
 def save_rig(path: str | Path, rig: RigConfig, *, header: str | None = None) -> None:
     """Write a rig YAML file that :func:`load_rig` reads back to the same values (floats in full precision)."""
-    if rig.stereo is None and rig.microphones is None:
+    if rig.stereo is None and rig.microphones is None and rig.array is None:
         raise ValueError("rig holds neither a stereo rig nor microphones; there is nothing to save")
     p = Path(path)
     text = yaml.safe_dump(rig_to_dict(rig), sort_keys=False, default_flow_style=None, width=120)

@@ -13,6 +13,9 @@ a shared machine does not count; still, it slows the caches and the core down, s
 figure to compare with the targets, and the median shows how much the others disturbed it.
 
 Targets (issue 3): real-time factor <= 0.05 for the correlogram and <= 0.01 for GCC-PHAT at 16 kHz.
+
+``--arrays nao uma8`` also times the streaming extraction on every pair of those microphone arrays (one
+``ItdStream`` per pair, ``avcore.itd.PairsItdStream``) and prints the cost per pair: it grows linearly.
 """
 from __future__ import annotations
 
@@ -62,6 +65,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--rates", type=int, nargs="+", default=[16000, 48000])
     parser.add_argument("--methods", nargs="+", default=METHODS)
+    parser.add_argument("--arrays", nargs="*", default=[], help="array presets to time on every pair (16 kHz)")
     args = parser.parse_args()
     if args.quick:
         args.seconds, args.repeats = 5.0, 3
@@ -96,6 +100,36 @@ def main() -> None:
                                                                  else " MISSED")
             print(f"{spec:<{width}} {fs:>8d} {rtf_batch:>8.4f} ({med_batch:.4f}) {rtf_stream:>8.4f} ({med_stream:.4f}) "
                   f"{mark:>8}", flush=True)
+    for name in args.arrays:
+        time_array(name, args)
+
+
+def time_array(name: str, args: argparse.Namespace) -> None:
+    """Streaming extraction on every pair of an array preset: the real-time factor in all and per pair."""
+    from avcore.geometry import MicArray
+    from avcore.itd import PairsItdStream
+
+    array = MicArray.preset(name)
+    fs = 16000
+    rng = np.random.default_rng(0)
+    n = int(args.seconds * fs)
+    channels = 0.1 * rng.standard_normal((n, max(array.channels) + 1))
+    block = int(0.01 * fs)
+    print(f"\n{name}: {len(array.positions)} microphones, {array.n_pairs} pairs, 16 kHz, streaming")
+    for spec in args.methods:
+        method, options = parse_spec(spec)
+        frame_itds = method == "gcc-phat-robust"
+
+        def stream(method=method, options=options, frame_itds=frame_itds) -> None:
+            s = PairsItdStream(array, fs, method=method, frame_itds=frame_itds, **options)
+            for i in range(0, n, block):
+                s.push(channels[i:i + block])
+                if frame_itds:
+                    s.pop_frame_itds(), s.pop_band_itds()
+
+        best, med = (t / args.seconds for t in timings(stream, args.repeats))
+        print(f"  {spec:<{22}} RTF {best:.4f} ({med:.4f}) for {array.n_pairs} pairs, {best / array.n_pairs:.4f} per "
+              f"pair", flush=True)
 
 
 if __name__ == "__main__":

@@ -128,14 +128,15 @@ class MemoryMonitor:
 
 def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, sample_s: float = 2.0,
         progress_s: float = 30.0, trace: bool = False, part_s: float | None = 60.0,
-        frame_itds: bool = True, vote_frames: int = 9) -> dict[str, Any]:
+        frame_itds: bool = True, vote_frames: int = 9, mics: str = "pair") -> dict[str, Any]:
     """One run of ``scenario``: the pipeline with the console logging to ``rrd`` (None: no Rerun at all), in parts
     of ``part_s`` seconds as ``avhear run`` writes them (None: one file)."""
-    source = open_source(f"sim:{scenario}", realtime=realtime, duration_s=duration_s,
+    source = open_source(f"sim:{scenario}", realtime=realtime, duration_s=duration_s, mics=mics,
                          progress=lambda m: _say(f"  {m}"))
     config = PipelineConfig(frame_itds=frame_itds, vote_frames=vote_frames)
     session = ViewerSession(ViewerTarget(save=rrd, part_s=part_s)) if rrd is not None else None
-    console = Console(source.rig, source.mics, recording=session.recording) if session is not None else None
+    console = (Console(source.rig, source.mics, recording=session.recording, array=source.array)
+               if session is not None else None)
 
     def on_result(r: FusionResult) -> None:
         if console is not None:
@@ -187,17 +188,18 @@ def main() -> None:
                         help="seconds per .rrd part, as avhear run writes them (default 60; 0: one file)")
     parser.add_argument("--sample-s", type=float, default=2.0, help="seconds between RSS samples (default 2)")
     parser.add_argument("--progress-s", type=float, default=30.0, help="seconds between progress lines on stderr")
+    parser.add_argument("--mics", default="pair", help="the simulated microphones (an array preset, e.g. nao, uma8)")
     parser.add_argument("--tracemalloc", action="store_true",
                         help="trace Python allocations: lines that grew from the first quarter to the end")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         sink = "console to an .rrd file" if args.sink == "file" else "no Rerun"
-        print(f"{args.scenario}, {args.duration:.0f} s in real time, {sink} ...", flush=True)
+        print(f"{args.scenario}, {args.duration:.0f} s in real time, {sink}, microphones {args.mics} ...", flush=True)
         rrd = Path(tmp) / "rt.rrd" if args.sink == "file" else None
         part_s = args.part_s or None
         r = run(args.scenario, args.duration, True, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
                 trace=args.tracemalloc, part_s=part_s, frame_itds=args.frame_itds,
-                vote_frames=args.vote_frames)
+                vote_frames=args.vote_frames, mics=args.mics)
         print(f"  results per second {r['fps']:.1f} (target >= 30; the paper 17), {r['results']} results in "
               f"{r['duration_s']:.0f} s, {r['late_frames']} late frames skipped by the source, drops {r['drops']}, "
               f"audio blocks {r['audio_blocks']} (gaps {r['audio_gaps']})")

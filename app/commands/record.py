@@ -53,10 +53,10 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
     fresh = not args.output.exists()
     output_dir(args.output, "-o")
-    source = LiveSource(config, rig.stereo, rig.microphones)
+    source = LiveSource(config, rig.stereo, rig.microphones, rig.array)
     writer = RecordingWriter(args.output, rig=rig, fps=args.fps, samplerate_hz=args.samplerate,
                              n_channels=args.audio_channels, video=args.video, overwrite=args.force,
-                             channels={"left": args.mic_channels[0], "right": args.mic_channels[1]},
+                             channels={"left": source.channels[0], "right": source.channels[1]},
                              meta={"kind": "live", "cameras": list(args.cameras)})
     print(f"avhear: recording to {args.output} ... Ctrl-C stops", file=sys.stderr, flush=True)
     with stop_on_signals(threading.Event()) as stop:

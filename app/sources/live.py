@@ -25,7 +25,7 @@ from app.events import AudioBlock, StereoFrame
 from app.options import count
 from app.queues import DropOldestQueue
 from app.sound import DeviceError, load_sounddevice
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.stereo import StereoRig
 from avcore.sync import ApproximateTime
 
@@ -42,7 +42,9 @@ class LiveConfig:
         means one camera delivering both images side by side (left half, right half).
     fps : the frame rate asked of the cameras.
     audio_device : a sounddevice input device (index or name substring); None for the default input.
-    samplerate_hz, n_channels : the input stream; channels : the (left, right) microphone channels (0-based).
+    samplerate_hz, n_channels : the input stream; channels : the (left, right) microphone channels (0-based);
+    array_channels : with a microphone array in the rig file, the channel of each of its microphones (None: the rig
+    file's).
     block_frames : samples per callback.
     max_failed_reads : consecutive failed grabs before the camera counts as gone.
     max_silent_s : seconds without an audio block from a running stream before the input counts as gone (a
@@ -58,6 +60,7 @@ class LiveConfig:
     samplerate_hz: int = 16_000
     n_channels: int = 2
     channels: tuple[int, int] = (0, 1)
+    array_channels: tuple[int, ...] | None = None
     block_frames: int = 512
     max_failed_reads: int = 30
     max_silent_s: float = 5.0
@@ -66,6 +69,10 @@ class LiveConfig:
         if self.side_by_side == (self.right is not None):
             raise ValueError("give two cameras (left and right) or one side-by-side camera (right=None, "
                              "side_by_side=True)")
+        if self.array_channels is not None and (len(set(self.array_channels)) != len(self.array_channels)
+                                                or not all(0 <= c < self.n_channels for c in self.array_channels)):
+            raise ValueError(f"the array's channels must be different channel numbers below n_channels="
+                             f"{self.n_channels} (--audio-channels), got {list(self.array_channels)}")
         if not all(0 <= c < self.n_channels for c in self.channels) or self.channels[0] == self.channels[1]:
             raise ValueError(f"channels must be two different channel numbers below n_channels={self.n_channels}, "
                              f"got {self.channels}")
@@ -79,8 +86,9 @@ def add_device_arguments(p: argparse.ArgumentParser, *, recording: bool = False)
     p.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
     p.add_argument("--audio-channels", type=count(1, 64), default=2,
                    help="live: channels of the input stream" + (" (all are kept)" if recording else ""))
-    p.add_argument("--mic-channels", type=count(0, 63), nargs=2, default=[0, 1], metavar=("LEFT", "RIGHT"),
-                   help="live: the left and right microphone channels (0-based)")
+    p.add_argument("--mic-channels", type=count(0, 63), nargs="+", default=[0, 1], metavar="CHANNEL",
+                   help="live: the left and right microphone channels (0-based); with an 'array' section in the rig "
+                        "file, one channel per microphone of the array (default: the rig file's)")
 
 
 def _device(text: str) -> int | str:
@@ -91,11 +99,14 @@ def live_config(args: argparse.Namespace, **extra: Any) -> LiveConfig:
     """The :class:`LiveConfig` of :func:`add_device_arguments`' options (``extra``: fps, samplerate_hz ...); a bad
     combination is a :class:`UserError`."""
     cams = [_device(c) for c in args.cameras]
+    channels = tuple(args.mic_channels)
+    pair = channels if len(channels) == 2 else (0, 1)
+    array_channels = channels if len(channels) != 2 else None  # several: one per microphone of the rig's array
     try:
         return LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
                           side_by_side=args.side_by_side,
                           audio_device=_device(args.audio_device) if args.audio_device else None,
-                          n_channels=args.audio_channels, channels=tuple(args.mic_channels), **extra)
+                          n_channels=args.audio_channels, channels=pair, array_channels=array_channels, **extra)
     except ValueError as exc:
         raise UserError(str(exc)) from None
 
@@ -105,12 +116,30 @@ class LiveSource(SourceBase):
 
     realtime = True
 
-    def __init__(self, config: LiveConfig, rig: StereoRig, mics: MicPair) -> None:
+    def __init__(self, config: LiveConfig, rig: StereoRig, mics: MicPair | None, array: MicArray | None = None
+                 ) -> None:
+        """With ``array`` (the rig's ``array`` section) every pair of it is used, its channels those of the rig file
+        or of ``config.array_channels``; otherwise the pair ``mics`` on ``config.channels``."""
         self.config = config
         self.rig = rig
-        self.mics = mics
         self.samplerate_hz = float(config.samplerate_hz)
         self.channels = config.channels
+        if array is not None and config.array_channels is not None:
+            if len(config.array_channels) != len(array.positions):
+                raise UserError(f"--mic-channels gives {len(config.array_channels)} channels but the rig's array has "
+                                f"{len(array.positions)} microphones: give one channel per microphone")
+            array = MicArray(array.positions, array.pairs, array.speed_of_sound, array.c1, array.c0,
+                             config.array_channels)
+        if array is not None:
+            if max(array.channels) >= config.n_channels:  # type: ignore[arg-type]
+                raise UserError(f"the rig's array uses channels {list(array.channels)} but the input stream has "
+                                f"{config.n_channels}: raise --audio-channels")
+            self.array = array if array.n_pairs > 1 else None
+            pair = array.pairs[0]  # type: ignore[index]
+            self.channels = (array.channels[pair[0]], array.channels[pair[1]])  # type: ignore[index]
+            mics = array.pair(0)
+        assert mics is not None
+        self.mics = mics
         self.overflows = 0
         self.failed_reads = 0
 

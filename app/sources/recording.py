@@ -229,10 +229,16 @@ def write_recording(folder: str | Path, source: ReplayStream, *, video: str = "a
     stop : when set, writing ends after the current item (a complete frame or audio block) and the folder is
         closed as a whole recording of what was written (the events file keeps every event, some past the end).
     """
-    rig = RigConfig(stereo=source.stereo, microphones=source.mics)
+    array = getattr(source, "array", None)
+    array = array if array is not None and array.n_pairs > 1 else None
+    rig = RigConfig(stereo=source.stereo, microphones=source.mics, array=array)
+    first = array.pairs[0] if array is not None else (0, 1)  # type: ignore[index]
+    channels = ({"left": array.channels[first[0]], "right": array.channels[first[1]]}  # type: ignore[index]
+                if array is not None else None)
     meta = dict(getattr(source, "meta", {}) or {})
     with RecordingWriter(folder, rig=rig, fps=source.fps, samplerate_hz=source.samplerate_hz,
-                         n_channels=source.n_channels, video=video, meta=meta, overwrite=overwrite) as writer:
+                         n_channels=source.n_channels, video=video, meta=meta, overwrite=overwrite,
+                         channels=channels) as writer:
         for item in source.stream(realtime=False):
             if stop is not None and stop.is_set():
                 break
@@ -331,7 +337,9 @@ class Recording(ReplayStream):
         if self.rig.stereo is None:
             raise RecordingError(f"{rig_path}: has no 'stereo' section; replay needs the cameras' calibration")
         self.stereo = self.rig.stereo
-        self.mics = self.rig.microphones
+        # a microphone array in the rig file: every pair of it (its first pair stands for the pair)
+        self.array = self.rig.array
+        self.mics = self.rig.microphones if self.array is None else self.array.pair(0)
         self.frame_stamps_s, self.right_stamps_s = self._read_frames_csv()
         fps = self.info.get("fps")
         if fps is None:

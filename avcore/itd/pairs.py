@@ -46,12 +46,15 @@ class PairsItdStream:
     """:class:`ItdStream` on every pair of ``array``: ``push(block)`` takes ``(n, C)`` samples of all channels
     (``array.channels`` name each microphone's) and returns the completed windows as ``(times (K,), itds (K, P))``;
     ``pop_frame_itds`` and ``pop_band_itds`` likewise for the single frames and their bands (with
-    ``frame_itds=True``). Options are :class:`ItdStream`'s; each pair gets its own geometry (its distance for the
-    robust methods' diffuse-field model, its ``max_itd_s`` scaled by ``max_itd_scale``)."""
+    ``frame_itds=True``; the bands of the first pair only, unless ``all_bands``). Options are :class:`ItdStream`'s;
+    each pair gets its own geometry (its distance for the robust methods' diffuse-field model, its ``max_itd_s``
+    scaled by ``max_itd_scale``)."""
 
     def __init__(self, array: MicArray, samplerate: float, method: str = "correlogram", *,
-                 max_itd_scale: float = 1.2, frame_itds: bool = False, **options: Any) -> None:
+                 max_itd_scale: float = 1.2, frame_itds: bool = False, all_bands: bool = False,
+                 **options: Any) -> None:
         self.array = array
+        self.all_bands = all_bands
         self.columns = [(array.channels[i], array.channels[j]) for i, j in array.pairs]  # type: ignore[index]
         self._streams = []
         for p in range(array.n_pairs):
@@ -78,5 +81,11 @@ class PairsItdStream:
         return join_pairs([s.pop_frame_itds() for s in self._streams])
 
     def pop_band_itds(self) -> tuple[np.ndarray, np.ndarray]:
-        """The frames' band peaks since the last call, one pair's peak per row."""
-        return _one_pair_rows([s.pop_band_itds() for s in self._streams])
+        """The frames' band peaks since the last call, one pair's peak per row: the first pair's only, unless
+        ``all_bands``. A band's peak cannot be matched across pairs, so the other pairs' would count as evidence on
+        one pair each, and the pairs with short baselines, which hardly tell the people apart, then add false
+        alarms (docs/experiments.md, "Several microphone pairs")."""
+        tracks = [s.pop_band_itds() for s in self._streams]
+        if not self.all_bands:
+            tracks = [t if p == 0 else ItdTrack.empty() for p, t in enumerate(tracks)]
+        return _one_pair_rows(tracks)

@@ -92,3 +92,32 @@ def test_missing_file_and_bad_yaml(tmp_path):
     bad.write_text("stereo: [1, 2\n")
     with pytest.raises(UserError, match="not valid YAML"):
         load_rig(bad)
+
+
+def test_an_array_section_places_a_preset_on_the_rig_and_round_trips(tmp_path):
+    from avcore.geometry import MicArray
+
+    path = tmp_path / "rig.yaml"
+    path.write_text("array:\n  preset: nao\n  translation_m: [0.0, -0.05, 0.01]\n  channels: [3, 2, 1, 0]\n")
+    rig = load_rig(path)
+    placed = MicArray.preset("nao", translation_m=[0.0, -0.05, 0.01])
+    np.testing.assert_allclose(rig.array.positions, placed.positions)
+    assert rig.array.channels == (3, 2, 1, 0) and rig.array.n_pairs == 6
+    save_rig(tmp_path / "again.yaml", rig)
+    back = load_rig(tmp_path / "again.yaml")
+    assert back.array.positions == rig.array.positions and back.array.channels == rig.array.channels
+
+
+@pytest.mark.parametrize(("section", "message"), [
+    ("array:\n  preset: nao5\n", "unknown array 'nao5'"),
+    ("array:\n  preset: nao\n  positions_m: [[0, 0, 0], [0.1, 0, 0]]\n", "either 'preset'"),
+    ("array:\n  positions_m: [[0, 0, 0]]\n", "at least two"),
+    ("array:\n  preset: pair\n  channels: [0, 0]\n", "different channel numbers"),
+    ("array:\n  preset: nao\n  rotation: [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n", "rotation matrix"),
+])
+def test_a_bad_array_section_names_the_file_and_what_to_fix(tmp_path, section, message):
+    path = tmp_path / "rig.yaml"
+    path.write_text(section)
+    with pytest.raises(UserError, match=message) as info:
+        load_rig(path)
+    assert str(path) in str(info.value)

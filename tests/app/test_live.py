@@ -80,3 +80,28 @@ def test_audio_device_error(monkeypatch: pytest.MonkeyPatch) -> None:
     src = LiveSource(LiveConfig(audio_device="usb"), RIG, MicPair())
     with pytest.raises(DeviceError, match="python -m sounddevice"):
         next(src.audio(threading.Event()))
+
+
+def test_a_rig_array_uses_every_pair_on_the_channels_asked_for() -> None:
+    """A rig file's array: the live source hears every pair, on the rig's channels or those of --mic-channels (one
+    per microphone); a mismatch is a UserError that says what to change."""
+    import argparse
+
+    from app.errors import UserError
+    from app.sources.live import live_config
+    from avcore.geometry import MicArray
+
+    array = MicArray.preset("respeaker4")
+    src = LiveSource(LiveConfig(n_channels=6), RIG, None, array)
+    assert src.array is array and src.mics == array.pair(0)
+    assert src.channels == tuple(array.channels[i] for i in array.pairs[0])
+    args = argparse.Namespace(cameras=["0", "1"], side_by_side=False, audio_device=None, audio_channels=6,
+                              mic_channels=[5, 4, 3, 2])
+    config = live_config(args)
+    assert config.array_channels == (5, 4, 3, 2)
+    chosen = LiveSource(config, RIG, None, array)
+    assert chosen.array.channels == (5, 4, 3, 2) and chosen.array.positions == array.positions
+    with pytest.raises(UserError, match="one channel per microphone"):
+        LiveSource(LiveConfig(n_channels=6, array_channels=(0, 1, 2)), RIG, None, array)
+    with pytest.raises(UserError, match="--audio-channels"):
+        LiveSource(LiveConfig(n_channels=2), RIG, None, array)

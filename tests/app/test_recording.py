@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import json
 import shutil
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -145,3 +146,18 @@ def test_a_folder_made_with_other_tools_opens(tmp_path):
     (folder / "recording.json").write_text(json.dumps({"channels": {"left": 0, "right": 7}}))
     with pytest.raises(RecordingError, match="does not name a left and a right channel"):
         open_recording(folder)
+
+
+def test_a_simulated_array_recording_replays_with_every_pair(tmp_path: Path) -> None:
+    """`avhear simulate --mics nao`: four channels, the array in the folder's rig.yaml, and a replay that uses its
+    six pairs with the first pair's channels as left and right."""
+    from app.sources import StreamAdapter
+
+    source = SimSource.from_preset("S1", duration_s=2.0, seed=0, mics="nao")
+    write_recording(tmp_path / "nao", source)
+    rec = open_recording(tmp_path / "nao")
+    assert rec.n_channels == 4 and rec.array is not None and rec.array.positions == source.array.positions
+    adapter = StreamAdapter(rec, realtime=False, channels=(rec.channels["left"], rec.channels["right"]))
+    assert adapter.array is not None and adapter.array.n_pairs == 6
+    assert adapter.channels == tuple(rec.array.channels[i] for i in rec.array.pairs[0])
+    rec.close()

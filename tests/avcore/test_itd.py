@@ -412,3 +412,25 @@ def test_pairs_stream_gives_every_pairs_itd_of_one_window_as_one_vector() -> Non
     np.testing.assert_allclose(np.median(vectors, axis=0), array.itd(source), atol=1.5 / fs)
     with pytest.raises(ValueError, match="channels"):
         stream.push(np.zeros((10, 3)))
+
+
+def test_pairs_stream_passes_frames_of_every_pair_and_the_first_pairs_bands() -> None:
+    from avcore.geometry import MicArray
+    from avcore.itd import PairsItdStream
+
+    array = MicArray.preset("respeaker4")
+    rng = np.random.default_rng(3)
+    noise = 0.1 * rng.standard_normal((16000, 4))
+    stream = PairsItdStream(array, 16000, method="gcc-phat-robust", frame_itds=True)
+    for i in range(0, noise.shape[0], 512):
+        stream.push(noise[i:i + 512])
+    frame_times, frames = stream.pop_frame_itds()
+    band_times, bands = stream.pop_band_itds()
+    assert frames.shape == (frame_times.size, array.n_pairs) and frame_times.size > 10
+    assert bands.shape[1] == array.n_pairs and band_times.size == bands.shape[0] > 0
+    assert np.isfinite(bands[:, 0]).all() and np.isnan(bands[:, 1:]).all()
+    every = PairsItdStream(array, 16000, method="gcc-phat-robust", frame_itds=True, all_bands=True)
+    for i in range(0, noise.shape[0], 512):
+        every.push(noise[i:i + 512])
+    _, all_bands = every.pop_band_itds()
+    assert (np.isfinite(all_bands).sum(axis=1) == 1).all() and np.isfinite(all_bands[:, 1:]).any()
