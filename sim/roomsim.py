@@ -316,10 +316,10 @@ class AcousticRoom:
 
 @dataclass(frozen=True)
 class RoomRecording:
-    """What the two microphones of a simulated room hear, by component, and the ground truth.
+    """What the microphones of a simulated room hear, by component, and the ground truth.
 
-    speech, background, ego : (2, n) float -- reverberant images at (left, right) of all talkers, of the background
-        noise source, of the fan; ``mix`` adds them at chosen levels.
+    speech, background, ego : (Q, n) float -- reverberant images at each microphone ((left, right) for the pair) of
+        all talkers, of the background noise source, of the fan; ``mix`` adds them at chosen levels.
     dry : (T, n) float -- each talker's dry signal delayed to its direct-path arrival at the head (for deciding
         which windows hold speech).
     talkers_scene : (T, 3) float, metres.  talker_itds_s : (T,) float, seconds -- ``MicPair.itd`` of each talker.
@@ -428,9 +428,9 @@ def simulate(room: AcousticRoom, talkers_scene: object, duration_s: float = 10.0
     n_talk = talkers.shape[0]
 
     def image(signal: np.ndarray, s: int) -> np.ndarray:
-        return np.stack([fftconvolve(signal, responses[s, m])[:n] for m in range(2)])
+        return np.stack([fftconvolve(signal, responses[s, m])[:n] for m in range(responses.shape[1])])
 
-    background = np.zeros((2, n))
+    background = np.zeros((responses.shape[1], n))
     for j in range(noise_src.shape[0]):
         if full is not None:
             start = int(rng.integers(0, max(1, full.shape[0] - n)))
