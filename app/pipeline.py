@@ -523,10 +523,9 @@ class Pipeline:
         mics = self.source.mics
         sync = self._sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
         array = getattr(self.source, "array", None)
-        # several pairs: the face-guided model of every pair; Algorithm 1 clusters on the first pair's ITDs
-        hearing = (FaceGuidedHearing(array if array is not None else mics,
-                                     FaceGuidedParams(decision_window_s=c.decision_window_s))
-                   if c.inference == "face" else MotionGuidedHearing(mics))
+        mics_or_array = array if array is not None else mics
+        hearing = (FaceGuidedHearing(mics_or_array, FaceGuidedParams(decision_window_s=c.decision_window_s))
+                   if c.inference == "face" else MotionGuidedHearing(mics_or_array))
         tracker = NearestTracker()
         while True:
             if self._stop.is_set():
@@ -575,13 +574,12 @@ class Pipeline:
         stamp, frame, boxes, xyz = vision.stamp_s, vision.frame, vision.boxes, vision.xyz
         times = np.array([t for t, _ in itds], dtype=np.float64)
         a = np.array([v for _, v in itds], dtype=np.float64)  # (K,), or (K, P) with several pairs
+        if hearing.array is not None:
+            a = a.reshape(times.size, hearing.array.n_pairs)
         if isinstance(hearing, FaceGuidedHearing):
-            if hearing.array is not None:
-                a = a.reshape(times.size, hearing.array.n_pairs)
             output = hearing.step(xyz, a, times - stamp, *self._frame_itds.near(stamp))
         else:
-            first = a if a.ndim == 1 else a[:, 0][np.isfinite(a[:, 0])]
-            output = hearing.step(xyz, first)
+            output = hearing.step(xyz, a)
         ids = tracker.update(xyz if boxes is not None else output.positions)
         result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, float("nan"), ids)
         for voted in self._vote.push(result, ids, output.speaking, output.probability):

@@ -159,12 +159,17 @@ class MotionGuidedHearing:
     initialises the next (section 4.4); ``reset()`` forgets it.
     """
 
-    def __init__(self, mics: MicPair, params: MotionGuidedParams | None = None) -> None:
-        if not isinstance(mics, MicPair):
-            raise TypeError(f"mics must be a MicPair, got {type(mics).__name__}")
-        self.mics = mics
+    def __init__(self, mics: MicPair | MicArray, params: MotionGuidedParams | None = None) -> None:
+        if not isinstance(mics, (MicPair, MicArray)):
+            raise TypeError(f"mics must be a MicPair or a MicArray, got {type(mics).__name__}")
         self.params = params if params is not None else MotionGuidedParams()
-        self.support = mics.itd_interval()
+        # several pairs: the people are found and located on the first pair (the paper's Algorithm 1), and who
+        # speaks is decided on every pair by the model of avcore.mixture.fit_pairs_em anchored at their positions
+        self.array = mics if isinstance(mics, MicArray) and mics.n_pairs > 1 else None
+        self.mics = mics.pair(0) if isinstance(mics, MicArray) else mics
+        self._pairs = (FaceGuidedHearing(self.array, FaceGuidedParams(speaking=self.params.speaking))
+                       if self.array is not None else None)
+        self.support = self.mics.itd_interval()
         self.previous_: Mixture1D | None = None
         self._candidates: Packed | None = None
 
@@ -227,10 +232,23 @@ class MotionGuidedHearing:
         """One interval of Algorithm 1.
 
         points_xyz : (M, 3) float, metres, HM3D points in the scene frame.
-        itds_s : (K,) float, seconds.
+        itds_s : (K,) float, seconds; with a :class:`MicArray`, (K, P) vectors or P arrays (as
+            :meth:`FaceGuidedHearing.step`).
         """
         pts = as_points(points_xyz, "points_xyz")
-        a = as_samples(itds_s, "itds_s")
+        if self._pairs is None:
+            return self._step(pts, as_samples(itds_s, "itds_s"))
+        assert self.array is not None
+        vectors = _itd_vectors(itds_s, self.array.n_pairs, "itds_s")
+        first = vectors[:, 0]
+        out = self._step(pts, first[np.isfinite(first)])
+        if out.positions.shape[0] == 0:
+            return out
+        pairs = self._pairs.step(out.positions, vectors)
+        return replace(out, speaking=pairs.speaking, probability=pairs.probability)
+
+    def _step(self, pts: np.ndarray, a: np.ndarray) -> MotionGuidedOutput:
+        """:meth:`step` on checked points and one pair's ITDs."""
         p = self.params
         v = self.mics.itd(pts)
         if pts.shape[0] == 0:

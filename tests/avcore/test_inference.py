@@ -268,3 +268,18 @@ def test_one_pair_array_is_the_pair() -> None:
     a = FaceGuidedHearing(MicArray.from_pair(MICS)).step(PEOPLE, itds)
     b = FaceGuidedHearing(MICS).step(PEOPLE, itds)
     assert np.array_equal(a.speaking, b.speaking) and np.array_equal(a.probability, b.probability)
+
+
+def test_motion_guided_with_two_pairs_tells_a_talker_behind_from_a_person_in_front() -> None:
+    """Algorithm 1 finds the people on the first pair; with the array, who speaks is decided on every pair, so the
+    talker behind the robot no longer makes the person in front on that side speak."""
+    rng = np.random.default_rng(11)
+    people = np.array([[-1.0, 0.0, 1.0], [1.0, 0.0, 1.5]])
+    points = np.concatenate([p + rng.normal(0.0, [0.08, 0.15, 0.06], (700, 3)) for p in people])
+    behind = FOUR_MICS.itd(np.array([-1.0, 0.0, -1.0])) + rng.normal(0.0, 10e-6, (25, 2))
+    one = MotionGuidedHearing(FOUR_MICS.pair(0)).step(points, behind[:, 0])
+    both = MotionGuidedHearing(FOUR_MICS).step(points, behind)
+    assert one.positions.shape[0] == both.positions.shape[0] == 2
+    np.testing.assert_allclose(both.positions, one.positions)
+    left = int(np.argmin(one.positions[:, 0]))
+    assert one.speaking[left] and not both.speaking.any()
