@@ -161,6 +161,7 @@ def harris_motion_points(
     if not dynamic_l.any():
         return empty
 
+    match = _RowMatch(half, d_lo, n_disp, min_ncc, min_margin)
     results = []
     for k in range(t):
         corners = cv2.goodFeaturesToTrack(left[k], max_corners, quality_level, min_distance_px, mask=dynamic_l,
@@ -173,19 +174,7 @@ def harris_motion_points(
         u, v = u[inside], v[inside]
         if u.size == 0:
             continue
-        scores = _row_scores(left[k], right[k], u, v, half, d_lo, n_disp)   # (n, D), index j <-> d_lo + j
-        best = np.argmax(scores[:, 1:-1], axis=1) + 1                       # peak inside the padded range
-        n = np.arange(u.size)
-        s0, sm, sp = scores[n, best], scores[n, best - 1], scores[n, best + 1]
-        finite = np.isfinite(s0) & np.isfinite(sm) & np.isfinite(sp)
-        denom = np.where(finite, sm - 2.0 * s0 + sp, 0.0)
-        ok = finite & (s0 >= min_ncc) & (denom < 0)
-        near_peak = np.abs(np.arange(n_disp)[None, :] - best[:, None]) <= 2
-        runner_up = np.where(near_peak, -np.inf, scores).max(axis=1)
-        ok &= s0 - runner_up >= min_margin
-        sub = np.zeros(u.size)
-        sub[ok] = np.clip(0.5 * (sm[ok] - sp[ok]) / denom[ok], -0.5, 0.5)
-        d = d_lo + best + sub
+        ok, d, s0 = match(left[k], right[k], u, v)
         u_r = np.rint(u - d).astype(np.int64).clip(0, w - 1)
         # the right pixel must move too: its own temporal std over the interval
         ok[ok] &= right[:, v[ok], u_r[ok]].astype(np.float32).std(axis=0) > tau_m
@@ -199,3 +188,29 @@ def harris_motion_points(
     if not results:
         return empty
     return MotionPoints(*(np.concatenate(parts) for parts in zip(*results)))
+
+
+class _RowMatch:
+    """The stereo match of left pixels along their rectified row: the best normalised correlation over the
+    disparities ``d_lo .. d_lo + n_disp - 1`` (padded by one on each side for a sub-pixel parabola), accepted when
+    it reaches ``min_ncc``, is a true peak, and beats the best correlation more than 2 px away by ``min_margin``."""
+
+    def __init__(self, half: int, d_lo: int, n_disp: int, min_ncc: float, min_margin: float) -> None:
+        self.half, self.d_lo, self.n_disp, self.min_ncc, self.min_margin = half, d_lo, n_disp, min_ncc, min_margin
+
+    def __call__(self, left: np.ndarray, right: np.ndarray, u: np.ndarray, v: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(n,) accepted, (n,) sub-pixel disparity, (n,) best correlation of the pixels ``(u, v)``."""
+        scores = _row_scores(left, right, u, v, self.half, self.d_lo, self.n_disp)  # (n, D), j <-> d_lo + j
+        best = np.argmax(scores[:, 1:-1], axis=1) + 1                               # peak inside the padding
+        n = np.arange(u.size)
+        s0, sm, sp = scores[n, best], scores[n, best - 1], scores[n, best + 1]
+        finite = np.isfinite(s0) & np.isfinite(sm) & np.isfinite(sp)
+        denom = np.where(finite, sm - 2.0 * s0 + sp, 0.0)
+        ok = finite & (s0 >= self.min_ncc) & (denom < 0)
+        near_peak = np.abs(np.arange(self.n_disp)[None, :] - best[:, None]) <= 2
+        runner_up = np.where(near_peak, -np.inf, scores).max(axis=1)
+        ok &= s0 - runner_up >= self.min_margin
+        sub = np.zeros(u.size)
+        sub[ok] = np.clip(0.5 * (sm[ok] - sp[ok]) / denom[ok], -0.5, 0.5)
+        return ok, self.d_lo + best + sub, s0
