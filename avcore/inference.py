@@ -70,6 +70,8 @@ class MotionGuidedParams:
     kernel_sd_m : the person-sized kernel of the 3D refinement (x, y, z standard deviations, metres).
     max_sd_m : a 3D group wider than this along any axis is not a person.
     merge_distance_m : 3D groups closer than this are one person (a blob cut into two 1-D clusters).
+    merge_extent_m : (x, y, z) metres, or None: groups closer than this along every axis are one person (a body's
+        head and hands give separate groups), instead of the ball of ``merge_distance_m``.
     warm_start_candidates : for every N, start EM from the better (on the new data) of the paper's initialisation
         and the previous interval's fit with N components: people move little between intervals, so EM needs
         fewer iterations (a speed-up; the paper initialises every N from the selected model only).
@@ -87,6 +89,7 @@ class MotionGuidedParams:
     min_points: float = 60.0
     max_sd_m: float = 0.6
     merge_distance_m: float = 0.3
+    merge_extent_m: tuple[float, float, float] | None = None
     warm_start_candidates: bool = True
 
     def __post_init__(self) -> None:
@@ -320,7 +323,7 @@ class MotionGuidedHearing:
             return (np.empty((0, 3)), np.empty((0, 3, 3)), np.empty(0), np.zeros((a.size, 0)),
                     Mixture1D.outliers_only(self.support))
         objects = []
-        for idx in merge_close(groups, pts, p.merge_distance_m):
+        for idx in merge_close(groups, pts, p.merge_distance_m, p.merge_extent_m):
             g = groups[idx[0]] if len(idx) == 1 else group_from_members(pts, sum(groups[i].members for i in idx))
             m1 = (g.members @ v) / g.mass
             s2 = max((g.members @ (v - m1) ** 2) / g.mass, p.em.var_floor_s2)

@@ -1,0 +1,69 @@
+"""sim.bodies: people with bodies for Algorithm 1 (issue 18)."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avcore.geometry import MicPair
+from sim.bodies import FAMILIES, generate_bodies
+
+
+def _person_points(iv, i):  # noqa: ANN001, ANN202
+    return iv.points[iv.point_ids == i]
+
+
+def test_a_seed_gives_the_same_sequence_and_families_differ() -> None:
+    a = generate_bodies("seated", seed=3, n_intervals=3)
+    b = generate_bodies("seated", seed=3, n_intervals=3)
+    c = generate_bodies("standing", seed=3, n_intervals=3)
+    assert all(np.array_equal(x.points, y.points) and np.array_equal(x.itds, y.itds) for x, y in zip(a, b))
+    assert not np.array_equal(a[0].points, c[0].points)
+    with pytest.raises(ValueError, match="family"):
+        generate_bodies("dancing")
+
+
+def test_the_truth_is_the_centre_of_the_visible_moving_body() -> None:
+    """Static families: the mean of a person's (noisy) points lies within a few centimetres of the truth; the points
+    are spread over a body (head to hands), not a blob around it."""
+    for family in ("seated", "standing"):
+        for iv in generate_bodies(family, seed=1, n_intervals=4):
+            assert iv.truth_xyz.shape == (3, 3)
+            for g, i in enumerate(iv.truth_ids):
+                pts = _person_points(iv, i)
+                assert np.linalg.norm(pts.mean(axis=0) - iv.truth_xyz[g]) < 0.05
+                spread = np.linalg.norm(pts - iv.truth_xyz[g], axis=1)
+                assert np.quantile(spread, 0.9) > 0.25  # hands and head far from the centre
+
+
+def test_a_table_hides_the_seated_and_walkers_show_their_legs() -> None:
+    seated = generate_bodies("seated", seed=2, n_intervals=3)[1]
+    walking = generate_bodies("walking", seed=2, n_intervals=3)[1]
+    for iv, below_max in ((seated, 0.45), (walking, None)):
+        for g, i in enumerate(iv.truth_ids):
+            pts = _person_points(iv, i)
+            top = np.quantile(pts[:, 1], 0.01)  # y is down: the top of the head
+            reach = np.quantile(pts[:, 1], 0.99) - top
+            if below_max is not None:
+                assert reach < 0.75  # nothing below the table
+            else:
+                assert reach > 1.2  # legs down to the floor
+
+
+def test_people_at_the_edge_and_behind_others_lose_points() -> None:
+    edge = generate_bodies("edge", seed=0, n_intervals=3)[0]
+    counts = [int((edge.point_ids == i).sum()) for i in range(3)]
+    assert counts[2] < 0.8 * min(counts[:2])  # the third stands at the edge of the view
+    crossing = generate_bodies("crossing", seed=0, n_intervals=60)
+    behind = [int((iv.point_ids == 1).sum()) for iv in crossing]
+    assert min(behind) < 0.5 * max(behind)  # hidden while the one in front covers them
+
+
+def test_talkers_itds_come_from_their_mouths() -> None:
+    mics = MicPair()
+    for iv in generate_bodies("standing", seed=4, n_intervals=20, mics=mics):
+        for g, i in enumerate(iv.truth_ids):
+            own = iv.itds[iv.itd_ids == i]
+            if iv.truth_speaking[g] and own.size >= 5:
+                head_ish = mics.itd(iv.truth_xyz[g])
+                assert abs(np.median(own) - head_ish) < 60e-6
+    assert set(FAMILIES) >= {"seated", "walking", "crossing", "edge", "close", "gesturing", "standing"}
