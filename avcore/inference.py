@@ -70,8 +70,9 @@ class MotionGuidedParams:
     kernel_sd_m : the person-sized kernel of the 3D refinement (x, y, z standard deviations, metres).
     max_sd_m : a 3D group wider than this along any axis is not a person.
     merge_distance_m : 3D groups closer than this are one person (a blob cut into two 1-D clusters).
-    merge_extent_m : (x, y, z) metres, or None: groups closer than this along every axis are one person (a body's
-        head and hands give separate groups), instead of the ball of ``merge_distance_m``.
+    merge_extent_m : (x, y, z) metres, or None: groups closer than this along every axis are one person, instead of
+        the ball of ``merge_distance_m``. A body's head, hands and legs give separate groups up to a body's height
+        apart, while two people stand side by side or one behind the other (``benchmarks/motion_families.py``).
     warm_start_candidates : for every N, start EM from the better (on the new data) of the paper's initialisation
         and the previous interval's fit with N components: people move little between intervals, so EM needs
         fewer iterations (a speed-up; the paper initialises every N from the selected model only).
@@ -89,7 +90,7 @@ class MotionGuidedParams:
     min_points: float = 60.0
     max_sd_m: float = 0.6
     merge_distance_m: float = 0.3
-    merge_extent_m: tuple[float, float, float] | None = None
+    merge_extent_m: tuple[float, float, float] | None = (0.3, 1.3, 0.35)
     warm_start_candidates: bool = True
 
     def __post_init__(self) -> None:

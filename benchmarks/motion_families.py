@@ -31,6 +31,8 @@ VARIANTS = {
     "avhear": MotionGuidedParams,
     # candidates, chosen on the families given by --families (report on the others)
     "box": lambda: MotionGuidedParams(merge_extent_m=(0.3, 0.9, 0.3)),
+    "box-tall": lambda: MotionGuidedParams(merge_extent_m=(0.3, 1.3, 0.35)),
+    "box-wide": lambda: MotionGuidedParams(merge_extent_m=(0.4, 1.3, 0.5)),
 }
 MOVING = {"walking", "crossing", "DynCon"}
 

@@ -2,7 +2,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from avcore.refine3d import GAUSS_PEAKEDNESS, UNIFORM_PEAKEDNESS, compact_groups, group_from_members, merge_close
+from avcore.refine3d import (
+    GAUSS_PEAKEDNESS,
+    UNIFORM_PEAKEDNESS,
+    Group3D,
+    compact_groups,
+    group_from_members,
+    merge_close,
+)
 
 BODY = np.array([0.12, 0.25, 0.08])
 
@@ -64,3 +71,18 @@ def test_merge_close_groups() -> None:
     right = group_from_members(pts, (pts[:, 0] >= 0).astype(float))
     far = group_from_members(pts + [1.0, 0, 0], np.ones(600))
     assert sorted(map(sorted, merge_close([left, right, far], pts, 0.3))) == [[0, 1], [2]]
+
+
+def test_merging_in_a_box_joins_one_body_and_keeps_neighbours_apart() -> None:
+    """A head and the hands 0.6 m below it are one person in the box (0.3, 1.3, 0.35) m, not in the 0.3 m ball;
+    two people 0.5 m apart side by side, or one 0.8 m behind the other, stay two."""
+    def group(x: float, y: float, z: float, mass: float = 100.0) -> Group3D:
+        return Group3D(np.zeros(0), mass, np.array([x, y, z]), np.eye(3) * 0.01)
+
+    body = [group(0.0, -0.1, 2.0), group(0.05, 0.5, 1.8)]
+    assert merge_close(body, np.zeros((0, 3)), 0.3) == [[0], [1]]
+    assert merge_close(body, np.zeros((0, 3)), 0.3, (0.3, 1.3, 0.35)) == [[0, 1]]
+    side_by_side = [group(0.0, 0.0, 2.0), group(0.5, 0.0, 2.0)]
+    behind = [group(0.0, 0.0, 2.0), group(0.1, 0.1, 2.8)]
+    for pair in (side_by_side, behind):
+        assert merge_close(pair, np.zeros((0, 3)), 0.3, (0.3, 1.3, 0.35)) == [[0], [1]]
