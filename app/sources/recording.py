@@ -102,7 +102,7 @@ class RecordingWriter:
             raise RecordingError(f"{self.folder}: cannot create the recording folder ({exc.strerror})") from None
         for stale in ("truth.csv", "events.csv", "left.avi", "right.avi"):
             (self.folder / stale).unlink(missing_ok=True)
-        self.rig = rig
+        self.rig_config = rig
         self.fps = float(fps)
         self.samplerate_hz = int(samplerate_hz)
         self.n_channels = int(n_channels)
@@ -130,7 +130,7 @@ class RecordingWriter:
         """Append one stereo frame (its images, stamps and truth if any)."""
         if frame.index != self.n_frames:
             log.debug("frame %d written as frame %d (frames are renumbered in order)", frame.index, self.n_frames)
-        w, h = self.rig.stereo.image_size  # type: ignore[union-attr]
+        w, h = self.rig_config.stereo.image_size  # type: ignore[union-attr]
         for side, img in (("left", frame.left), ("right", frame.right)):
             if img.shape != (h, w, 3) or img.dtype != np.uint8:
                 raise ValueError(f"{side} image must be ({h}, {w}, 3) uint8 as the rig says, got {img.dtype} "
@@ -333,13 +333,13 @@ class Recording(ReplayStream):
         if not rig_path.is_file():
             raise RecordingError(f"{rig_path}: missing; copy the rig calibration of the robot that recorded this "
                                  "(avhear calibrate stereo ... -o rig.yaml) into the folder")
-        self.rig = load_rig(rig_path)
-        if self.rig.stereo is None:
+        self.rig_config = load_rig(rig_path)
+        if self.rig_config.stereo is None:
             raise RecordingError(f"{rig_path}: has no 'stereo' section; replay needs the cameras' calibration")
-        self.stereo = self.rig.stereo
+        self.stereo = self.rig_config.stereo
         # a microphone array in the rig file: every pair of it (its first pair stands for the pair)
-        self.array = self.rig.array
-        self.mics = self.rig.microphones if self.array is None else self.array.pair(0)
+        self.array = self.rig_config.array
+        self.mics = self.rig_config.microphones if self.array is None else self.array.pair(0)
         self.frame_stamps_s, self.right_stamps_s = self._read_frames_csv()
         fps = self.info.get("fps")
         if fps is None:
