@@ -132,15 +132,7 @@ class SpeakingTest:
             inside = np.abs(itds[:, None] - model.means[None, :]) <= half[None, :]
             counts = (self._shares(beta, itds, model.means) * inside).sum(axis=0)
             lam = self.outlier_share * k * np.minimum(2.0 * half * model.outlier_density, 1.0)
-            # the count must exceed the chance quantile and reach min_itds (the 1e-9 makes "reach" a strict test)
-            thr = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds) - 1e-9
-            count_prob = counts / (counts + thr)
-            if self.use_tau_a:
-                speaking &= counts > thr
-                prob = np.minimum(prob, count_prob)
-            else:
-                speaking = counts > thr
-                prob = count_prob
+            speaking, prob = self._count_test(counts, lam, speaking, prob)
             if self.frame_rescue and frame_itds is not None and len(frame_itds):
                 speaking, prob = self._rescue(speaking, prob, np.asarray(frame_itds, dtype=np.float64), model,
                                               self.frame_spread_s)
@@ -155,6 +147,16 @@ class SpeakingTest:
                 speaking = np.where(between, speaking, found)
                 prob = np.where(between, prob, found_prob)
         return speaking, prob, tau
+
+    def _count_test(self, counts: np.ndarray, lam: np.ndarray, speaking: np.ndarray, prob: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """The window test: a count must exceed the chance quantile of Poisson(lam) and reach ``min_itds`` (the
+        1e-9 makes "reach" a strict test); with ``use_tau_a`` the paper's test must pass too."""
+        thr = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds) - 1e-9
+        count_prob = counts / (counts + thr)
+        if self.use_tau_a:
+            return speaking & (counts > thr), np.minimum(prob, count_prob)
+        return counts > thr, count_prob
 
     def _shares(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray) -> np.ndarray:
         """(K, N): how much each ITD counts for each person (``count_by``)."""
@@ -231,13 +233,7 @@ class SpeakingTest:
                 share = np.ones_like(b)
             counts += (share * inside).sum(axis=0)
             lam += self.outlier_share * rows.sum() * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).min(axis=1)
-        thr = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds) - 1e-9
-        count_prob = counts / (counts + thr)
-        if self.use_tau_a:
-            speaking &= counts > thr
-            prob = np.minimum(prob, count_prob)
-        else:
-            speaking, prob = counts > thr, count_prob
+        speaking, prob = self._count_test(counts, lam, speaking, prob)
         if self.frame_rescue and frame_itds is not None and len(frame_itds):
             speaking, prob = self._rescue_pairs(speaking, prob, np.asarray(frame_itds, dtype=np.float64), means, u,
                                                 self.frame_spread_s)
