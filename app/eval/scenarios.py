@@ -408,6 +408,66 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
 # scoring
 
 
+@dataclass
+class _Judged:
+    """What the results said per interval (K) and person (N): frames found and judged speaking, results with a
+    face of nobody judged speaking, results; and per result (R, N) the state (-1 not found, 0 silent, 1 speaking)."""
+
+    found: np.ndarray
+    judged: np.ndarray
+    false_speaking: np.ndarray
+    results_per: np.ndarray
+    states: np.ndarray
+    stamps: np.ndarray
+
+
+def _truth_per_interval(truths: list, frame_interval: np.ndarray, n_intervals: int, n_people: int
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(K, N) visible and speaking in most of the interval's frames, and speaking in any; (K,) frames."""
+    vis_votes = np.zeros((n_intervals, n_people))
+    speak_votes = np.zeros((n_intervals, n_people))
+    frames_per = np.zeros(n_intervals)
+    for k, tr in zip(frame_interval, truths):
+        vis_votes[k] += tr.visible
+        speak_votes[k] += tr.speaking
+        frames_per[k] += 1
+    half = frames_per[:, None] / 2
+    return vis_votes > half, speak_votes > half, speak_votes > 0, frames_per
+
+
+def _judge(scenario: Scenario, fused: Sequence[FusionResult], n_intervals: int, score: ScenarioScore,
+           face_figures: bool) -> _Judged:
+    """Match every result's people to the truth of its instant; with ``face_figures``, also the per-frame visual
+    figures (the F3D faces) into ``score``."""
+    n_people = len(scenario.actors)
+    ordered = sorted(fused, key=lambda f: f.stamp_s)
+    out = _Judged(np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people)), np.zeros(n_intervals),
+                  np.zeros(n_intervals), np.full((len(ordered), n_people), -1),
+                  np.array([r.stamp_s for r in ordered]))
+    for j, r in enumerate(ordered):
+        k = min(int(r.stamp_s / INTERVAL_S + 1e-9), n_intervals - 1)
+        tr = scenario.truth(r.stamp_s)
+        xyz, judged_speaking = r.positions, r.speaking
+        match = match_clusters(xyz, tr.positions_m, tau_loc=TAU_LOC_M)
+        out.results_per[k] += 1
+        matched = set()
+        for g, d in match.pairs:
+            out.found[k, g] += 1
+            out.judged[k, g] += bool(judged_speaking[d])
+            out.states[j, g] = int(bool(judged_speaking[d]))
+            matched.add(d)
+        out.false_speaking[k] += bool(any(judged_speaking[d] for d in range(xyz.shape[0]) if d not in matched))
+        if face_figures:
+            vis = np.flatnonzero(tr.visible)
+            hit = {g for g, _ in match.pairs}
+            score.n_frames += 1
+            score.visible_faces += int(vis.size)
+            score.faces_found += sum(int(g in hit) for g in vis)
+            score.frames_all_found += int(all(g in hit for g in vis))
+            score.f3d_errors_m += [float(e) for (g, _), e in zip(match.pairs, match.errors_m) if tr.visible[g]]
+    return out
+
+
 def score_run(scenario: Scenario, fused: Sequence[FusionResult], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
               config: PipelineConfig, *, frame_stamps_s: np.ndarray) -> ScenarioScore:
     """Score the fused results of one run of ``scenario`` (see the module docstring for the protocol).
@@ -421,52 +481,11 @@ def score_run(scenario: Scenario, fused: Sequence[FusionResult], audio: np.ndarr
     score = ScenarioScore(scenario.name, config.inference, [scenario.seed], float(scenario.duration_s))
     n_intervals = math.ceil(scenario.duration_s / INTERVAL_S - 1e-9)
     score.n_intervals = n_intervals
-
-    # the truth of every camera frame, gathered per interval
     truths = [scenario.truth(float(t)) for t in frame_stamps_s]
     frame_interval = np.minimum((np.asarray(frame_stamps_s) / INTERVAL_S + 1e-9).astype(int), n_intervals - 1)
-    vis_votes = np.zeros((n_intervals, n_people))
-    speak_votes = np.zeros((n_intervals, n_people))
-    frames_per = np.zeros(n_intervals)
-    for k, tr in zip(frame_interval, truths):
-        vis_votes[k] += tr.visible
-        speak_votes[k] += tr.speaking
-        frames_per[k] += 1
-    half = frames_per[:, None] / 2
-    visible = vis_votes > half
-    speaking = speak_votes > half
-    spoke = speak_votes > 0  # in at least one frame
-
-    # detections per interval: per person, frames found and frames judged speaking; false faces judged speaking
-    found = np.zeros((n_intervals, n_people))
-    judged = np.zeros((n_intervals, n_people))
-    false_speaking = np.zeros(n_intervals)
-    results_per = np.zeros(n_intervals)
-    ordered = sorted(fused, key=lambda f: f.stamp_s)
-    states = np.full((len(ordered), n_people), -1)  # per result and person: -1 not found, 0 silent, 1 speaking
-    for j, r in enumerate(ordered):
-        k = min(int(r.stamp_s / INTERVAL_S + 1e-9), n_intervals - 1)
-        tr = scenario.truth(r.stamp_s)
-        xyz, judged_speaking = r.positions, r.speaking
-        match = match_clusters(xyz, tr.positions_m, tau_loc=TAU_LOC_M)
-        results_per[k] += 1
-        matched = set()
-        for g, d in match.pairs:
-            found[k, g] += 1
-            judged[k, g] += bool(judged_speaking[d])
-            states[j, g] = int(bool(judged_speaking[d]))
-            matched.add(d)
-        false_speaking[k] += bool(any(judged_speaking[d] for d in range(xyz.shape[0]) if d not in matched))
-        if not motion:  # per-frame visual figures (the F3D faces)
-            vis = np.flatnonzero(tr.visible)
-            hit = {g for g, _ in match.pairs}
-            score.n_frames += 1
-            score.visible_faces += int(vis.size)
-            score.faces_found += sum(int(g in hit) for g in vis)
-            score.frames_all_found += int(all(g in hit for g in vis))
-            score.f3d_errors_m += [float(e) for (g, _), e in zip(match.pairs, match.errors_m) if tr.visible[g]]
-
-    score.counts = _interval_counts(visible, speaking, spoke, found, judged, false_speaking, results_per)
+    visible, speaking, spoke, frames_per = _truth_per_interval(truths, frame_interval, n_intervals, n_people)
+    j = _judge(scenario, fused, n_intervals, score, face_figures=not motion)
+    score.counts = _interval_counts(visible, speaking, spoke, j.found, j.judged, j.false_speaking, j.results_per)
     # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends
     held = scenario.speaking_at(frame_stamps_s, hold_s=TIMING_REFERENCE_S)
     seen = np.array([tr.visible for tr in truths], dtype=bool).reshape(-1, n_people)
@@ -475,12 +494,10 @@ def score_run(scenario: Scenario, fused: Sequence[FusionResult], audio: np.ndarr
     np.add.at(ref_judged, frame_interval, seen & held)
     score.timing_reference = _interval_counts(visible, speaking, spoke, ref_found, ref_judged, np.zeros(n_intervals),
                                               frames_per)
-
     frame_period_s = float(np.median(np.diff(frame_stamps_s))) if len(frame_stamps_s) > 1 else 1 / 30
     half_span = INTERVAL_S / 2 if motion else frame_period_s / 2  # the time one result stands for
-    stamps = np.array([r.stamp_s for r in ordered])
-    score.utterances, missed, false_stretches = _utterance_counts(scenario, stamps, states, half_span)
-    score.timeline = Timeline(scenario, stamps, states, half_span, tuple(missed), tuple(false_stretches))
+    score.utterances, missed, false_stretches = _utterance_counts(scenario, j.stamps, j.states, half_span)
+    score.timeline = Timeline(scenario, j.stamps, j.states, half_span, tuple(missed), tuple(false_stretches))
     score.itd_errors_s, score.itd_true_s, score.n_itds = _itd_errors(scenario, audio, samplerate_hz, mics, config)
     return score
 
