@@ -84,6 +84,13 @@ def add_mics_argument(p: argparse.ArgumentParser) -> None:
                         "fusion uses every pair")
 
 
+def add_bodies_argument(p: argparse.ArgumentParser) -> None:
+    """``--bodies``: the simulated people with arms, hands and a table (issue 18)."""
+    p.add_argument("--bodies", action="store_true",
+                   help="the simulated people have forearms and hands that gesture while they talk, and the seated "
+                        "ones sit behind a table (default: heads and shirts)")
+
+
 def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline imports this module's types
     """The :class:`app.pipeline.PipelineConfig` of :func:`add_method_arguments`' options; a bad combination is a
     :class:`app.errors.UserError`."""

@@ -206,11 +206,11 @@ class _RowMatch:
         n = np.arange(u.size)
         s0, sm, sp = scores[n, best], scores[n, best - 1], scores[n, best + 1]
         finite = np.isfinite(s0) & np.isfinite(sm) & np.isfinite(sp)
-        denom = np.where(finite, sm - 2.0 * s0 + sp, 0.0)
-        ok = finite & (s0 >= self.min_ncc) & (denom < 0)
         near_peak = np.abs(np.arange(self.n_disp)[None, :] - best[:, None]) <= 2
         runner_up = np.where(near_peak, -np.inf, scores).max(axis=1)
-        ok &= s0 - runner_up >= self.min_margin
+        with np.errstate(invalid="ignore"):  # a flat patch has no correlation (NaN): ``finite`` rejects it
+            denom = np.where(finite, sm - 2.0 * s0 + sp, 0.0)
+            ok = finite & (s0 >= self.min_ncc) & (denom < 0) & (s0 - runner_up >= self.min_margin)
         sub = np.zeros(u.size)
         sub[ok] = np.clip(0.5 * (sm[ok] - sp[ok]) / denom[ok], -0.5, 0.5)
         return ok, self.d_lo + best + sub, s0

@@ -137,7 +137,7 @@ def hm3d_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
     for n_people in args.people:
         for seed in range(args.scenes):
             print(f"  [{len(shares) + 1}/{runs_total}] rendering ...", file=sys.stderr, flush=True)
-            scene = default_scene(faces_dir, moving=True, seed=seed, n_people=n_people)
+            scene = default_scene(faces_dir, moving=True, seed=seed, n_people=n_people, bodies=args.bodies)
             frames = [scene.render(t) for t in times]
             left = np.stack([cv2.cvtColor(f.left, cv2.COLOR_BGR2GRAY) for f in frames])
             right = np.stack([cv2.cvtColor(f.right, cv2.COLOR_BGR2GRAY) for f in frames])
@@ -174,6 +174,7 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=2, help="HM3D timing repeats (best kept)")
     parser.add_argument("--threads", type=int, default=1, help="OpenCV threads (default 1: one core)")
     parser.add_argument("--skip", choices=("f3d", "hm3d"), action="append", default=[])
+    parser.add_argument("--bodies", action="store_true", help="HM3D on people with arms and hands behind a table")
     args = parser.parse_args()
     cv2.setNumThreads(args.threads)
     faces_dir = None if args.drawn or not args.faces.is_dir() else args.faces

@@ -154,6 +154,9 @@ class Person:
     sway_m, sway_hz : amplitude (metres) and frequency of a side-to-side sway of the whole person along x.
     nod_rad, nod_hz : amplitude (radians) and frequency of a head nod about the horizontal axis of the face centre.
     phase : radians, added to both oscillations. shirt_bgr : colour of the body.
+    arms : draw two forearms (sleeves) and hands in front of the body (a person with a body, issue 18); gesture_m,
+    gesture_hz : how far (metres) and how fast the hands swing (a talker gestures). table : a table's front in front of
+    a seated person hides the lower body (drawn by :meth:`props`).
     """
 
     face: FaceTexture
@@ -165,6 +168,10 @@ class Person:
     nod_hz: float = 1.1
     phase: float = 0.0
     shirt_bgr: tuple[int, int, int] = (140, 70, 40)
+    arms: bool = False
+    gesture_m: float = 0.0
+    gesture_hz: float = 0.8
+    table: bool = False
 
     def __post_init__(self) -> None:
         pos = np.asarray(self.position, dtype=np.float64)
@@ -201,7 +208,62 @@ class Person:
         half = 0.23
         body = np.array([[centre[0] - half, top, z], [centre[0] + half, top, z],
                          [centre[0] + half, top + 0.7, z], [centre[0] - half, top + 0.7, z]])
-        return [(body, self._shirt()), (head, tex)]
+        quads = [(body, self._shirt()), (head, tex)]
+        if self.arms:
+            quads += self._arms(t, centre, top)
+        return quads
+
+    def _arms(self, t: float, centre: np.ndarray, top: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Forearms from the elbows (at the body's sides) to the hands in front of the chest, and the hands."""
+        out = []
+        for sign in (-1.0, 1.0):
+            w = 2 * np.pi * self.gesture_hz * t + self.phase + (0.0 if sign < 0 else 1.7)
+            elbow = np.array([centre[0] + sign * 0.22, top + 0.32, centre[2] + 0.02])
+            wrist = np.array([centre[0] + sign * 0.12 + self.gesture_m * np.sin(w),
+                              top + 0.24 - 0.6 * self.gesture_m * np.sin(1.7 * w), centre[2] - 0.18])
+            out.append((_strip(elbow, wrist, 0.09), self._texture("sleeve")))
+            hand_c = wrist + np.array([0.0, 0.0, -0.01])
+            out.append((_strip(hand_c - np.array([0.0, 0.05, 0.0]), hand_c + np.array([0.0, 0.05, 0.0]), 0.09),
+                        self._texture("hand")))
+        return out
+
+    def props(self, t: float) -> list[tuple[np.ndarray, np.ndarray]]:
+        """What stands with the person but is not them: the front of a table (``table``) that hides the lower body."""
+        if not self.table:
+            return []
+        c = np.asarray(self.position)
+        y_top = c[1] + 0.58
+        z = c[2] - 0.30
+        corners = np.array([[c[0] - 0.40, y_top, z], [c[0] + 0.40, y_top, z], [c[0] + 0.40, y_top + 1.0, z],
+                            [c[0] - 0.40, y_top + 1.0, z]])
+        return [(corners, self._texture("table"))]
+
+    def _texture(self, kind: str) -> np.ndarray:
+        """Sleeves (the shirt's colour, folds), hands (skin, finger lines), a table front (wood grain)."""
+        key = f"_{kind}_texture"
+        cached = self.__dict__.get(key)
+        if cached is not None:
+            return cached
+        rng = np.random.default_rng([abs(hash(self.shirt_bgr)) % (2**32), len(kind)])
+        if kind == "sleeve":
+            img = np.empty((60, 24, 3), np.uint8)
+            img[:] = self.shirt_bgr
+            for y in range(4, 60, 11):
+                img[y:y + 2] = np.clip(np.array(self.shirt_bgr) * 0.55, 0, 255).astype(np.uint8)
+        elif kind == "hand":
+            img = np.empty((30, 24, 3), np.uint8)
+            img[:] = (140, 170, 210)
+            for x in range(3, 24, 5):
+                img[:18, x] = (100, 125, 160)
+        else:
+            img = np.empty((80, 160, 3), np.uint8)
+            img[:] = (60, 95, 140)
+            for y in range(0, 80, 6):
+                img[y] = (45, 70, 105)
+        noise = rng.normal(0, 10, img.shape[:2])[..., None]
+        img = np.clip(img + noise, 0, 255).astype(np.uint8)
+        object.__setattr__(self, key, img)
+        return img
 
     def _shirt(self) -> np.ndarray:
         cached = self.__dict__.get("_shirt_texture")
@@ -337,7 +399,7 @@ class StereoSceneRenderer:
 
     def render(self, t: float = 0.0) -> RenderedFrame:
         """The two rectified images at time ``t`` seconds, with the ground truth of that instant."""
-        quads = [(q, tex) for p in self.people for q, tex in p.quads(t)]
+        quads = [(q, tex) for p in self.people for q, tex in p.quads(t) + p.props(t)]
         quads.sort(key=lambda qt: -float(qt[0][:, 2].mean()))  # far to near
         images = []
         rng = np.random.default_rng([self.seed, int(round(t * 1e6)) % (2**32)])
@@ -402,6 +464,14 @@ class StereoSceneRenderer:
         return best
 
 
+def _strip(a: np.ndarray, b: np.ndarray, width: float) -> np.ndarray:
+    """A quad of ``width`` from a to b, facing the camera (its width along x-y, across the segment's image)."""
+    d = b - a
+    across = np.array([-d[1], d[0], 0.0])
+    across = across / max(np.linalg.norm(across), 1e-9) * width / 2
+    return np.array([a - across, a + across, b + across, b - across])
+
+
 def _distance_to_quad(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
     """Distance from points (m, 3) to a planar parallelogram given by its corners TL, TR, BR, BL (4, 3)."""
     origin = corners[0]
@@ -414,13 +484,14 @@ def _distance_to_quad(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
 
 
 def default_scene(faces_dir: str | Path | None = None, *, moving: bool = False, seed: int = 0,
-                  rig: StereoRig | None = None, n_people: int = 3) -> StereoSceneRenderer:
+                  rig: StereoRig | None = None, n_people: int = 3, bodies: bool = False) -> StereoSceneRenderer:
     """People in a 6 m room, seen by a 640x480 rig (focal 554 px, i.e. a 60 degree horizontal field of view,
     baseline 0.12 m). The first three stand at 1.3, 2.1 and 2.9 m; up to two more (``n_people`` <= 5) at 2.6 and
     1.8 m make a busier scene.
 
     faces_dir : ``../shared/data/faces`` for real face crops; None (or absent) for drawn faces.
     moving : people sway (5-8 cm) and nod (about 10 degrees), so that HM3D finds motion.
+    bodies : people with forearms and hands (gesturing when ``moving``) behind a table.
     """
     if not 0 <= n_people <= 5:
         raise ValueError(f"n_people must be between 0 and 5, got {n_people!r}")
@@ -442,7 +513,7 @@ def default_scene(faces_dir: str | Path | None = None, *, moving: bool = False, 
     people = [
         Person(face=tex, position=pos, shirt_bgr=shirt,
                sway_m=(0.05 + 0.015 * i) if moving else 0.0, nod_rad=0.17 if moving else 0.0,
-               phase=1.3 * i)
+               phase=1.3 * i, arms=bodies, gesture_m=0.15 if bodies and moving else 0.0, table=bodies)
         for i, (tex, pos, shirt) in enumerate(zip(chosen, positions, shirts))
     ]
     return StereoSceneRenderer(rig, people, seed=seed)

@@ -12,7 +12,8 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.options import MAX_SIMULATED_S, add_method_arguments, add_mics_argument, count, duration, pipeline_config
+from app.options import (MAX_SIMULATED_S, add_bodies_argument, add_method_arguments, add_mics_argument, count,
+                         duration, pipeline_config)
 from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets, signed_us,
                              synthetic_json)
 from app.paths import output_dir
@@ -76,6 +77,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="seconds of each scenario (default: the preset's, 20 s; 25 s for S5)")
     add_method_arguments(sce)
     add_mics_argument(sce)
+    add_bodies_argument(sce)
     sce.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
                      help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
                           "(40 s), as a user of the rig would, and fuse with it (default); --no-calibrate fuses "
@@ -148,7 +150,8 @@ def run_scenarios(args: argparse.Namespace) -> int:
             _progress(f"{name} seed {seed}: simulating and running the {config.inference}-guided pipeline ...")
             t0 = time.perf_counter()
             score = evaluate_scenario(name, seed, duration_s=args.duration, config=config,
-                                      mics=calibration.mics if calibration else None, mic_array=args.mics)
+                                      mics=calibration.mics if calibration else None, mic_array=args.mics,
+                                      bodies=args.bodies)
             c = score.counts
             _progress(f"{name} seed {seed}: TP {c.tp}, FN {c.fn}, FP {c.fp} ({time.perf_counter() - t0:.0f} s)")
             if args.timeline is not None and score.timeline is not None:

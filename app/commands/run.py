@@ -15,8 +15,8 @@ from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_sess
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.sources.live import LiveConfig, add_device_arguments, live_config
-from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_method_arguments, add_mics_argument, count, duration,
-                         pipeline_config, port)
+from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_method_arguments,
+                         add_mics_argument, count, duration, pipeline_config, port)
 from app.paths import output_file
 from app.pipeline import FusionResult, Pipeline, PipelineConfig, PipelineStats
 from app.results import ResultsWriter
@@ -31,6 +31,7 @@ def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: f
     p.add_argument("--duration", type=duration(max_duration_s), default=None, metavar="SECONDS", help=duration_help)
     add_method_arguments(p)
     add_mics_argument(p)
+    add_bodies_argument(p)
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
     where.add_argument("--save", type=Path, default=None, metavar="FILE.rrd",
                        help="save the console's data to this file")
@@ -109,6 +110,8 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
     if spec.startswith("sim:") and args.duration is not None and args.duration > MAX_SIMULATED_S:
         raise UserError(f"--duration {args.duration:g}: the simulated room runs at most {MAX_SIMULATED_S:g} s "
                         "(it renders the whole scenario's audio in memory); for longer runs, repeat or use a recording")
+    if args.bodies and not spec.startswith("sim:"):
+        raise UserError(f"--bodies draws the simulated room's people; {spec} has real ones")
     if args.mics != "pair" and not spec.startswith("sim:"):
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {spec} brings its own (one "
                         "pair from the rig file or the recording)")
@@ -139,7 +142,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         else:
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
-                                 mics=args.mics, progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+                                 mics=args.mics, bodies=args.bodies, progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
         return _run_checked(spec, args, target, config, source, results, publisher,
                             wall_time=live is not None or spec == "bus")

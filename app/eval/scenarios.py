@@ -336,9 +336,9 @@ class CalibrationFit:
 
 
 def _open(name: str, seed: int, duration_s: float | None, progress: Progress | None,
-          mic_array: str = "pair") -> StreamAdapter:
+          mic_array: str = "pair", bodies: bool = False) -> StreamAdapter:
     source = open_source(f"sim:{name}", realtime=False, duration_s=duration_s, seed=seed, mics=mic_array,
-                         progress=progress)
+                         bodies=bodies, progress=progress)
     assert isinstance(source, StreamAdapter)
     return source
 
@@ -369,21 +369,23 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
 
 def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = None,
                       config: PipelineConfig | None = None, mics: MicPair | None = None,
-                      mic_array: str = "pair", progress: Progress | None = None) -> ScenarioScore:
+                      mic_array: str = "pair", bodies: bool = False, progress: Progress | None = None
+                      ) -> ScenarioScore:
     """Simulate scenario ``name`` (S1-S5) with ``seed``, run it through the pipeline and score it (section 7.3).
 
     duration_s : seconds of scenario (default the preset's, 20-25 s). config : the pipeline's settings (default
     face-guided, the paper's on NAO). mics : the microphone pair with an audio-visual correction (e.g.
     :func:`calibrate_on_preset`); default the simulator's nominal pair with c1 = 1, c0 = 0. mic_array : the
     robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); with several pairs the fusion uses them all and
-    ``mics`` must be None (the simulated microphones are exact).
+    ``mics`` must be None (the simulated microphones are exact). bodies : people with forearms, hands and a table
+    (:class:`app.sources.sim.SimSource`).
     """
     if mics is not None and mic_array != "pair":
         raise ValueError("an audio-visual correction (mics) applies to the one pair; use mic_array='pair' with it")
     if name not in SCENARIOS:
         raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}, got {name!r}")
     cfg = config or PipelineConfig()
-    source = _open(name, seed, duration_s, progress, mic_array)
+    source = _open(name, seed, duration_s, progress, mic_array, bodies)
     if mics is not None:
         source.mics = mics
     fused: list[FusionResult] = []

@@ -81,9 +81,10 @@ class StreamAdapter(SourceBase):
 
 def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, seed: int = 0,
                 rig_path: str | None = None, live: LiveConfig | None = None, mics: str = "pair",
-                progress=None) -> StreamAdapter | LiveSource:  # noqa: ANN001
+                bodies: bool = False, progress=None) -> StreamAdapter | LiveSource:  # noqa: ANN001
     """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER`` or ``live`` (with ``rig_path`` and ``live``);
-    ``mics`` names the simulated room's microphones (:data:`avcore.geometry.ARRAY_PRESETS`)."""
+    ``mics`` names the simulated room's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); ``bodies`` draws its
+    people with arms, hands and a table (:class:`app.sources.sim.SimSource`)."""
     kind, _, arg = spec.partition(":")
     if kind == "sim":
         try:
@@ -94,7 +95,7 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
         if preset not in PRESETS:
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
         return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, mics=mics,
-                                                   progress=progress), realtime=realtime)
+                                                   bodies=bodies, progress=progress), realtime=realtime)
     if kind == "replay":
         if not arg:
             raise UserError("give the recording folder: --source replay:recordings/NAME")

@@ -52,6 +52,7 @@ __all__ = ["SimSource", "load_clip_bank", "load_textures", "render_audio"]
 log = logging.getLogger(__name__)
 
 NOD_HZ = 2.0
+GESTURE_M = 0.15  # how far a talker's hands swing (SimSource(bodies=True))
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -81,7 +82,7 @@ class SimSource(ReplayStream):
 
     def __init__(self, scenario: Scenario, bank: ClipBank, *, textures: list[FaceTexture] | None = None,
                  data_dir: str | Path | None = None, fps: float = 30.0, block_size: int = 512,
-                 noise_std: float = 1.5, audio: SimAudio | None = None,
+                 noise_std: float = 1.5, audio: SimAudio | None = None, bodies: bool = False,
                  progress: Callable[[str], None] | None = None) -> None:
         super().__init__()
         if not (np.isfinite(fps) and 1.0 <= fps <= 60.0):
@@ -92,6 +93,7 @@ class SimSource(ReplayStream):
             raise ValueError(f"noise_std must be >= 0 grey levels, got {noise_std!r}")
         self.scenario = scenario
         self.bank = bank
+        self.bodies = bool(bodies)
         faces_kind = "given"
         if textures is None:
             textures, faces_kind = load_textures(data_dir)
@@ -133,14 +135,16 @@ class SimSource(ReplayStream):
     @classmethod
     def from_preset(cls, name: str, *, duration_s: float | None = None, seed: int = 0, fps: float = 30.0,
                     data_dir: str | Path | None = None, block_size: int = 512, rt60_s: float = 0.4,
-                    mics: str = "pair", progress: Callable[[str], None] | None = None) -> SimSource:
+                    mics: str = "pair", bodies: bool = False,
+                    progress: Callable[[str], None] | None = None) -> SimSource:
         """A preset of :data:`sim.scenario.PRESETS` with real faces and digits from ``data_dir`` (default
         ``../shared/data``; drawn faces and synthetic clips when it is absent), heard by the microphones ``mics``
         (:data:`avcore.geometry.ARRAY_PRESETS`)."""
         bank = load_clip_bank(16000, data_dir, seed=seed)
         scenario = make_scenario(name, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,
                                  rt60_s=rt60_s, mics=mics)
-        return cls(scenario, bank, data_dir=data_dir, fps=fps, block_size=block_size, progress=progress)
+        return cls(scenario, bank, data_dir=data_dir, fps=fps, block_size=block_size, bodies=bodies,
+                   progress=progress)
 
     # -------------------------------------------------------------- ReplayStream
     def people(self, t: float) -> list[Person]:
@@ -148,15 +152,18 @@ class SimSource(ReplayStream):
         speaking."""
         pos = self.scenario.positions(t)
         nods = self.scenario.nod_amplitudes(t)
+        b = self.bodies  # arms and hands (a talker gestures), and a table in front of the seated
         return [Person(face=self.textures[self._face_of[i]], position=tuple(p), shirt_bgr=a.shirt_bgr,
-                       nod_rad=float(nod), nod_hz=NOD_HZ, phase=1.3 * i)
+                       nod_rad=float(nod), nod_hz=NOD_HZ, phase=1.3 * i, arms=b,
+                       gesture_m=GESTURE_M if b and nod > 0 else 0.0, table=b and a.posture == "seated")
                 for i, (a, p, nod) in enumerate(zip(self.scenario.actors, pos, nods))]
 
     def _images(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         t = float(self.frame_stamps_s[k])
         people = self.people(t)
         angles = [p.nod_rad * np.sin(2 * np.pi * p.nod_hz * t + p.phase) for p in people]
-        key = tuple(np.round(np.concatenate([np.ravel([p.position for p in people]), angles]), 5))
+        moving_hands = [t if p.gesture_m > 0 else 0.0 for p in people]
+        key = tuple(np.round(np.concatenate([np.ravel([p.position for p in people]), angles, moving_hands]), 5))
         if key != self._cache.key:
             self._renderer.people = people
             frame = self._renderer.render(t)

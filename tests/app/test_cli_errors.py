@@ -103,6 +103,8 @@ def test_a_viewer_that_stops_answering_cannot_hang_the_exit() -> None:
     (["record", "-o", "x", "--rig", "r.yaml", "--fps", "0"], "--fps"),
     (["eval", "scenarios", "--vote-frames", "0"], "--vote-frames"),
     (["calibrate", "signal", "-o", "x.wav", "--seed", "-1"], "--seed"),
+    (["demo", "--mics", "nao5"], "--mics"),
+    (["eval", "scenarios", "--mics", "kinect"], "--mics"),
 ])
 def test_out_of_range_options_are_refused_when_parsed(argv: list[str], option: str,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
@@ -111,6 +113,17 @@ def test_out_of_range_options_are_refused_when_parsed(argv: list[str], option: s
     assert stop.value.code == 2
     err = capsys.readouterr().err
     assert f"argument {option}" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(("flag", "message"), [
+    (["--mics", "nao"], "--mics nao chooses the simulated room's microphones"),
+    (["--bodies"], "--bodies draws the simulated room's people"),
+])
+def test_simulator_options_on_a_real_source_are_one_line(flag: list[str], message: str, tmp_path: Path,
+                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", "--source", f"replay:{tmp_path}", *flag, "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
 
 
 def test_a_simulated_run_longer_than_the_simulator_allows(capsys: pytest.CaptureFixture[str]) -> None:

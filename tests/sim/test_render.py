@@ -93,3 +93,24 @@ def test_every_drawn_skin_is_found_by_the_default_detector(skin):
             truth = frame.face_boxes_left[0]
             centres = boxes[:, :2] + boxes[:, 2:] / 2
             assert len(boxes) and np.min(np.linalg.norm(centres - (truth[:2] + truth[2:] / 2), axis=1)) < 15, (z, t)
+
+
+def test_people_with_arms_gesture_and_a_table_hides_their_lower_body():
+    """Bodies in the rendered scenes (issue 18): forearms and hands in front of the chest that swing while the person
+    gestures, and a table front that covers the lower body; the table is not a person."""
+    rig = StereoRig.ideal(554.0, (640, 480), 0.12)
+    face = drawn_face_texture()
+    plain = Person(face=face, position=(0.0, -0.1, 2.0))
+    body = Person(face=face, position=(0.0, -0.1, 2.0), arms=True, gesture_m=0.15, table=True)
+    assert len(body.quads(0.0)) == len(plain.quads(0.0)) + 4 and not plain.props(0.0)
+    hands = [np.concatenate([q.mean(axis=0) for q, _ in body.quads(t)[-3::2]]) for t in (0.0, 0.3)]
+    assert np.abs(hands[0] - hands[1]).max() > 0.03  # the hands moved
+    img_plain = StereoSceneRenderer(rig, [plain], noise_std=0.0).render(0.0).left
+    img_body = StereoSceneRenderer(rig, [body], noise_std=0.0).render(0.0).left
+    (table,) = body.props(0.0)
+    below = rig.project(np.array([[0.0, table[0][0][1] + 0.2, 2.0]]))[0][0]  # the shirt, 20 cm below the table top
+    x, y = int(round(below[0])), int(round(below[1]))
+    assert not np.array_equal(img_plain[y, x], img_body[y, x])  # covered by the table
+    scene = StereoSceneRenderer(rig, [body], noise_std=0.0)
+    table_centre = table[0].mean(axis=0)[None]
+    assert scene.distance_to_people(table_centre, 0.0)[0] > 0.05
