@@ -33,7 +33,7 @@ from avcore.mixture import (
     unpack,
     warn_not_converged,
 )
-from avcore.refine3d import compact_groups, group_from_members, merge_close
+from avcore.refine3d import Group3D, compact_groups, group_from_members, merge_close
 from avcore.speaking import SpeakingTest, speaking_threshold
 
 __all__ = [
@@ -70,9 +70,10 @@ class MotionGuidedParams:
     kernel_sd_m : the person-sized kernel of the 3D refinement (x, y, z standard deviations, metres).
     max_sd_m : a 3D group wider than this along any axis is not a person.
     merge_distance_m : 3D groups closer than this are one person (a blob cut into two 1-D clusters).
-    merge_extent_m : (x, y, z) metres, or None: groups closer than this along every axis are one person, instead of
-        the ball of ``merge_distance_m``. A body's head, hands and legs give separate groups up to a body's height
-        apart, while two people stand side by side or one behind the other (``benchmarks/motion_families.py``).
+    merge_vertical_m : the same along the vertical: a body's moving parts (head, hands, legs) are stacked, so
+        groups this far apart vertically (and aligned horizontally) are one person.
+    body_radius_m : if set, an object's position is the alpha-weighted mean of its clusters' points within this
+        horizontal radius (and ``merge_vertical_m`` vertically) of its groups, not the groups' mean alone.
     warm_start_candidates : for every N, start EM from the better (on the new data) of the paper's initialisation
         and the previous interval's fit with N components: people move little between intervals, so EM needs
         fewer iterations (a speed-up; the paper initialises every N from the selected model only).
@@ -87,10 +88,11 @@ class MotionGuidedParams:
     speaking: SpeakingTest = field(default_factory=SpeakingTest)
     refine_3d: bool = True
     kernel_sd_m: tuple[float, float, float] = (0.10, 0.20, 0.10)
-    min_points: float = 60.0
+    min_points: float = 30.0
     max_sd_m: float = 0.6
     merge_distance_m: float = 0.3
-    merge_extent_m: tuple[float, float, float] | None = (0.3, 1.3, 0.35)
+    merge_vertical_m: float = 1.2
+    body_radius_m: float | None = 0.3
     warm_start_candidates: bool = True
 
     def __post_init__(self) -> None:
@@ -98,6 +100,11 @@ class MotionGuidedParams:
             raise ValueError(f"n_max must be in 0..50, got {self.n_max}")
         if not self.bin_width_s > 0:
             raise ValueError(f"bin_width_s must be > 0 seconds, got {self.bin_width_s}")
+        if not (self.merge_distance_m > 0 and self.merge_vertical_m > 0):
+            raise ValueError(f"merge_distance_m and merge_vertical_m must be > 0 metres, got "
+                             f"{self.merge_distance_m}, {self.merge_vertical_m}")
+        if self.body_radius_m is not None and not self.body_radius_m > 0:
+            raise ValueError(f"body_radius_m must be None or > 0 metres, got {self.body_radius_m}")
 
     @classmethod
     def paper(cls) -> MotionGuidedParams:
@@ -290,16 +297,32 @@ class MotionGuidedHearing:
         g = model.weights[:-1][keep]
         return Mixture1D(np.append(g, 1.0 - g.sum()), model.means[keep], model.variances[keep], self.support)
 
+    def _body(self, pts: np.ndarray, w: np.ndarray, g: Group3D) -> Group3D:
+        """The object's position from all its clusters' points in a body-sized cylinder around its groups.
+
+        Compact groups hold the densest moving parts (a head, a hand); the rest of the body (sleeves, shoulders,
+        a torso) gives sparser points that no group takes. Their alpha-weighted mean inside a vertical cylinder
+        of radius ``body_radius_m`` and half-height ``merge_vertical_m`` around the groups is the body's centre.
+        """
+        p = self.params
+        d = pts - g.mean
+        inside = (np.hypot(d[:, 0], d[:, 2]) < p.body_radius_m) & (np.abs(d[:, 1]) < p.merge_vertical_m)
+        ww = w * inside
+        if ww.sum() <= g.mass:
+            return g
+        return Group3D(g.members, g.mass, (ww @ pts) / ww.sum(), g.cov)
+
     def _refine(self, pts: np.ndarray, v: np.ndarray, a: np.ndarray, alpha: np.ndarray, beta: np.ndarray,
                 model: Mixture1D) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Mixture1D]:
         """Compact 3D groups of every 1-D cluster (:mod:`avcore.refine3d`) become the AV objects.
 
         The cluster's ITD posteriors are shared among its groups by the groups' 1-D densities; groups closer than
-        ``merge_distance_m`` are one person. Each object gets its own 1-D component (the moments of its projected
+        ``merge_distance_m`` (``merge_vertical_m`` along the vertical) are one person, placed at its body's centre
+        (:meth:`_body`) when ``body_radius_m`` is set. Each object gets its own 1-D component (the moments of its projected
         points), kept for the next interval.
         """
         p = self.params
-        groups, betas, weights = [], [], []
+        groups, betas, weights, sources = [], [], [], []
         for n in range(model.n_components):
             found = compact_groups(pts, alpha[:, n], kernel_sd_m=p.kernel_sd_m, min_mass=p.min_points,
                                    max_sd_m=p.max_sd_m)
@@ -318,14 +341,28 @@ class MotionGuidedHearing:
             total = alpha[:, n].sum()
             for j, g in enumerate(found):
                 groups.append(g)
+                sources.append(n)
                 betas.append(beta[:, n] * share[:, j])
                 weights.append(model.weights[n] * g.mass / total)
         if not groups:
             return (np.empty((0, 3)), np.empty((0, 3, 3)), np.empty(0), np.zeros((a.size, 0)),
                     Mixture1D.outliers_only(self.support))
-        objects = []
-        for idx in merge_close(groups, pts, p.merge_distance_m, p.merge_extent_m):
+
+        def merged(idx: list[int]) -> Group3D:
             g = groups[idx[0]] if len(idx) == 1 else group_from_members(pts, sum(groups[i].members for i in idx))
+            if p.body_radius_m is not None:
+                g = self._body(pts, alpha[:, sorted({sources[i] for i in idx})].sum(axis=1), g)
+            return g
+
+        clusters = merge_close(groups, pts, p.merge_distance_m, p.merge_vertical_m)
+        bodies = [merged(c) for c in clusters]
+        if p.body_radius_m is not None and len(clusters) > 1:
+            # body centres of a person's merged parts can be closer than the parts were: merge once more on them
+            again = merge_close(bodies, pts, p.merge_distance_m, p.merge_vertical_m)
+            bodies = [bodies[c[0]] if len(c) == 1 else merged(sum((clusters[i] for i in c), [])) for c in again]
+            clusters = [sum((clusters[i] for i in c), []) for c in again]
+        objects = []
+        for idx, g in zip(clusters, bodies):
             m1 = (g.members @ v) / g.mass
             s2 = max((g.members @ (v - m1) ** 2) / g.mass, p.em.var_floor_s2)
             objects.append((g, sum(betas[i] for i in idx), sum(weights[i] for i in idx), m1, s2))

@@ -201,27 +201,28 @@ def group_from_members(points: np.ndarray, members: np.ndarray) -> Group3D:
 
 
 def merge_close(groups: list[Group3D], points: np.ndarray, distance_m: float,
-                extent_m: tuple[float, float, float] | None = None) -> list[list[int]]:
+                vertical_m: float | None = None) -> list[list[int]]:
     """Indices of groups to merge: groups whose means are closer than ``distance_m`` are one person.
 
-    A person's blob is sometimes cut into two 1-D clusters (its projection is not Gaussian), each giving a
-    group; two real people are never closer than a head's width. Greedy: the closest pair first.
-
-    ``extent_m`` (x, y, z) replaces the ball by a box: groups closer than it along every axis are one person.
-    A body is taller than it is wide or deep, and its moving parts (a head, hands in front of the chest) give
-    separate groups up to a body's height apart, while two people stand side by side or one behind the other.
+    A person's points are sometimes cut into two 1-D clusters (their projection is not Gaussian), each giving a
+    group, and a body's moving parts (head, hands, legs) form several compact groups stacked one above the other;
+    two real people are never closer than a head's width side by side. ``vertical_m`` (default ``distance_m``)
+    stretches the distance along y (the scene's vertical): two groups are one person when
+    ``dx^2 + dz^2 + (dy * distance_m / vertical_m)^2 < distance_m^2``. Greedy: the closest pair first.
     """
+    vertical_m = distance_m if vertical_m is None else vertical_m
+    if not (distance_m > 0 and vertical_m > 0):
+        raise ValueError(f"distance_m and vertical_m must be > 0 metres, got {distance_m!r}, {vertical_m!r}")
+    stretch = np.array([1.0, distance_m / vertical_m, 1.0])
     clusters = [[i] for i in range(len(groups))]
     means = [g.mean for g in groups]
     masses = [g.mass for g in groups]
-    scale = np.full(3, distance_m) if extent_m is None else np.asarray(extent_m, dtype=np.float64)
     while len(clusters) > 1:
-        m = np.asarray(means)
-        diff = np.abs(m[:, None] - m[None, :]) / scale
-        d = np.linalg.norm(diff, axis=2) if extent_m is None else diff.max(axis=2)
+        m = np.asarray(means) * stretch
+        d = np.linalg.norm(m[:, None] - m[None, :], axis=2)
         np.fill_diagonal(d, np.inf)
         i, j = np.unravel_index(int(np.argmin(d)), d.shape)
-        if d[i, j] >= 1.0:
+        if d[i, j] >= distance_m:
             break
         i, j = min(i, j), max(i, j)
         tot = masses[i] + masses[j]

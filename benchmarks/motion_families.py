@@ -1,8 +1,9 @@
-"""Algorithm 1 on people with bodies (issue 18): the paper's method and avhear's default on every family of
-:mod:`sim.bodies`, beside the paper's section 7.1 sequences.
+"""Algorithm 1 on people with bodies (issue 18): the paper's method and avhear's default on every family of the two
+body generators, :mod:`sim.bodies` ("parts") and :mod:`sim.skeletons` (written independently), beside the paper's
+section 7.1 sequences.
 
-    python benchmarks/motion_families.py                 # every family, seeds 0-2, 60 intervals each
-    python benchmarks/motion_families.py --families seated walking --seeds 0 1 2 3 4
+    python benchmarks/motion_families.py                 # every family of both, seeds 0-2, 60 intervals each
+    python benchmarks/motion_families.py --families parts:seated skeletons:behind --seeds 0 1 2 3 4
 
 Per family, summed over the seeds and shown per 60-interval sequence: visual TP % (the people found within
 tau_loc = 0.35 m of the truth, the centre of their visible moving body), false positives, the mean localisation
@@ -23,18 +24,22 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from avcore.evaluation import EvalTotals, match_clusters  # noqa: E402
 from avcore.geometry import MicPair  # noqa: E402
 from avcore.inference import MotionGuidedHearing, MotionGuidedParams  # noqa: E402
-from sim.bodies import FAMILIES, generate_bodies  # noqa: E402
+from sim import bodies, skeletons  # noqa: E402
 from sim.synthetic import generate_sequence  # noqa: E402
 
-VARIANTS = {
-    "paper": MotionGuidedParams.paper,
-    "avhear": MotionGuidedParams,
-    # candidates, chosen on the families given by --families (report on the others)
-    "box": lambda: MotionGuidedParams(merge_extent_m=(0.3, 0.9, 0.3)),
-    "box-tall": lambda: MotionGuidedParams(merge_extent_m=(0.3, 1.3, 0.35)),
-    "box-wide": lambda: MotionGuidedParams(merge_extent_m=(0.4, 1.3, 0.5)),
-}
-MOVING = {"walking", "crossing", "DynCon"}
+VARIANTS = {"paper": MotionGuidedParams.paper, "avhear": MotionGuidedParams}
+MOVING = {"parts:walking", "parts:crossing", "skeletons:standing", "skeletons:behind", "DynCon"}
+FAMILIES = ([f"parts:{f}" for f in bodies.FAMILIES] + [f"skeletons:{f}" for f in skeletons.FAMILIES]
+            + ["StaCon", "DynCon"])
+
+
+def sequence(family: str, seed: int, n_intervals: int) -> list:
+    kind, _, name = family.partition(":")
+    if kind == "parts":
+        return bodies.generate_bodies(name, seed=seed, n_intervals=n_intervals)
+    if kind == "skeletons":
+        return skeletons.generate_family(name, seed=seed)[:n_intervals]
+    return generate_sequence(family, seed=seed)[:n_intervals]
 
 
 def run(family: str, seeds: list[int], variant: str, n_intervals: int) -> tuple[EvalTotals, list[float]]:
@@ -43,9 +48,7 @@ def run(family: str, seeds: list[int], variant: str, n_intervals: int) -> tuple[
     times: list[float] = []
     for seed in seeds:
         hearing = MotionGuidedHearing(mics, VARIANTS[variant]())
-        intervals = (generate_bodies(family, seed=seed, n_intervals=n_intervals) if family in FAMILIES
-                     else generate_sequence(family, seed=seed)[:n_intervals])
-        for iv in intervals:
+        for iv in sequence(family, seed, n_intervals):
             t0 = time.perf_counter()
             out = hearing.step(iv.points, iv.itds)
             times.append(time.perf_counter() - t0)
@@ -56,14 +59,14 @@ def run(family: str, seeds: list[int], variant: str, n_intervals: int) -> tuple[
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--families", nargs="+", default=list(FAMILIES) + ["StaCon", "DynCon"])
+    parser.add_argument("--families", nargs="+", default=FAMILIES, choices=FAMILIES)
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--intervals", type=int, default=60)
     parser.add_argument("--variants", nargs="+", default=["paper", "avhear"], choices=list(VARIANTS))
     args = parser.parse_args()
     n_seq = len(args.seeds)
     print(f"Algorithm 1, {args.intervals} intervals per sequence, seeds {args.seeds}; FP per sequence, ALE in cm")
-    print(f"{'family':<10} {'method':<7} {'TP':>7} {'FP/seq':>7} {'ALE cm':>7} {'audio TP':>9} {'audio FP':>9} "
+    print(f"{'family':<19} {'method':<7} {'TP':>7} {'FP/seq':>7} {'ALE cm':>7} {'audio TP':>9} {'audio FP':>9} "
           f"{'step ms':>8}  target")
     for family in args.families:
         for variant in args.variants:
@@ -72,7 +75,7 @@ def main() -> None:
             ale = 100 * float(np.mean(t.errors_m)) if t.errors_m else float("nan")
             audio_n = t.audio_tp + t.audio_fn
             target = ">= 93 % TP" if family in MOVING else ">= 97 % TP"
-            print(f"{family:<10} {variant:<7} {100 * t.tp / max(n, 1):6.1f}% {t.fp / n_seq:7.1f} {ale:7.1f} "
+            print(f"{family:<19} {variant:<7} {100 * t.tp / max(n, 1):6.1f}% {t.fp / n_seq:7.1f} {ale:7.1f} "
                   f"{100 * t.audio_tp / max(audio_n, 1):8.1f}% {t.audio_fp / n_seq:9.1f} "
                   f"{1e3 * float(np.median(times)):8.1f}  {target}, <= 5 FP, ALE <= 5 cm", flush=True)
 

@@ -21,7 +21,7 @@ from avcore.inference import (
     MotionGuidedParams,
     SpeakingTest,
 )
-from sim.synthetic import SEQUENCES, SyntheticConfig, generate_sequence
+from sim.synthetic import SEQUENCES, Interval, SyntheticConfig, generate_sequence
 
 __all__ = [
     "FACE_VARIANTS",
@@ -31,6 +31,7 @@ __all__ = [
     "SequenceScore",
     "evaluate_face_guided",
     "evaluate_sequence",
+    "score_intervals",
 ]
 
 # Table 1 (visual): FP, FN, TP, TP %, ALE (m)
@@ -97,6 +98,29 @@ def evaluate_sequence(
         if progress is not None:
             progress(f"{name} seed {seed} ({variant or 'custom'}): TP {totals.tp}/{totals.n_truth}")
     return SequenceScore(name, variant, seeds, totals)
+
+
+def score_intervals(
+    name: str,
+    sequences: Iterable[tuple[int, list[Interval]]],
+    params: MotionGuidedParams,
+    *,
+    variant: str = "",
+    mics: MicPair | None = None,
+) -> SequenceScore:
+    """Algorithm 1 over already generated sequences ``(seed, intervals)`` (e.g. :func:`sim.bodies.generate_bodies`,
+    :func:`sim.skeletons.generate_family`), scored as :func:`evaluate_sequence` does: the model is kept across a
+    sequence's intervals, fresh per sequence."""
+    mics = mics if mics is not None else MicPair()
+    totals, seeds = EvalTotals(), []
+    for seed, intervals in sequences:
+        seeds.append(int(seed))
+        hearing = MotionGuidedHearing(mics, params)
+        for interval in intervals:
+            out = hearing.step(interval.points, interval.itds)
+            totals.add(match_clusters(out.positions, interval.truth_xyz, detected_speaking=out.speaking,
+                                      truth_speaking=interval.truth_speaking))
+    return SequenceScore(name, variant, tuple(seeds), totals)
 
 
 FACE_VARIANTS: dict[str, Callable[[], FaceGuidedParams]] = {

@@ -1,11 +1,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from avcore.refine3d import (
     GAUSS_PEAKEDNESS,
     UNIFORM_PEAKEDNESS,
-    Group3D,
     compact_groups,
     group_from_members,
     merge_close,
@@ -73,16 +73,24 @@ def test_merge_close_groups() -> None:
     assert sorted(map(sorted, merge_close([left, right, far], pts, 0.3))) == [[0, 1], [2]]
 
 
-def test_merging_in_a_box_joins_one_body_and_keeps_neighbours_apart() -> None:
-    """A head and the hands 0.6 m below it are one person in the box (0.3, 1.3, 0.35) m, not in the 0.3 m ball;
-    two people 0.5 m apart side by side, or one 0.8 m behind the other, stay two."""
-    def group(x: float, y: float, z: float, mass: float = 100.0) -> Group3D:
-        return Group3D(np.zeros(0), mass, np.array([x, y, z]), np.eye(3) * 0.01)
+def test_merge_close_stacks_a_bodys_parts_but_not_people_side_by_side() -> None:
+    """A head 0.6 m above a hand is one person with vertical_m 1.2; two heads 0.6 m apart side by side are two."""
+    rng = np.random.default_rng(5)
+    head = group_from_members(_blob(rng, [0, -0.3, 2], 200), np.ones(200))
+    hand = group_from_members(_blob(rng, [0.1, 0.3, 2], 200), np.ones(200))
+    other = group_from_members(_blob(rng, [0.6, -0.3, 2], 200), np.ones(200))
+    pts = np.zeros((200, 3))
+    assert sorted(map(sorted, merge_close([head, hand, other], pts, 0.3, 1.2))) == [[0, 1], [2]]
+    assert sorted(map(sorted, merge_close([head, hand, other], pts, 0.3))) == [[0], [1], [2]]
+    with pytest.raises(ValueError, match="vertical_m"):
+        merge_close([head, hand], pts, 0.3, 0.0)
 
-    body = [group(0.0, -0.1, 2.0), group(0.05, 0.5, 1.8)]
-    assert merge_close(body, np.zeros((0, 3)), 0.3) == [[0], [1]]
-    assert merge_close(body, np.zeros((0, 3)), 0.3, (0.3, 1.3, 0.35)) == [[0, 1]]
-    side_by_side = [group(0.0, 0.0, 2.0), group(0.5, 0.0, 2.0)]
-    behind = [group(0.0, 0.0, 2.0), group(0.1, 0.1, 2.8)]
-    for pair in (side_by_side, behind):
-        assert merge_close(pair, np.zeros((0, 3)), 0.3, (0.3, 1.3, 0.35)) == [[0], [1]]
+
+def test_the_refinements_body_parameters_are_checked() -> None:
+    from avcore.inference import MotionGuidedParams
+
+    with pytest.raises(ValueError, match="body_radius_m"):
+        MotionGuidedParams(body_radius_m=0.0)
+    with pytest.raises(ValueError, match="merge_vertical_m"):
+        MotionGuidedParams(merge_vertical_m=-1.0)
+    assert MotionGuidedParams(body_radius_m=None).body_radius_m is None
