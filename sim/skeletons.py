@@ -62,7 +62,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from avcore.geometry import MicPair
-from sim.synthetic import Interval
+# the room and the sensor (field of view, outliers, speech turns) are sim.synthetic's; the bodies are this module's
+from sim.synthetic import Interval, _frustum_points, _in_fov, _speech
 
 __all__ = ["FAMILIES", "STATIC_FAMILIES", "BodyConfig", "generate_family"]
 
@@ -330,13 +331,6 @@ def _texture(person: _Person, part: np.ndarray, s: np.ndarray, phi: np.ndarray) 
 # Visibility
 
 
-def _in_fov(pts: np.ndarray, cfg: BodyConfig) -> np.ndarray:
-    z = pts[:, 2]
-    tan_h = math.tan(math.radians(cfg.fov_deg[0] / 2))
-    tan_v = math.tan(math.radians(cfg.fov_deg[1] / 2))
-    return (z >= cfg.outlier_depth_m[0]) & (np.abs(pts[:, 0]) <= z * tan_h) & (np.abs(pts[:, 1]) <= z * tan_v)
-
-
 def _behind_table(pts: np.ndarray, table: tuple[float, float] | None) -> np.ndarray:
     """Points hidden by a table (with a front panel) whose top is at scene height y_top, front edge at depth z_front."""
     if table is None:
@@ -478,26 +472,6 @@ def _path(person: _Person, times: np.ndarray, cam_h: float) -> np.ndarray:
     return np.stack([x, np.full_like(x, cam_h), z], axis=1)
 
 
-def _frustum(rng: np.random.Generator, cfg: BodyConfig, n: int) -> np.ndarray:
-    z0, z1 = cfg.outlier_depth_m
-    z = np.cbrt(z0**3 + rng.random(n) * (z1**3 - z0**3))
-    x = rng.uniform(-1, 1, n) * z * math.tan(math.radians(cfg.fov_deg[0] / 2))
-    y = rng.uniform(-1, 1, n) * z * math.tan(math.radians(cfg.fov_deg[1] / 2))
-    return np.stack([x, y, z], axis=1)
-
-
-def _speech(rng: np.random.Generator, cfg: BodyConfig) -> np.ndarray:
-    stop = min(1.0, cfg.interval_s / cfg.mean_talk_s)
-    start = min(1.0, stop * cfg.speaking_share / (1.0 - cfg.speaking_share))
-    state = rng.random(cfg.n_people) < cfg.speaking_share
-    out = np.empty((cfg.n_intervals, cfg.n_people), dtype=bool)
-    for k in range(cfg.n_intervals):
-        out[k] = state
-        u = rng.random(cfg.n_people)
-        state = np.where(state, u >= stop, u < start)
-    return out
-
-
 def generate_family(family: str, *, seed: int = 0, mics: MicPair | None = None,
                     config: BodyConfig | None = None) -> list[Interval]:
     """Generate one sequence of the body family ``family`` (one of ``FAMILIES``; see the module docstring).
@@ -576,7 +550,7 @@ def _interval(rng: np.random.Generator, cfg: BodyConfig, mics: MicPair, scene: _
         pts[:, :2] += rng.normal(size=(m, 2)) * cfg.lateral_noise_m
         chunks.append(pts)
         labels.append(np.full(m, i, dtype=np.int64))
-    out = _frustum(rng, cfg, int(rng.poisson(cfg.outlier_points)))
+    out = _frustum_points(rng, cfg, int(rng.poisson(cfg.outlier_points)))
     chunks.append(out)
     labels.append(np.full(len(out), -1, dtype=np.int64))
     points, point_ids = np.concatenate(chunks), np.concatenate(labels)
