@@ -31,7 +31,7 @@ from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
-from avcore.itd import ItdStream, ItdTrack, PairsItdStream, geometry_options, gives_frame_itds
+from avcore.itd import FrameBins, ItdStream, ItdTrack, PairsItdStream, geometry_options, gives_frame_itds
 from avcore.motion import harris_motion_points
 from avcore.speaking import SpeakingVote
 from avcore.stereo import StereoRig
@@ -63,7 +63,8 @@ class PipelineConfig:
         and the speaking test takes a second look at those of the time frame (:class:`avcore.speaking.SpeakingTest`
         ``frame_rescue``: a talker that a louder one masks in every 150 ms window still wins some frames), and
         the peaks of the frames' frequency bands (``band_itds``: where two talk at once, some bands are the
-        quieter one's).
+        quieter one's); with a microphone array also the frames' bins on every pair, the fourth look
+        (:func:`avcore.speaking.bin_shares`).
     vote_frames : face-guided: each person's speaking state is the majority of their states over this many
         consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
         thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
@@ -130,11 +131,13 @@ class ItdMessage:
 
 @dataclass(frozen=True, eq=False)
 class FrameItdsMessage:
-    """A block of single frames' ITDs and their bands' peaks; their times are relative to ``stamp_s``."""
+    """A block of single frames' ITDs and their bands' peaks, and with several pairs the frames' bins; their times
+    are relative to ``stamp_s``."""
 
     stamp_s: float
     frames: ItdTrack
     bands: ItdTrack
+    bins: FrameBins | None = None
 
 
 @dataclass(frozen=True)
@@ -466,7 +469,8 @@ class Pipeline:
                 options = dict(method=c.itd_method, window_s=c.window_s, hop_s=c.hop_s,
                                energy_threshold=c.energy_threshold, frame_itds=frame_itds)
                 stream = (ItdStream(src.samplerate_hz, max_itd_s=1.2 * src.mics.max_itd_s, **options, **extra)
-                          if array is None else PairsItdStream(array, src.samplerate_hz, **options))
+                          if array is None else PairsItdStream(array, src.samplerate_hz, frame_bins=frame_itds,
+                                                               **options))
                 start_s = block.stamp_s
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
             if array is None:
@@ -492,11 +496,11 @@ class Pipeline:
 
     def _pass_itd_vectors(self, windows: tuple[np.ndarray, np.ndarray], stream: PairsItdStream, start_s: float,
                           frame_itds: bool) -> None:
-        """:meth:`_pass_itds` with several pairs: one vector per window, frame and band row."""
+        """:meth:`_pass_itds` with several pairs: one vector per window, frame and band row, and the frames' bins."""
         if frame_itds:
-            frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
+            frames, bands, bins = stream.pop_frame_itds(), stream.pop_band_itds(), stream.pop_frame_bins()
             if len(frames[0]):
-                self._offer(self._q_fusion, FrameItdsMessage(start_s, _vectors(*frames), _vectors(*bands)))
+                self._offer(self._q_fusion, FrameItdsMessage(start_s, _vectors(*frames), _vectors(*bands), bins))
         times, itds = windows
         for t, itd in zip(times, itds):
             self._offer(self._q_fusion, ItdMessage(start_s + float(t), itd))
@@ -550,8 +554,10 @@ class Pipeline:
         if isinstance(message, ItdMessage):
             return sync.push_secondary(message.stamp_s, (message.stamp_s, message.itd_s))
         if isinstance(message, FrameItdsMessage):
-            t0, single, bands = message.stamp_s, message.frames, message.bands
-            self._frame_itds.push(t0 + single.times_s, single.itds_s, t0 + bands.times_s, bands.itds_s)
+            t0, single, bands, bins = message.stamp_s, message.frames, message.bands, message.bins
+            if bins is not None:
+                bins = FrameBins(t0 + bins.times_s, bins.bins, bins.freqs_hz)
+            self._frame_itds.push(t0 + single.times_s, single.itds_s, t0 + bands.times_s, bands.itds_s, bins)
             return []
         # the audio clock moved on without ITDs (silence): frames before it are complete
         return sync.advance(message.stamp_s)

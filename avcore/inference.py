@@ -34,7 +34,8 @@ from avcore.mixture import (
     warn_not_converged,
 )
 from avcore.refine3d import Group3D, compact_groups, group_from_members, merge_close
-from avcore.speaking import SpeakingTest, speaking_threshold
+from avcore.itd.pairs import FrameBins
+from avcore.speaking import SpeakingTest, bin_shares, speaking_threshold
 
 __all__ = [
     "FaceGuidedHearing",
@@ -495,15 +496,18 @@ class FaceGuidedHearing:
                            updates=Updates(not p.anchor_means, p.update_variances, p.var_max_s2 * US * US))
 
     def step(self, faces_xyz: object, itds_s: object, itd_offsets_s: object = None,
-             frame_itds_s: object = None, band_itds_s: object = None) -> FaceGuidedOutput:
+             frame_itds_s: object = None, band_itds_s: object = None, frame_bins: FrameBins | None = None
+             ) -> FaceGuidedOutput:
         """faces_xyz : (N, 3) float, metres. itds_s : (K,) float, seconds. itd_offsets_s : (K,) seconds, each ITD
         window's centre minus the frame's stamp, for ``params.decision_window_s`` (None: every ITD decides).
         frame_itds_s : (M,) seconds, the single frames' ITDs of the same time for the speaking test's second look
         (:class:`SpeakingTest` ``frame_rescue``; EM does not see them); None: none.
-        band_itds_s : (L,) seconds, the peaks of those frames' frequency bands, the third look; None: none."""
+        band_itds_s : (L,) seconds, the peaks of those frames' frequency bands, the third look; None: none.
+        frame_bins : with a microphone array, the frames' bins on every pair (``PairsItdStream(frame_bins=True)``),
+        the fourth look (:func:`avcore.speaking.bin_shares`); None: none. One pair ignores it."""
         faces = as_points(faces_xyz, "faces_xyz")
         if self.array is not None:
-            return self._step_pairs(faces, itds_s, itd_offsets_s, frame_itds_s, band_itds_s)
+            return self._step_pairs(faces, itds_s, itd_offsets_s, frame_itds_s, band_itds_s, frame_bins)
         a = as_samples(itds_s, "itds_s")
         present = None
         if itd_offsets_s is not None and self.params.decision_window_s is not None:
@@ -534,7 +538,7 @@ class FaceGuidedHearing:
         return FaceGuidedOutput(speaking, prob, model.means.copy(), bbar, model, tau, n_iter)
 
     def _step_pairs(self, faces: np.ndarray, itds_s: object, itd_offsets_s: object, frame_itds_s: object,
-                    band_itds_s: object) -> FaceGuidedOutput:
+                    band_itds_s: object, frame_bins: FrameBins | None) -> FaceGuidedOutput:
         """:meth:`step` with several pairs: the EM of :func:`avcore.mixture.fit_pairs_em` on the ITD vectors, the
         speaking test of :meth:`SpeakingTest.decide_pairs`. ``model`` shows the first pair."""
         p, array = self.params, self.array
@@ -560,8 +564,13 @@ class FaceGuidedHearing:
         beta = fit.beta if n else np.zeros((x.shape[0], 1))
         frames = None if frame_itds_s is None else _itd_vectors(frame_itds_s, n_pairs, "frame_itds_s")
         bands = None if band_itds_s is None else _itd_vectors(band_itds_s, n_pairs, "band_itds_s")
+        share = None
+        if frame_bins is not None and len(frame_bins) and n:
+            if frame_bins.bins.shape[1] != n_pairs:
+                raise ValueError(f"frame_bins must hold the array's {n_pairs} pairs, got {frame_bins.bins.shape[1]}")
+            share = bin_shares(frame_bins.bins, frame_bins.freqs_hz, means, p.speaking.bin_agreement)
         speaking, prob, tau = p.speaking.decide_pairs(beta[:, :-1], x, fit.means, fit.variances, supports, present,
-                                                      frames, bands)
+                                                      frames, bands, share)
         model = Mixture1D.unchecked(fit.weights, fit.means[:, 0].copy(), fit.variances[:, 0].copy(), self.support)
         return FaceGuidedOutput(speaking, prob, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model, tau,
                                 fit.n_iter, fit.means.copy())

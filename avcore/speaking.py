@@ -8,7 +8,7 @@ import numpy as np
 
 from avcore.mixture import Mixture1D
 
-__all__ = ["COUNT_BY", "SpeakingTest", "SpeakingVote", "speaking_threshold", "vote_speaking"]
+__all__ = ["COUNT_BY", "SpeakingTest", "SpeakingVote", "bin_shares", "speaking_threshold", "vote_speaking"]
 
 
 def speaking_threshold(n_itds: int, n_objects: int) -> float:
@@ -17,6 +17,46 @@ def speaking_threshold(n_itds: int, n_objects: int) -> float:
 
 
 COUNT_BY: tuple[str, ...] = ("posterior", "nearest", "window")  # SpeakingTest.count_by: how an ITD counts
+
+
+def bin_shares(bins: np.ndarray, freqs_hz: np.ndarray, means_s: np.ndarray, agreement: float = 0.9) -> np.ndarray:
+    """Each person's share of the time-frequency bins whose phases agree with them on every pair at once.
+
+    The paper's conclusion: "each microphone pair yields one ITD space and combining these 1D spaces would provide a
+    much more robust algorithm". The ITDs of a window or a frame are peaks, one per pair, and where two people talk
+    at once a pair's peak may belong to the louder one or fall between them (a phantom); the bins are finer. Speech
+    is sparse in time and frequency, so nearly every bin is dominated by one source (W-disjoint orthogonality,
+    Yilmaz and Rickard 2004), and that source's direct sound gives the bin, on every pair p, the phase of its ITD:
+    ``phi_p(t, f) = -2 pi f tau_p`` (the sign of eq. itd: ``X = L conj(R)``, the left channel late by ``tau``).
+    With ``X_p(t, f) = w_p(t, f) exp(i phi_p(t, f))`` the weighted phase transform of frame t, bin f, pair p
+    (``ItdStream.pop_frame_bins``), person n, mapped to the ITD vector ``tau_n`` (eq. final_av_mapping on each
+    pair), agrees with the bin by
+
+        a_n(t, f) = Re sum_p X_p(t, f) exp(2 i pi f tau_np) / sum_p |X_p(t, f)|,   in [-1, 1].
+
+    The bin votes for the person it agrees with best, when ``a_n >= agreement`` (every pair's phase near the
+    person's); its vote weighs ``W(t, f) = sum_p |X_p(t, f)|``. The share is person n's votes over all the bins'
+    weight: ``s_n = sum_{t,f} W [bin votes n] / sum_{t,f} W``. A phantom between two talkers on one pair is not a
+    direction that the bins of the other pairs agree with, so it gets few votes; a talker that a louder one masks in
+    every window and frame still owns the bins where it is louder, on every pair at once.
+
+    bins : (m, P, B) complex, the frames' bins on the P pairs; freqs_hz : (B,); means_s : (N, P) the persons' ITDs
+    on each pair. Returns (N,) shares in [0, 1] (zeros with no weight).
+    """
+    x = np.asarray(bins)
+    mu = np.asarray(means_s, dtype=np.float64)
+    n = mu.shape[0]
+    if x.size == 0 or n == 0:
+        return np.zeros(n)
+    steer = np.exp(2j * np.pi * np.asarray(freqs_hz, dtype=np.float64)[None, None, :] * mu[:, :, None])  # (N, P, B)
+    weight = np.abs(x).sum(axis=1)  # (m, B)
+    total = float(weight.sum())
+    if total <= 0:
+        return np.zeros(n)
+    agree = np.einsum("mpb,npb->nmb", x, steer.astype(np.complex64)).real / np.maximum(weight, 1e-30)[None]
+    best = agree.argmax(axis=0)
+    votes = agree.max(axis=0) >= agreement
+    return np.array([float(weight[votes & (best == k)].sum()) for k in range(n)]) / total
 
 _LOG_FACT = np.concatenate([[0.0], np.cumsum(np.log(np.arange(1, 401)))])  # log k!, k = 0..400
 
@@ -80,7 +120,15 @@ class SpeakingTest:
     judged speaking is called speaking on the bands. On their own the bands bring short false stretches, which the
     pipeline's vote over 9 results removes (``PipelineConfig.vote_frames``, :func:`vote_speaking`).
 
-    How each part was chosen, measured and what was tried without gain: docs/experiments.md ("The speaking test").
+    A fourth look, with several microphone pairs: the bins of every pair at once (``decide_pairs(...,
+    bin_share=...)``, :func:`bin_shares`, the share of the time-frequency bins whose phases on every pair agree
+    with the person within ``bin_agreement``). A person judged speaking by the three looks is kept speaking only when
+    their share exceeds ``bin_confirm_share`` (a phantom between two talkers on the pairs' peaks owns no bins), and a
+    person whose share exceeds ``bin_claim_share`` speaks whatever the peaks say (a talker masked in every window and
+    frame still owns the bins where it is the louder).
+
+    How each part was chosen, measured and what was tried without gain: docs/experiments.md ("The speaking test",
+    "Several microphone pairs").
     """
 
     outlier_aware: bool = True
@@ -97,8 +145,16 @@ class SpeakingTest:
     frame_min: int = 3
     frame_spread_s: float = 15e-6
     band_spread_s: float = 30e-6
+    bin_agreement: float = 0.9
+    bin_confirm_share: float = 0.03
+    bin_claim_share: float = 0.1
 
     def __post_init__(self) -> None:
+        if not -1 <= self.bin_agreement <= 1:
+            raise ValueError(f"bin_agreement must be in [-1, 1], got {self.bin_agreement!r}")
+        if not 0 <= self.bin_confirm_share <= self.bin_claim_share <= 1:
+            raise ValueError(f"need 0 <= bin_confirm_share <= bin_claim_share <= 1, got {self.bin_confirm_share!r} "
+                             f"and {self.bin_claim_share!r}")
         if self.count_by not in COUNT_BY:
             raise ValueError(f"count_by must be one of {', '.join(COUNT_BY)}, got {self.count_by!r}")
         for name in ("frame_within_s", "frame_spread_s", "band_spread_s"):
@@ -193,7 +249,8 @@ class SpeakingTest:
 
     def decide_pairs(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray, variances: np.ndarray,
                      supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
-                     band_itds: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+                     band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, float]:
         """:meth:`decide` for several microphone pairs: the same three looks, in the space of ITD vectors.
 
         itds : (K, P) one vector per window (NaN where a pair has none); means, variances : (N, P) each person's
@@ -206,6 +263,9 @@ class SpeakingTest:
         be far too small: the ITDs of one sound on every pair follow from one direction (two degrees of freedom),
         so a reflection or a stray sound is as consistent across the pairs as a talker. Rows with different pairs
         count separately, and their counts and Poisson means add up. With P = 1 this is :meth:`decide`.
+
+        bin_share : (N,) each person's :func:`bin_shares` over the same time, the fourth look (confirm and claim, see
+        the class); None: not used.
         """
         x = np.asarray(itds, dtype=np.float64).reshape(len(beta), means.shape[1])
         if present is not None:
@@ -250,7 +310,21 @@ class SpeakingTest:
                                                    u, self.band_spread_s)
             speaking = np.where(between, speaking, found)
             prob = np.where(between, prob, found_prob)
+        if bin_share is not None:
+            speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n))
         return speaking, prob, tau
+
+    def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share``. Where it changes a
+        state, the probability is the share against the threshold that decided (above 0.5 exactly when speaking)."""
+        kept = speaking & (share > self.bin_confirm_share)
+        claimed = share > self.bin_claim_share
+        out = kept | claimed
+        with np.errstate(invalid="ignore", divide="ignore"):
+            thr = np.where(speaking, self.bin_confirm_share, self.bin_claim_share)
+            by_share = np.where(share + thr > 0, share / (share + thr), 0.0)
+        by_share = np.where(out, np.maximum(by_share, 0.5 + 1e-9), np.minimum(by_share, 0.5))
+        return out, np.where(out == speaking, prob, by_share)
 
     def _rescue_pairs(self, speaking: np.ndarray, prob: np.ndarray, obs: np.ndarray, means: np.ndarray,
                       u: np.ndarray, b: float) -> tuple[np.ndarray, np.ndarray]:

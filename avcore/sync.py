@@ -25,6 +25,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from avcore.itd.pairs import FrameBins
+
 __all__ = ["ApproximateTime", "FrameItdWindow", "TimeFrame"]
 
 logger = logging.getLogger(__name__)
@@ -511,8 +513,9 @@ class TimeFrame:
 class FrameItdWindow:
     """The single 32 ms frames' ITDs (and their frequency bands' peaks) kept for the vision frames still to come.
 
-    Blocks come as the ITD worker extracts them (``push``, times on the stream clock); a vision frame asks for those
-    within ``span_s`` of its stamp (``near``). Vision frames come in stamp order, so a block wholly older than a
+    Blocks come as the ITD worker extracts them (``push``, times on the stream clock, with the frames' bins on every
+    pair of an array when there are several); a vision frame asks for those within ``span_s`` of its stamp
+    (``near``). Vision frames come in stamp order, so a block wholly older than a
     frame's span is never needed again and ``near`` drops it. Without vision frames (a camera that vanished) the
     blocks stay bounded: those more than ``keep_s`` older than the newest are dropped and counted in ``cut``.
     """
@@ -521,31 +524,35 @@ class FrameItdWindow:
         self.span_s = _check_duration(span_s, "span_s")
         self.keep_s = _check_duration(keep_s, "keep_s")
         self.cut = 0
-        self._blocks: deque[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = deque()
+        self._blocks: deque[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, FrameBins | None]] = deque()
 
-    def __iter__(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    def __iter__(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, FrameBins | None]]:
         return iter(self._blocks)
 
     def __len__(self) -> int:
         return len(self._blocks)
 
     def push(self, times_s: np.ndarray, itds_s: np.ndarray, band_times_s: np.ndarray,
-             band_itds_s: np.ndarray) -> None:
-        """One block of frames: their centre times and ITDs, and the times and ITDs of their bands' peaks."""
+             band_itds_s: np.ndarray, bins: FrameBins | None = None) -> None:
+        """One block of frames: their centre times and ITDs, the times and ITDs of their bands' peaks, and the same
+        frames' bins (times on the same clock; None: none)."""
         if len(times_s) == 0:
             return
         self._blocks.append((np.asarray(times_s, float), np.asarray(itds_s, float),
-                             np.asarray(band_times_s, float), np.asarray(band_itds_s, float)))
+                             np.asarray(band_times_s, float), np.asarray(band_itds_s, float), bins))
         while self._blocks[0][0][-1] < self._blocks[-1][0][-1] - self.keep_s:
             self.cut += len(self._blocks.popleft()[1])
 
-    def near(self, stamp_s: float) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """The frames' ITDs and the bands' peaks within ``span_s`` of ``stamp_s`` (None, None: none)."""
+    def near(self, stamp_s: float) -> tuple[np.ndarray | None, np.ndarray | None, FrameBins | None]:
+        """The frames' ITDs, the bands' peaks and the frames' bins within ``span_s`` of ``stamp_s`` (None where
+        there are none)."""
         span = self.span_s
         while self._blocks and self._blocks[0][0][-1] < stamp_s - span:
             self._blocks.popleft()
-        near = [(itds[np.abs(times - stamp_s) <= span], b_itds[np.abs(b_times - stamp_s) <= span])
-                for times, itds, b_times, b_itds in self._blocks if times[0] <= stamp_s + span]
-        if not near:
-            return None, None
-        return np.concatenate([n[0] for n in near]), np.concatenate([n[1] for n in near])
+        blocks = [b for b in self._blocks if b[0][0] <= stamp_s + span]
+        if not blocks:
+            return None, None, None
+        frames = np.concatenate([itds[np.abs(times - stamp_s) <= span] for times, itds, *_ in blocks])
+        bands = np.concatenate([b_itds[np.abs(b_times - stamp_s) <= span] for _, _, b_times, b_itds, _ in blocks])
+        bins = [b[4].within(stamp_s, span) for b in blocks if b[4] is not None]
+        return frames, bands, FrameBins.concatenate(bins) if bins else None

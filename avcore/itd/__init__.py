@@ -19,12 +19,13 @@ from ._base import ItdMethod
 from ._extract import METHODS, ItdStream, ItdTrack, extract_itds, geometry_options, gives_frame_itds, make_method
 from .correlogram import Correlogram
 from .gcc_phat import GccPhat
-from .pairs import PairsItdStream, join_pairs
+from .pairs import FrameBins, PairsItdStream, join_pairs
 from .robust import RobustCorrelogram, RobustGccPhat
 
 __all__ = [
            "METHODS",
            "Correlogram",
+           "FrameBins",
            "GccPhat",
            "ItdMethod",
            "ItdStream",

@@ -273,12 +273,16 @@ class ItdStream:
 
     def __init__(self, samplerate: float, method: str = "correlogram", window_s: float = 0.15, hop_s: float = 0.02,
                  energy_threshold: float = 1e-3, max_itd_s: float = 1e-3, min_confidence: float = -1.0,
-                 frame_itds: bool = False, **options: Any) -> None:
+                 frame_itds: bool = False, frame_bins: bool = False, **options: Any) -> None:
         self._impl, self._framing = make_method(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s,
                                                 min_confidence, **options)
-        if frame_itds and not getattr(self._impl, "gives_frame_itds", False):
-            raise ValueError(f"frame_itds needs the per-frame correlations of 'gcc-phat-robust' (frame_corr_power > 0);"
-                             f" method {method!r} has none: pass frame_itds=False")
+        for name, asked in (("frame_itds", frame_itds), ("frame_bins", frame_bins)):
+            if asked and not getattr(self._impl, "gives_frame_itds", False):
+                raise ValueError(f"{name} needs the per-frame correlations of 'gcc-phat-robust' (frame_corr_power > "
+                                 f"0); method {method!r} has none: pass {name}=False")
+        self._frame_bins: list[tuple[np.ndarray, np.ndarray]] | None = [] if frame_bins else None
+        if frame_bins:
+            self._impl.keep_bins = True  # type: ignore[attr-defined]
         self._frame_itds: list[ItdTrack] | None = [] if frame_itds else None
         self._band_itds: list[ItdTrack] | None = [] if frame_itds else None
         if frame_itds:
@@ -377,6 +381,25 @@ class ItdStream:
         self._band_itds.clear()
         return out
 
+    @property
+    def bin_freqs_hz(self) -> np.ndarray:
+        """(B,) the frequencies of the bins that :meth:`pop_frame_bins` returns."""
+        return self._impl.freqs_hz[:self._impl.n_used]
+
+    def pop_frame_bins(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every frame analysed since the last call as ``(times_s (m,), bins (m, B))``: the frame centres and their
+        weighted phase transforms (complex64; the weights carry each bin's SNR, onset, coherence and direct-sound
+        cues, so a silent or diffuse bin weighs little). No energy gate: a bin's weight says how much it counts.
+        Needs ``frame_bins=True``."""
+        if self._frame_bins is None:
+            raise RuntimeError("this ItdStream keeps no frame bins: create it with frame_bins=True")
+        if not self._frame_bins:
+            return np.zeros(0), np.zeros((0, self._impl.n_used), dtype=np.complex64)
+        times = np.concatenate([t for t, _ in self._frame_bins])
+        bins = np.concatenate([b for _, b in self._frame_bins])
+        self._frame_bins.clear()
+        return times, bins
+
     def _keep_frame_itds(self, frames: np.ndarray, terms: dict[str, np.ndarray]) -> None:
         impl = self._impl
         energy = _interleaved_power(frames)
@@ -405,6 +428,9 @@ class ItdStream:
             terms = impl.frame_terms(frames[:, :, 0], frames[:, :, 1], self._state)
             if self._frame_itds is not None:
                 self._keep_frame_itds(frames, terms)
+            if self._frame_bins is not None:
+                starts = (self._next_frame + np.arange(frames.shape[0])) * fh
+                self._frame_bins.append(((starts + 0.5 * fl) / self._framing.samplerate_hz, terms["frame_bins"]))
             for key, value in terms.items():
                 if not key.startswith("frame_"):  # the frames' own results, not summed into windows
                     self._terms.setdefault(key, []).extend(value)

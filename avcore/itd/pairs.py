@@ -9,6 +9,7 @@ the number of pairs.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -17,7 +18,30 @@ from avcore.geometry import MicArray
 
 from ._extract import ItdStream, ItdTrack, geometry_options
 
-__all__ = ["PairsItdStream", "join_pairs"]
+__all__ = ["FrameBins", "PairsItdStream", "join_pairs"]
+
+
+@dataclass(frozen=True)
+class FrameBins:
+    """Frames' time-frequency bins on every pair of an array: ``times_s`` (m,) the frame centres, ``bins``
+    (m, P, B) complex64 the weighted phase transforms (:meth:`ItdStream.pop_frame_bins`), ``freqs_hz`` (B,)."""
+
+    times_s: np.ndarray
+    bins: np.ndarray
+    freqs_hz: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.times_s.size)
+
+    def within(self, stamp_s: float, span_s: float) -> FrameBins:
+        """The frames centred within ``span_s`` of ``stamp_s``."""
+        keep = np.abs(self.times_s - stamp_s) <= span_s
+        return FrameBins(self.times_s[keep], self.bins[keep], self.freqs_hz)
+
+    @staticmethod
+    def concatenate(parts: list[FrameBins]) -> FrameBins:
+        return FrameBins(np.concatenate([p.times_s for p in parts]), np.concatenate([p.bins for p in parts]),
+                         parts[0].freqs_hz)
 
 
 def join_pairs(tracks: list[ItdTrack]) -> tuple[np.ndarray, np.ndarray]:
@@ -46,7 +70,8 @@ class PairsItdStream:
     """:class:`ItdStream` on every pair of ``array``: ``push(block)`` takes ``(n, C)`` samples of all channels
     (``array.channels`` name each microphone's) and returns the completed windows as ``(times (K,), itds (K, P))``;
     ``pop_frame_itds`` and ``pop_band_itds`` likewise for the single frames and their bands (with
-    ``frame_itds=True``; the bands of the first pair only, unless ``all_bands``). Options are :class:`ItdStream`'s;
+    ``frame_itds=True``; the bands of the first pair only, unless ``all_bands``), ``pop_frame_bins`` the frames'
+    bins on every pair (with ``frame_bins=True``). Options are :class:`ItdStream`'s;
     each pair gets its own geometry (its distance for the robust methods' diffuse-field model, its ``max_itd_s``
     scaled by ``max_itd_scale``)."""
 
@@ -79,6 +104,18 @@ class PairsItdStream:
     def pop_frame_itds(self) -> tuple[np.ndarray, np.ndarray]:
         """The single frames analysed since the last call, one vector per frame centre."""
         return join_pairs([s.pop_frame_itds() for s in self._streams])
+
+    @property
+    def bin_freqs_hz(self) -> np.ndarray:
+        """(B,) the bins' frequencies (every pair cuts the same frames with the same FFT)."""
+        return self._streams[0].bin_freqs_hz
+
+    def pop_frame_bins(self) -> FrameBins:
+        """The frames analysed since the last call, every pair's bins at once (with ``frame_bins=True``;
+        :meth:`ItdStream.pop_frame_bins`). One frame's bins on every pair are one moment of sound, the input of
+        :func:`avcore.speaking.bin_shares`."""
+        popped = [s.pop_frame_bins() for s in self._streams]
+        return FrameBins(popped[0][0], np.stack([b for _, b in popped], axis=1), self.bin_freqs_hz)
 
     def pop_band_itds(self) -> tuple[np.ndarray, np.ndarray]:
         """The frames' band peaks since the last call, one pair's peak per row: the first pair's only, unless

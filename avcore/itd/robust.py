@@ -390,6 +390,10 @@ class RobustGccPhat(FrameMethod):
     kept (``frame_band_itds``, on the lag grid) when ``keep_band_peaks`` is set (by ``ItdStream(frame_itds=True)``):
     where two people talk at once, a band may belong to the quieter one (:class:`avcore.speaking.SpeakingTest`,
     ``band_itds``). The sum is the same product cut in pieces: no extra cost but the bands' peaks.
+
+    ``keep_bins`` (set by ``ItdStream(frame_bins=True)``): each frame's weighted phase transform itself, one phasor
+    ``w(f) exp(i phi(f))`` per bin (``frame_bins``, complex64), for the speaking test's look at the bins of every
+    pair at once (:func:`avcore.speaking.bin_shares`).
     """
 
     name = "gcc-phat-robust"
@@ -418,6 +422,7 @@ class RobustGccPhat(FrameMethod):
         cuts = np.unique(np.concatenate([[0], cuts[(cuts > 0) & (cuts < self.n_used)], [self.n_used]]))
         self._bands = list(zip(cuts[:-1].tolist(), cuts[1:].tolist()))  # bin ranges that tile the used bins
         self.keep_band_peaks = False  # the frames' terms carry each band's peak ("frame_band_itds")
+        self.keep_bins = False  # the frames' terms carry their weighted phase transform ("frame_bins")
 
     def _terms(self, weights, cross, pow_l, pow_r):
         # the weighted phase transform, weights * cross / |cross|, in one complex product (0 where cross is 0)
@@ -436,6 +441,8 @@ class RobustGccPhat(FrameMethod):
             band_weight = np.stack([weights[:, a:b] @ self._fold[a:b] for a, b in self._bands], axis=1)
             band_itds[~(band_weight > 0)] = np.nan
             terms["frame_band_itds"] = band_itds
+        if self.keep_bins:
+            terms["frame_bins"] = weighted.astype(np.complex64)
         return terms
 
     def finish_window(self, sums):

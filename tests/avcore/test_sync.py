@@ -9,6 +9,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from avcore.itd import FrameBins
 from avcore.sync import ApproximateTime, FrameItdWindow, TimeFrame
 
 PROPERTY = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -424,10 +425,24 @@ def test_frame_itd_window_gives_the_frames_near_a_stamp_and_forgets_the_past() -
         times = start + np.arange(16) * 0.032
         w.push(times, times * 1e-4, times, -times * 1e-4)
     assert w.cut > 0 and all(b[0][-1] >= 3.0 - 1.5 for b in w)  # bounded without vision frames
-    frames, bands = w.near(2.3)
-    assert frames is not None and bands is not None
+    frames, bands, bins = w.near(2.3)
+    assert frames is not None and bands is not None and bins is None  # no bins pushed (one pair)
     assert np.all(np.abs(frames / 1e-4 - 2.3) <= 0.2 + 1e-9) and np.all(np.abs(-bands / 1e-4 - 2.3) <= 0.2 + 1e-9)
     n = len(w)
     w.near(2.9)  # a later frame: blocks wholly before 2.7 s are not needed again
     assert len(w) < n
-    assert w.near(10.0) == (None, None)
+    assert w.near(10.0) == (None, None, None)
+
+
+def test_frame_itd_window_gives_the_bins_of_the_frames_near_a_stamp() -> None:
+    w = FrameItdWindow(0.2)
+    freqs = np.array([100.0, 200.0])
+    for start in (0.0, 0.5):
+        times = start + np.arange(16) * 0.032
+        bins = np.broadcast_to(times[:, None, None], (16, 3, 2)).astype(np.complex64)  # a bin's value: its time
+        w.push(times, times, times[:0], times[:0], FrameBins(times, bins, freqs))
+    _, _, near = w.near(0.5)
+    assert near is not None and near.bins.shape[1:] == (3, 2) and np.array_equal(near.freqs_hz, freqs)
+    expected = np.concatenate([start + np.arange(16) * 0.032 for start in (0.0, 0.5)])
+    expected = expected[np.abs(expected - 0.5) <= 0.2]
+    assert np.allclose(near.times_s, expected) and np.allclose(near.bins.real[:, 0, 0], expected)

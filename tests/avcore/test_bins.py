@@ -1,0 +1,98 @@
+"""The bin look of several microphone pairs (avcore.speaking.bin_shares, SpeakingTest's fourth look): its sign
+against the geometry, and a phantom between two talkers that the pairs' peaks fall into but the bins do not."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avcore.geometry import MicArray
+from avcore.itd import FrameBins, PairsItdStream
+from avcore.speaking import SpeakingTest, bin_shares
+
+FS = 16000
+NAO = MicArray.preset("nao")
+LEFT, RIGHT, MIDDLE = np.array([-0.8, 0.0, 1.5]), np.array([0.8, 0.0, 1.5]), np.array([0.0, 0.0, 2.0])
+
+
+def _noise(rng: np.random.Generator, n: int, lo_hz: float, hi_hz: float) -> np.ndarray:
+    spec = np.fft.rfft(rng.standard_normal(n))
+    f = np.fft.rfftfreq(n, 1 / FS)
+    spec[(f < lo_hz) | (f > hi_hz)] = 0
+    return np.fft.irfft(spec, n)
+
+
+def _at_mics(signal: np.ndarray, source: np.ndarray) -> np.ndarray:
+    """(n, Q): ``signal`` emitted at ``source`` and heard at every microphone of NAO, each delayed by its distance
+    (exact fractional delays in the frequency domain; the delays are what eq. itd models)."""
+    n = signal.size
+    f = np.fft.rfftfreq(n, 1 / FS)
+    spec = np.fft.rfft(signal)
+    delays = np.linalg.norm(np.asarray(NAO.positions) - source, axis=1) / NAO.speed_of_sound
+    return np.stack([np.fft.irfft(spec * np.exp(-2j * np.pi * f * d), n) for d in delays], axis=1)
+
+
+def _bins(audio: np.ndarray) -> FrameBins:
+    stream = PairsItdStream(NAO, FS, method="gcc-phat-robust", frame_itds=True, frame_bins=True)
+    parts = []
+    for i in range(0, audio.shape[0], 320):
+        stream.push(audio[i:i + 320])
+        parts.append(stream.pop_frame_bins())
+    out = FrameBins.concatenate(parts)
+    assert out.bins.shape[1:] == (NAO.n_pairs, out.freqs_hz.size) and out.bins.dtype == np.complex64
+    return out
+
+
+@pytest.mark.parametrize("talker", [0, 1])
+def test_bins_vote_for_the_talker_on_the_side_it_is(talker: int) -> None:
+    """A talker on the left, then on the right: the bins of every pair vote for that person (the extractor's phase
+    and the mapping's ITD agree in sign), hardly ever for the person on the other side or the one in between."""
+    rng = np.random.default_rng(talker)
+    people = np.stack([LEFT, RIGHT, MIDDLE])
+    audio = _at_mics(_noise(rng, FS, 300, 3800), people[talker]) + 1e-3 * rng.standard_normal((FS, 4))
+    got = _bins(audio)
+    share = bin_shares(got.bins, got.freqs_hz, NAO.itd(people))
+    assert share[talker] > 0.5
+    assert np.delete(share, talker).max() < 0.02
+    # the same bins with the pairs' sign flipped (each pair's ITD negated) vote for the mirror image: nobody here
+    assert bin_shares(got.bins, got.freqs_hz, -NAO.itd(people))[talker] < 0.02
+
+
+def test_bins_spare_the_phantom_between_two_talkers_that_the_peaks_fall_on() -> None:
+    """Two people talk at once, one on the left, one on the right, in different bands; a third sits between them.
+    Judged on ITD peaks that fall between the two talkers (a phantom), the three looks call the one in the middle
+    speaking; the bins of every pair give the middle person nothing and each talker a share, so with the fourth look
+    the two talkers speak and the middle one does not."""
+    rng = np.random.default_rng(5)
+    n = FS
+    audio = (_at_mics(_noise(rng, n, 300, 1700), LEFT) + _at_mics(_noise(rng, n, 2100, 3800), RIGHT)
+             + 1e-3 * rng.standard_normal((n, 4)))
+    people = np.stack([LEFT, RIGHT, MIDDLE])
+    means = NAO.itd(people)
+    got = _bins(audio)
+    share = bin_shares(got.bins, got.freqs_hz, means)
+    assert share[0] > 0.1 and share[1] > 0.1 and share[2] < 0.02
+
+    phantom = means[2] + rng.normal(0.0, 5e-6, (20, NAO.n_pairs))  # every window's peaks at the one in between
+    test = SpeakingTest(count_by="nearest")
+    beta = np.zeros((20, 3))
+    beta[:, 2] = 0.95
+    supports = NAO.itd_intervals()
+    var = np.full(means.shape, 1e-9)
+    peaks_only, _, _ = test.decide_pairs(beta, phantom, means, var, supports)
+    assert peaks_only.tolist() == [False, False, True]
+    with_bins, prob, _ = test.decide_pairs(beta, phantom, means, var, supports, bin_share=share)
+    assert with_bins.tolist() == [True, True, False]
+    assert np.array_equal(prob > 0.5, with_bins)
+
+
+def test_bin_shares_without_bins_or_people() -> None:
+    empty = np.zeros((0, NAO.n_pairs, 10), dtype=np.complex64)
+    assert bin_shares(empty, np.arange(10.0), NAO.itd(LEFT[None])).tolist() == [0.0]
+    assert bin_shares(np.ones((3, NAO.n_pairs, 10), np.complex64), np.arange(10.0), np.zeros((0, 6))).size == 0
+
+
+@pytest.mark.parametrize("bad", [{"bin_agreement": 1.5}, {"bin_confirm_share": 0.2, "bin_claim_share": 0.1},
+                                 {"bin_confirm_share": -0.1}])
+def test_bad_bin_settings_are_refused(bad: dict) -> None:
+    with pytest.raises(ValueError, match="bin_"):
+        SpeakingTest(**bad)
