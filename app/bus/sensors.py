@@ -3,7 +3,8 @@
 Each stereo frame goes out as two sensor_msgs/CompressedImage (JPEG of the rectified image, the capture stamp in
 the header) on :data:`LEFT_KEY` and :data:`RIGHT_KEY`; each audio block as an ``avhear_msgs/AudioBlock``
 (:mod:`app.bus.messages`) on :data:`AUDIO_KEY`, all channels. A queryable on :data:`RIG_KEY` answers with the rig
-calibration and the audio format as JSON, so that the laptop side needs nothing but the robot's address.
+calibration (the stereo rig, the microphone pair, and the microphone array when the source has several
+microphones) and the audio format as JSON, so that the laptop side needs nothing but the robot's address.
 
 Stamps are the source's own (``time.monotonic()`` of the robot for live devices): the laptop's synchronisers pair
 and window them as they would in one process, and the time frames stay right across the network.
@@ -67,7 +68,7 @@ class SensorPublisher:
         self.session, self.source, self.jpeg_quality = session, source, jpeg_quality
         self.frames = self.audio_blocks = self.bytes = 0
         self.errors: list[str] = []
-        rig = RigConfig(stereo=source.rig, microphones=source.mics)
+        rig = RigConfig(stereo=source.rig, microphones=source.mics, array=getattr(source, "array", None))
         self.info = json.dumps({"rig": rig_to_dict(rig), "samplerate_hz": float(source.samplerate_hz),
                                 "channels": list(source.channels)})
         self._queryable = session.declare_queryable(self.prefix + RIG_KEY, self._answer)

@@ -58,9 +58,15 @@ class BusSource(SourceBase):
         self.channels: tuple[int, int] = (0, 1)
         if rig is None:
             rig, self._samplerate, self.channels = self._ask_rig(prefix + RIG_KEY, rig_timeout_s)
-        if rig.stereo is None or rig.microphones is None:
-            raise UserError("the rig needs a 'stereo' and a 'microphones' section (give --rig with both)")
+        if rig.stereo is None or (rig.microphones is None and rig.array is None):
+            raise UserError("the rig needs a 'stereo' section and a 'microphones' or 'array' section (give --rig "
+                            "with both)")
         self.rig, self.mics = rig.stereo, rig.microphones
+        if rig.array is not None:  # every pair of the robot's array; mics and channels are its first pair
+            pair = rig.array.pairs[0]  # type: ignore[index]
+            self.mics = rig.array.pair(0)
+            self.channels = (rig.array.channels[pair[0]], rig.array.channels[pair[1]])  # type: ignore[index]
+            self.array = rig.array if rig.array.n_pairs > 1 else None
         self._images: DropOldestQueue[tuple[int, float, Any]] = DropOldestQueue(queue_size, "bus-images")
         self._audio: DropOldestQueue[AudioBlock] = DropOldestQueue(4 * queue_size, "bus-audio")
         self._pairing = ApproximateTime(2, queue_size=4, max_interval_s=0.02)

@@ -12,7 +12,7 @@ from app.bus.sensors import SensorPublisher
 from app.bus.session import BusOptions, add_bus_arguments, open_session
 from app.errors import UserError
 from app.sources.live import add_device_arguments, live_config
-from app.options import count, duration
+from app.options import add_mics_argument, count, duration
 from app.signals import stop_on_signals
 from app.sources import open_source
 
@@ -28,6 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS",
                    help="stop after this many seconds (default: the end of the source, or Ctrl-C)")
     p.add_argument("--jpeg-quality", type=count(10, 100), default=90, help="JPEG quality of the images (90)")
+    add_mics_argument(p)
     add_device_arguments(p)
     add_bus_arguments(p)
     p.set_defaults(func=run)
@@ -41,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     session = open_session(options)
     try:
         source = open_source(args.source, realtime=True, duration_s=args.duration if live is None else None,
-                             seed=args.seed, rig_path=args.rig, live=live,
+                             seed=args.seed, rig_path=args.rig, live=live, mics=args.mics,
                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         publisher = SensorPublisher(session, source, namespace=options.namespace, jpeg_quality=args.jpeg_quality)
         print(f"avhear: publishing {args.source} on the bus ... Ctrl-C stops", file=sys.stderr, flush=True)

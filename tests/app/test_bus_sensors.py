@@ -133,3 +133,35 @@ def test_record_the_bus(tmp_path: Path) -> None:
     rec = open_recording(out)
     assert rec.n_frames > 60 and rec.n_samples > 2 * 16000
     assert json.loads((out / "recording.json").read_text())["source"]["kind"] == "bus"
+
+
+def test_the_robots_microphone_array_reaches_the_laptop() -> None:
+    """`avhear sensors --mics nao` serves NAO's four microphones in its rig: the laptop's source uses every pair of
+    them (its first pair's channels as the pair), and the audio blocks carry all four channels."""
+    import zenoh
+
+    from app.bus.source import BusSource
+    from avcore.geometry import MicArray
+
+    robot = _free_port()
+    sensors = _avhear("sensors", "--source", "sim:S2", "--mics", "nao", "--duration", "8",
+                      "--bus-listen", f"tcp/127.0.0.1:{robot}")
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{robot}"]))
+    try:
+        with zenoh.open(config) as session:
+            source = BusSource(session, rig_timeout_s=30.0)
+            try:
+                nao = MicArray.preset("nao")
+                assert source.array is not None and source.array.n_pairs == nao.n_pairs
+                assert np.allclose(source.array.positions, nao.positions)
+                first = source.array.pairs[0]
+                assert source.channels == (source.array.channels[first[0]], source.array.channels[first[1]])
+                assert source.audio_format(timeout_s=30.0)[1] == 4
+            finally:
+                source.close()
+    finally:
+        out, err = sensors.communicate(timeout=60)
+    assert sensors.returncode == 0, err
