@@ -134,7 +134,10 @@ def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.n
         var = np.where(alive, var, var_old)
     if not updates.variances:
         return wg, mu, var_old, wo
-    np.clip(var, var_floor, updates.var_ceiling, out=var)
+    if updates.var_ceiling == np.inf:
+        np.maximum(var, var_floor, out=var)  # np.clip's result, at a fraction of its overhead
+    else:
+        np.clip(var, var_floor, updates.var_ceiling, out=var)
     return wg, mu, var, wo
 
 
@@ -194,17 +197,19 @@ def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.
         done = np.abs(obj - value[lv.idx]) < tol * w_total
         value[lv.idx] = obj
         converged[lv.idx[done]] = True
+        # a model leaving the batch (or the loop ending) at iteration ``it`` has had ``it`` M-steps
         if it == max_iter or done.all():
+            n_iter[lv.idx] = it
             break
         if done.any():
+            n_iter[lv.idx[done]] = it
             slot_keep = lv.drop(done)
             dens, dens_o, total = dens[:, slot_keep], dens_o[~done], total[:, ~done]
         inv_total = 1.0 / total
-        dens *= inv_total @ lv.indicator.T
+        dens *= np.repeat(inv_total, lv.sizes, axis=1)  # each model's 1 / p(x) on its slots
         g_sums, o_counts = sums(lv, dens, dens_o * inv_total)
         lv.wg, lv.mu, lv.var, lv.wo = m_step(g_sums, o_counts, w_total, lv.sizes, lv.mu, lv.var, var_floor, min_wo,
                                              lv.indicator, updates)
-        n_iter[lv.idx] += 1
     lv.store()
     return p, value, n_iter, converged
 

@@ -429,9 +429,10 @@ def split_at_mean(model: Mixture1D, index: int) -> Mixture1D:
     shift = sd * np.sqrt(2.0 / np.pi)
     var = model.variances[index] * (1.0 - 2.0 / np.pi)
     half = model.weights[index] / 2.0
-    means = np.concatenate([np.delete(model.means, index), [model.means[index] - shift, model.means[index] + shift]])
-    variances = np.concatenate([np.delete(model.variances, index), [var, var]])
-    g = np.concatenate([np.delete(model.weights[:-1], index), [half, half]])
+    rest = np.arange(model.n_components) != index
+    means = np.concatenate([model.means[rest], [model.means[index] - shift, model.means[index] + shift]])
+    variances = np.concatenate([model.variances[rest], [var, var]])
+    g = np.concatenate([model.weights[:-1][rest], [half, half]])
     return Mixture1D.unchecked(np.append(g, model.weights[-1]), means, variances, model.support)
 
 

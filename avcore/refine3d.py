@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage, stats
+from scipy import stats
 
 __all__ = ["Group3D", "compact_groups"]
 
@@ -43,31 +43,49 @@ class Group3D:
     cov: np.ndarray
 
 
-def _cap(ks: np.ndarray, cov: np.ndarray, max_kernels: float) -> np.ndarray:
-    """Clip a covariance to at most ``max_kernels`` kernel widths along every direction (kernel-whitened)."""
-    white = cov / np.outer(ks, ks)
+def _cap(kk: np.ndarray, cov: np.ndarray, max_kernels: float) -> np.ndarray:
+    """Clip a covariance to at most ``max_kernels`` kernel widths along every direction (kernel-whitened).
+
+    kk : (3, 3) the outer product of the kernel's standard deviations. ``cov`` may be one (3, 3) matrix or a stack
+    (G, 3, 3) of them, each clipped on its own.
+    """
+    white = cov / kk
+    if np.abs(white).sum(axis=-1).max() <= max_kernels**2:
+        # no eigenvalue exceeds the largest absolute row sum (Gershgorin): nothing to clip
+        return cov
     evals, evecs = np.linalg.eigh(white)
     evals = np.minimum(evals, max_kernels**2)
-    return (evecs * evals) @ evecs.T * np.outer(ks, ks)
+    return (evecs * evals[..., None, :]) @ np.swapaxes(evecs, -1, -2) * kk
 
 
 def _mahalanobis2(d: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    return ((d @ np.linalg.inv(cov)) * d).sum(axis=1)
+    """Squared Mahalanobis distances of the rows of ``d`` (..., 3) under ``cov`` (3, 3), or under each of a stack
+    of covariances (G, 3, 3) for ``d`` (G, M, 3)."""
+    q = d @ np.linalg.inv(cov)
+    q *= d
+    # the three columns added in order: what sum(axis=-1) gives, without its overhead on rows of three
+    return q[..., 0] + q[..., 1] + q[..., 2]
 
 
 def _densest_cell(points: np.ndarray, w: np.ndarray, cell_m: float) -> tuple[np.ndarray, float]:
     """Centre and weight of the densest 3x3-cell window of an x-z histogram of the weighted points."""
-    xz = points[:, [0, 2]]
+    xz = points[:, ::2]  # x and z
     lo = xz.min(axis=0)
     idx = np.floor((xz - lo) / cell_m).astype(np.int64)
-    shape = idx.max(axis=0) + 1
-    flat = idx[:, 0] * shape[1] + idx[:, 1]
-    hist = np.bincount(flat, weights=w, minlength=int(shape[0] * shape[1])).reshape(shape)
-    # 3x3 box smoothing so that a person split over cell borders still wins
-    smooth = ndimage.uniform_filter(hist, size=3, mode="constant")
-    best = np.unravel_index(int(np.argmax(smooth)), smooth.shape)
-    in_cell = (np.abs(idx[:, 0] - best[0]) <= 1) & (np.abs(idx[:, 1] - best[1]) <= 1)
-    ww = w * in_cell
+    rows, cols = (int(n) + 1 for n in idx.max(axis=0))
+    flat = idx[:, 0] * cols + idx[:, 1]
+    hist = np.bincount(flat, weights=w, minlength=rows * cols).reshape(rows, cols)
+    # 3x3 box sums so that a person split over cell borders still wins (separable, on a zero border)
+    pad = np.zeros((rows + 2, cols + 2))
+    pad[1:-1, 1:-1] = hist
+    band = pad[:-2] + pad[1:-1]
+    band += pad[2:]
+    box = band[:, :-2] + band[:, 1:-1]
+    box += band[:, 2:]
+    i, j = divmod(int(np.argmax(box)), cols)
+    window = np.zeros((rows, cols), dtype=bool)
+    window[max(i - 1, 0):i + 2, max(j - 1, 0):j + 2] = True
+    ww = w * window.reshape(-1)[flat]
     mass = float(ww.sum())
     return (ww @ points) / max(mass, 1e-300), mass
 
@@ -110,6 +128,9 @@ def _groups(points: np.ndarray, weights: np.ndarray, ks: np.ndarray, min_mass: f
             max_sd_m: float, min_peakedness: float, max_kernels: float, n_shift: int, n_refit: int) -> list[Group3D]:
     residual = weights.copy()
     groups: list[Group3D] = []
+    inv_ks2 = -0.5 / ks**2
+    kk = np.outer(ks, ks)
+    jitter = np.eye(3) * 1e-6
     for _ in range(max_groups):
         active = residual > 1e-6
         if residual[active].sum() < min_mass:
@@ -120,74 +141,78 @@ def _groups(points: np.ndarray, weights: np.ndarray, ks: np.ndarray, min_mass: f
             # no 15 x 15 cm window holds a fifth of a minimal person (about 30 % of a person falls in one):
             # the rest is diffuse
             break
-        inv_ks2 = -0.5 / ks**2
         for _ in range(n_shift):
             d = pts - m
-            k = res * np.exp((d * d) @ inv_ks2)
+            d *= d
+            k = np.exp(d @ inv_ks2)
+            k *= res
             ksum = k.sum()
             if ksum <= 0:
                 break
             m_new = (k @ pts) / ksum
-            if np.max(np.abs(m_new - m)) < 5e-4:
+            if np.abs(m_new - m).max() < 5e-4:
                 m = m_new
                 break
             m = m_new
         cov = np.diag(ks**2)
         r = res
-        d2 = np.zeros(res.size)
+        mass = r.sum()
+        d = pts - m  # the points about the current mean, kept up to date with m
         for _ in range(n_refit):
-            d = pts - m
             d2 = _mahalanobis2(d, cov)
             r = res * (d2 < _CUT2)
             mass = r.sum()
             if mass < min_mass:
                 break
             # a Gaussian-weighted mean: a neighbour 3 sd away weighs 1 %, so the fit stays on its person
-            soft = res * np.exp(-0.5 * np.minimum(d2, 50.0))
+            soft = np.exp(-0.5 * np.minimum(d2, 50.0))
+            soft *= res
             m = (soft @ pts) / soft.sum()
             d = pts - m
-            cov = _cap(ks, (r[:, None] * d).T @ d / mass / _TRUNC + np.eye(3) * 1e-6, max_kernels)
-        mass = float(r.sum())
+            cov = _cap(kk, (r[:, None] * d).T @ d / mass / _TRUNC + jitter, max_kernels)
+        mass = float(mass)
         if mass < min_mass:
             break
         members = np.zeros_like(residual)
         members[active] = r
         residual -= members
         sd = np.sqrt(np.linalg.eigvalsh(cov)[-1])
-        d2 = _mahalanobis2(pts - m, cov)
+        d2 = _mahalanobis2(d, cov)
         peaked = (res @ (d2 < 1.0)) / max(res @ (d2 < _CUT2), 1e-300)
         if sd > max_sd_m or peaked < min_peakedness:
             continue
         groups.append(Group3D(members, mass, m, cov))
     if len(groups) > 1:
-        groups = _share(points, weights, groups, ks, max_kernels)
+        groups = _share(points, weights, groups, kk, max_kernels)
     return groups
 
 
-def _share(points: np.ndarray, weights: np.ndarray, groups: list[Group3D], ks: np.ndarray, max_kernels: float,
+def _share(points: np.ndarray, weights: np.ndarray, groups: list[Group3D], kk: np.ndarray, max_kernels: float,
            n_iter: int = 5) -> list[Group3D]:
     """Re-share the points of overlapping groups by their Gaussian densities (a 3D E-step over the groups).
 
     Groups are found one after another and each takes every point within its cut-off, so a later group misses
     its points on the side of an earlier neighbour and its mean moves away from it. Sharing the points by
     posterior (a few EM iterations of a 3D mixture of the groups, covariances capped as in the fit) undoes that.
+    kk : the outer product of the kernel's standard deviations (:func:`_cap`).
     """
     means = np.array([g.mean for g in groups])
     covs = np.array([g.cov for g in groups])
     masses = np.array([g.mass for g in groups])
     resp = np.zeros((len(groups), points.shape[0]))
+    jitter = np.eye(3) * 1e-6
+    d = points[None, :, :] - means[:, None, :]  # (G, M, 3) the points about each group's mean
     for _ in range(n_iter):
-        inv = np.linalg.inv(covs)
         norm = masses / np.sqrt(np.linalg.det(covs))
-        d = points[None, :, :] - means[:, None, :]
-        d2 = np.einsum("gmi,gij,gmj->gm", d, inv, d)
-        dens = norm[:, None] * np.exp(-0.5 * np.minimum(d2, 50.0))
+        d2 = _mahalanobis2(d, covs)
+        dens = np.exp(-0.5 * np.minimum(d2, 50.0))
+        dens *= norm[:, None]
         resp = weights * dens / np.maximum(dens.sum(axis=0), 1e-300) * (d2 < _CUT2)
         masses = np.maximum(resp.sum(axis=1), 1e-300)
         means = (resp @ points) / masses[:, None]
         d = points[None, :, :] - means[:, None, :]
-        covs = np.array([_cap(ks, (resp[i][:, None] * d[i]).T @ d[i] / masses[i] / _TRUNC + np.eye(3) * 1e-6,
-                              max_kernels) for i in range(len(groups))])
+        covs = _cap(kk, (resp[:, :, None] * d).transpose(0, 2, 1) @ d / masses[:, None, None] / _TRUNC + jitter,
+                    max_kernels)
     return [Group3D(resp[i], float(masses[i]), means[i], covs[i]) for i in range(len(groups))]
 
 
