@@ -499,7 +499,7 @@ class Pipeline:
         """:meth:`_pass_itds` with several pairs: one vector per window, frame and band row, and the frames' bins."""
         if frame_itds:
             frames, bands, bins = stream.pop_frame_itds(), stream.pop_band_itds(), stream.pop_frame_bins()
-            if len(frames[0]):
+            if len(frames[0]) or len(bins):
                 self._offer(self._q_fusion, FrameItdsMessage(start_s, _vectors(*frames), _vectors(*bands), bins))
         times, itds = windows
         for t, itd in zip(times, itds):

@@ -524,9 +524,12 @@ class FrameItdWindow:
         self.span_s = _check_duration(span_s, "span_s")
         self.keep_s = _check_duration(keep_s, "keep_s")
         self.cut = 0
-        self._blocks: deque[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, FrameBins | None]] = deque()
+        # (first, last time, frame times, frame ITDs, band times, band ITDs, bins)
+        self._blocks: deque[tuple[float, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, FrameBins | None]] \
+            = deque()
 
-    def __iter__(self) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, FrameBins | None]]:
+    def __iter__(self) -> Iterator[tuple[float, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray,
+                                         FrameBins | None]]:
         return iter(self._blocks)
 
     def __len__(self) -> int:
@@ -535,24 +538,31 @@ class FrameItdWindow:
     def push(self, times_s: np.ndarray, itds_s: np.ndarray, band_times_s: np.ndarray,
              band_itds_s: np.ndarray, bins: FrameBins | None = None) -> None:
         """One block of frames: their centre times and ITDs, the times and ITDs of their bands' peaks, and the same
-        frames' bins (times on the same clock; None: none)."""
-        if len(times_s) == 0:
+        frames' bins (times on the same clock; None: none). The bins cover every frame, the ITDs only those that
+        passed the energy gate, so a block of silence may bring bins alone."""
+        times = np.asarray(times_s, float)
+        spans = [times] + ([bins.times_s] if bins is not None and len(bins) else [])
+        if not any(t.size for t in spans):
             return
-        self._blocks.append((np.asarray(times_s, float), np.asarray(itds_s, float),
-                             np.asarray(band_times_s, float), np.asarray(band_itds_s, float), bins))
-        while self._blocks[0][0][-1] < self._blocks[-1][0][-1] - self.keep_s:
-            self.cut += len(self._blocks.popleft()[1])
+        first = min(float(t[0]) for t in spans if t.size)
+        last = max(float(t[-1]) for t in spans if t.size)
+        self._blocks.append((first, last, times, np.asarray(itds_s, float), np.asarray(band_times_s, float),
+                             np.asarray(band_itds_s, float), bins))
+        while self._blocks[0][1] < last - self.keep_s:
+            self.cut += len(self._blocks.popleft()[3])
 
     def near(self, stamp_s: float) -> tuple[np.ndarray | None, np.ndarray | None, FrameBins | None]:
         """The frames' ITDs, the bands' peaks and the frames' bins within ``span_s`` of ``stamp_s`` (None where
         there are none)."""
         span = self.span_s
-        while self._blocks and self._blocks[0][0][-1] < stamp_s - span:
+        while self._blocks and self._blocks[0][1] < stamp_s - span:
             self._blocks.popleft()
-        blocks = [b for b in self._blocks if b[0][0] <= stamp_s + span]
-        if not blocks:
-            return None, None, None
-        frames = np.concatenate([itds[np.abs(times - stamp_s) <= span] for times, itds, *_ in blocks])
-        bands = np.concatenate([b_itds[np.abs(b_times - stamp_s) <= span] for _, _, b_times, b_itds, _ in blocks])
-        bins = [b[4].within(stamp_s, span) for b in blocks if b[4] is not None]
+        blocks = [b for b in self._blocks if b[0] <= stamp_s + span]
+        with_itds = [b for b in blocks if b[2].size]
+        frames = bands = None
+        if with_itds:
+            frames = np.concatenate([itds[np.abs(times - stamp_s) <= span] for _, _, times, itds, *_ in with_itds])
+            bands = np.concatenate([b_itds[np.abs(b_times - stamp_s) <= span]
+                                    for *_, b_times, b_itds, _ in with_itds])
+        bins = [b[6].within(stamp_s, span) for b in blocks if b[6] is not None]
         return frames, bands, FrameBins.concatenate(bins) if bins else None

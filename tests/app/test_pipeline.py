@@ -127,9 +127,10 @@ def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPa
     step = FaceGuidedHearing.step
     for enabled in (True, False):
         def spy(self, faces, itds, offsets=None, frame_itds_s=None, band_itds_s=None,  # type: ignore[no-untyped-def]
-                _on=enabled):
+                frame_bins=None, _on=enabled):
+            assert frame_bins is None  # one pair: no bins (they are a look across several pairs)
             seen[_on].append((frame_itds_s, band_itds_s))
-            return step(self, faces, itds, offsets, frame_itds_s, band_itds_s)
+            return step(self, faces, itds, offsets, frame_itds_s, band_itds_s, frame_bins)
 
         monkeypatch.setattr(FaceGuidedHearing, "step", spy)
         source = FakeSource()
@@ -153,8 +154,8 @@ def test_single_frames_itds_stay_bounded_without_vision(monkeypatch: pytest.Monk
     results, pipe = _run(source)
     assert results == []
     kept = list(pipe._frame_itds)
-    assert kept and kept[-1][0][-1] - kept[0][0][0] <= 1.0 + 0.1  # one block of margin
-    assert kept[-1][0][-1] > 3.5  # the newest are there
+    assert kept and kept[-1][1] - kept[0][0] <= 1.0 + 0.1  # (first, last time, ...) of each block; one of margin
+    assert kept[-1][1] > 3.5  # the newest are there
 
 
 def _masked_source(quiet_db: float) -> FakeSource:
@@ -349,16 +350,29 @@ def test_real_time_and_as_fast_as_possible_give_the_same_results() -> None:
     assert runs[True] == runs[False]
 
 
-def test_the_pipeline_fuses_every_pair_of_naos_microphones() -> None:
+def test_the_pipeline_fuses_every_pair_of_naos_microphones(monkeypatch: pytest.MonkeyPatch) -> None:
     """The simulated room heard by NAO's four microphones: the ITD worker extracts six pairs, each result holds one
-    vector per window, and the speaking person is found."""
+    vector per window, each step gets the bins of the frames of its time frame on all six pairs (+-0.2 s: about 40
+    frames at 10 ms), and the speaking person is found."""
     from app.sources import open_source
+    from avcore.inference import FaceGuidedHearing
 
+    bins_seen: list = []
+    step = FaceGuidedHearing.step
+
+    def spy(self, *args, **kwargs):  # type: ignore[no-untyped-def]
+        bins_seen.append(args[5] if len(args) > 5 else kwargs.get("frame_bins"))
+        return step(self, *args, **kwargs)
+
+    monkeypatch.setattr(FaceGuidedHearing, "step", spy)
     source = open_source("sim:S1", realtime=False, duration_s=5.0, seed=0, mics="nao")
     assert source.array is not None and source.array.n_pairs == 6
     results: list[FusionResult] = []
     stats = Pipeline(source, PipelineConfig(), results.append).run()
     assert stats.itds > 0 and len(results) == stats.results > 100
+    middle = [b for b in bins_seen[30:-30] if b is not None]
+    assert len(middle) > 0.9 * len(bins_seen[30:-30])
+    assert all(b.bins.shape[1] == 6 and 35 <= len(b) <= 42 and b.bins.shape[2] == b.freqs_hz.size for b in middle)
     with_itds = [r for r in results if r.itds_s.shape[0]]
     assert with_itds and all(r.itds_s.ndim == 2 and r.itds_s.shape[1] == 6 for r in with_itds)
     scenario = source.stream.scenario

@@ -424,7 +424,7 @@ def test_frame_itd_window_gives_the_frames_near_a_stamp_and_forgets_the_past() -
     for start in np.arange(0.0, 3.0, 0.5):  # blocks of 16 frames every 0.5 s
         times = start + np.arange(16) * 0.032
         w.push(times, times * 1e-4, times, -times * 1e-4)
-    assert w.cut > 0 and all(b[0][-1] >= 3.0 - 1.5 for b in w)  # bounded without vision frames
+    assert w.cut > 0 and all(b[1] >= 3.0 - 1.5 for b in w)  # bounded without vision frames
     frames, bands, bins = w.near(2.3)
     assert frames is not None and bands is not None and bins is None  # no bins pushed (one pair)
     assert np.all(np.abs(frames / 1e-4 - 2.3) <= 0.2 + 1e-9) and np.all(np.abs(-bands / 1e-4 - 2.3) <= 0.2 + 1e-9)
@@ -446,3 +446,8 @@ def test_frame_itd_window_gives_the_bins_of_the_frames_near_a_stamp() -> None:
     expected = np.concatenate([start + np.arange(16) * 0.032 for start in (0.0, 0.5)])
     expected = expected[np.abs(expected - 0.5) <= 0.2]
     assert np.allclose(near.times_s, expected) and np.allclose(near.bins.real[:, 0, 0], expected)
+    # a block of silence: no frame passed the energy gate, the bins still come
+    times = 2.0 + np.arange(16) * 0.032
+    w.push(times[:0], times[:0], times[:0], times[:0], FrameBins(times, np.ones((16, 3, 2), np.complex64), freqs))
+    frames, bands, near = w.near(2.2)
+    assert frames is None and bands is None and near is not None and len(near) == np.sum(np.abs(times - 2.2) <= 0.2)
