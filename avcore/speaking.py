@@ -54,9 +54,9 @@ def bin_shares(bins: np.ndarray, freqs_hz: np.ndarray, means_s: np.ndarray, agre
     if total <= 0:
         return np.zeros(n)
     agree = np.einsum("mpb,npb->nmb", x, steer.astype(np.complex64)).real / np.maximum(weight, 1e-30)[None]
-    best = agree.argmax(axis=0)
     votes = agree.max(axis=0) >= agreement
-    return np.array([float(weight[votes & (best == k)].sum()) for k in range(n)]) / total
+    return np.bincount(agree.argmax(axis=0)[votes], weights=weight[votes], minlength=n) / total
+
 
 _LOG_FACT = np.concatenate([[0.0], np.cumsum(np.log(np.arange(1, 401)))])  # log k!, k = 0..400
 

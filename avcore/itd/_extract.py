@@ -400,12 +400,17 @@ class ItdStream:
         self._frame_bins.clear()
         return times, bins
 
+    def _frame_times(self, count: int) -> np.ndarray:
+        """Centres (seconds from the stream's start) of the ``count`` frames from ``self._next_frame`` on."""
+        impl = self._impl
+        starts = (self._next_frame + np.arange(count)) * impl.frame_hop
+        return (starts + 0.5 * impl.frame_len) / self._framing.samplerate_hz
+
     def _keep_frame_itds(self, frames: np.ndarray, terms: dict[str, np.ndarray]) -> None:
         impl = self._impl
         energy = _interleaved_power(frames)
         itds, height = impl.frame_itds(terms)  # type: ignore[attr-defined]
-        starts = (self._next_frame + np.arange(frames.shape[0])) * impl.frame_hop
-        times = (starts + 0.5 * impl.frame_len) / self._framing.samplerate_hz
+        times = self._frame_times(frames.shape[0])
         ok = _gate(self._framing, energy) & np.isfinite(itds)
         if ok.any():
             self._frame_itds.append(ItdTrack(times[ok], itds[ok], height[ok], energy[ok]))  # type: ignore[union-attr]
@@ -429,8 +434,7 @@ class ItdStream:
             if self._frame_itds is not None:
                 self._keep_frame_itds(frames, terms)
             if self._frame_bins is not None:
-                starts = (self._next_frame + np.arange(frames.shape[0])) * fh
-                self._frame_bins.append(((starts + 0.5 * fl) / self._framing.samplerate_hz, terms["frame_bins"]))
+                self._frame_bins.append((self._frame_times(frames.shape[0]), terms["frame_bins"]))
             for key, value in terms.items():
                 if not key.startswith("frame_"):  # the frames' own results, not summed into windows
                     self._terms.setdefault(key, []).extend(value)
