@@ -495,7 +495,8 @@ def default_scene(faces_dir: str | Path | None = None, *, moving: bool = False, 
 
     faces_dir : ``../shared/data/faces`` for real face crops; None (or absent) for drawn faces.
     moving : people sway (5-8 cm) and nod (about 10 degrees), so that HM3D finds motion.
-    bodies : people with forearms and hands (gesturing when ``moving``) behind a table.
+    bodies : people with bodies (:mod:`sim.person_body`: a checked shirt, arms and hands that gesture when
+    ``moving``) behind a table.
     """
     if not 0 <= n_people <= 5:
         raise ValueError(f"n_people must be between 0 and 5, got {n_people!r}")

@@ -39,6 +39,7 @@ from sim.render import (
     StereoSceneRenderer,
 )
 from sim.audio import SimAudio, load_clip_bank, render_audio
+from sim.body_truth import interval_times, visible_moving_centres
 from sim.render import load_textures
 from sim.scenario import (
     ClipBank,
@@ -165,6 +166,12 @@ class SimSource(ReplayStream):
                        nod_rad=float(nod), nod_hz=NOD_HZ, phase=1.3 * i, arms=b, gesture_m=gesture(i),
                        table=b and a.posture == "seated")
                 for i, (a, p, nod) in enumerate(zip(self.scenario.actors, pos, nods))]
+
+    def body_centres(self, stamp_s: float, interval_s: float) -> np.ndarray:
+        """(N, 3) metres: each actor's centre of the visible moving body over the interval of ``interval_s`` centred
+        on ``stamp_s`` (:mod:`sim.body_truth`), the truth of a motion-guided result."""
+        times = interval_times(stamp_s, interval_s)
+        return visible_moving_centres(self.stereo, [self.people(float(t)) for t in times], times)
 
     def _images(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         t = float(self.frame_stamps_s[k])
