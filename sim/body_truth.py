@@ -8,17 +8,23 @@ the motion-guided scoring of the rendered scenarios takes, as :mod:`sim.bodies` 
 point clouds, **the centre of the visible moving body**:
 
 * the instants: ``times_s``, the frames of the interval (:func:`interval_times`: 5 instants over its 0.4 s);
-* the moving parts: a person's parts (:meth:`sim.render.Person.parts`: the head, the torso, the arms, the hands,
-  the legs; the flat body of a person without one) whose corners are not in the same place at every instant;
-* the visible surface: a grid of points on each moving part, kept where it projects inside the left image and is not
-  covered by anything drawn after it (another person, the same person's arm, a table), as the renderer draws;
-* the centre: the mean of these points over the instants, each point weighted by the area of its part it stands for.
+* the surface: a grid of points on each of a person's parts (:meth:`sim.render.Person.parts`: the head, the torso,
+  the arms, the hands, the legs; the flat body of a person without one), each point at the same place on its part
+  at every instant;
+* moving: how far the point's image in the left camera moves during the interval, counted up to a pixel: a point
+  that moves a pixel or more counts fully, one that moves less in proportion, one that does not move not at all (a
+  torso that rocks at the shoulders moves at the top, not at the hips; a nodding head's points move a fraction of
+  a pixel to a pixel);
+* visible, at an instant: the point projects inside the left image and is not covered by anything drawn after its
+  part (another person, the same person's arm, a table), as the renderer draws;
+* the centre: the mean of the points over the instants at which they are visible, each weighted by how much it
+  moves and by the area of its part it stands for.
 
-A person none of whose visible parts moves (a listener of a flat scene) or who is not seen at all is at the mean of
+A person none of whose visible points moves (a listener of a flat scene) or who is not seen at all is at the mean of
 their face centres over the instants: there is nothing for a motion-guided method to find, and the face is the
 truth of the face-guided scoring. The texture does not weigh (a plain part counts as much as a checked one): the
 truth does not follow what the detector happens to like. Without bodies only the head nods, so the truth is the
-head's centre, within a few millimetres of the face.
+head's centre, within a few centimetres of the face.
 """
 from __future__ import annotations
 
@@ -32,7 +38,7 @@ from sim.render import Person, drawing_order
 __all__ = ["interval_times", "visible_moving_centres"]
 
 GRID = 6  # points per side of each part
-MOVED_M = 1e-4  # a part moves when a corner moves more than this during the interval
+MOVED_PX = 1.0  # a point whose image moves this much during the interval counts fully; one that moves less, less
 
 
 def interval_times(stamp_s: float, interval_s: float, n: int = 5) -> np.ndarray:
@@ -58,24 +64,25 @@ def _inside(uv: np.ndarray, polygons: np.ndarray) -> np.ndarray:
     return np.any(np.all(cross >= 0, axis=2) | np.all(cross <= 0, axis=2), axis=1)
 
 
-def _surface(rig: StereoRig, people: Sequence[Person], t: float) -> list[tuple[int, str, int, np.ndarray, np.ndarray]]:
-    """The visible grid points of every person's parts at ``t``: [(person, part name, k-th part of that person,
-    points (m, 3), weights (m,)), ...]."""
+def _surface(rig: StereoRig, people: Sequence[Person], t: float) -> dict[tuple[int, int], tuple]:
+    """Every person's parts at ``t`` as grid points: {(person, k-th part of that person): (points (G, 3), left
+    pixels (G, 2), visible (G,) bool, cell area)}, visible where inside the left image and not covered by anything
+    drawn after the part."""
     order = drawing_order(people, t)
     w, h = rig.image_size
     projected = np.array([rig.project(corners)[0] for _, _, corners, _ in order]).reshape(-1, 4, 2)
     count: dict[int, int] = {}
-    out = []
+    out = {}
     for rank, (i, name, corners, _) in enumerate(order):
         if name == "prop":
             continue
         k = count[i] = count.get(i, -1) + 1
         pts, cell = _grid(corners)
         uv = rig.project(pts)[0]
-        keep = (pts[:, 2] > 0.05) & (uv[:, 0] >= -0.5) & (uv[:, 0] <= w - 0.5) & (uv[:, 1] >= -0.5) \
+        seen = (pts[:, 2] > 0.05) & (uv[:, 0] >= -0.5) & (uv[:, 0] <= w - 0.5) & (uv[:, 1] >= -0.5) \
             & (uv[:, 1] <= h - 0.5)
-        keep &= ~_inside(uv, projected[rank + 1:])
-        out.append((i, name, k, pts[keep], np.full(int(keep.sum()), cell)))
+        seen &= ~_inside(uv, projected[rank + 1:])
+        out[(i, k)] = (pts, uv, seen, cell)
     return out
 
 
@@ -88,23 +95,17 @@ def visible_moving_centres(rig: StereoRig, people_at: Sequence[Sequence[Person]]
     """
     if len(people_at) != len(times_s) or not len(times_s):
         raise ValueError(f"need the people at each instant: {len(people_at)} lists for {len(times_s)} instants")
-    n = len(people_at[0])
     surfaces = [_surface(rig, people, float(t)) for people, t in zip(people_at, times_s)]
-    corners = [[[c for _, c, _ in p.parts(float(t))] for p in people] for people, t in zip(people_at, times_s)]
-    out = np.zeros((n, 3))
-    for i in range(n):
-        moving = {k for k in range(len(corners[0][i]))
-                  if max(np.abs(c[i][k] - corners[0][i][k]).max() for c in corners) > MOVED_M}
-        out[i] = _centre([(k, pts, wts) for surf in surfaces for j, _, k, pts, wts in surf if j == i], moving,
-                         np.mean([people[i].face_centre(float(t)) for people, t in zip(people_at, times_s)], axis=0))
-    return out
-
-
-def _centre(parts: list[tuple[int, np.ndarray, np.ndarray]], moving: set[int], fallback: np.ndarray) -> np.ndarray:
-    """The weighted mean of the moving parts' visible points, or ``fallback`` when none is visible."""
-    chosen = [p for p in parts if p[0] in moving]
-    wts = np.concatenate([w for _, _, w in chosen]) if chosen else np.zeros(0)
-    if wts.sum() <= 0:
-        return fallback
-    pts = np.concatenate([p for _, p, _ in chosen])
-    return (pts * wts[:, None]).sum(axis=0) / wts.sum()
+    total, weight = np.zeros((len(people_at[0]), 3)), np.zeros(len(people_at[0]))
+    for (i, k) in surfaces[0]:
+        uv = np.stack([s[(i, k)][1] for s in surfaces])  # (T, G, 2)
+        moves = np.minimum(np.linalg.norm(uv - uv[0], axis=2).max(axis=0) / MOVED_PX, 1.0)  # (G,) in [0, 1]
+        for s in surfaces:
+            pts, _, seen, cell = s[(i, k)]
+            wts = cell * moves * seen
+            total[i] += wts @ pts
+            weight[i] += wts.sum()
+    faces = np.mean([[p.face_centre(float(t)) for p in people] for people, t in zip(people_at, times_s)], axis=0)
+    found = weight > 0
+    faces[found] = total[found] / weight[found, None]
+    return faces.reshape(-1, 3)
