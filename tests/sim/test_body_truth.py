@@ -36,9 +36,10 @@ def test_a_talker_with_a_body_is_at_the_chest_above_the_table():
     c = _centre(talker)[0]
     table_top_y = talker.props(0.0)[0][0][0, 1]
     assert abs(c[0] - 0.2) < 0.05 and talker.position[1] + 0.1 < c[1] < table_top_y
-    # without the table the lower torso is seen, and moves with the shoulders: the centre is lower
+    # without the table the lower torso and the legs are seen, but the torso rocks at the shoulders, not at the hips,
+    # and the legs stay: the centre comes down a little, not to the hips (0.74 m below the face)
     free = _centre(replace(talker, table=False))[0]
-    assert free[1] > c[1]
+    assert c[1] < free[1] < talker.position[1] + 0.4
 
 
 def test_only_the_visible_parts_count():
