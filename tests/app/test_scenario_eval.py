@@ -306,3 +306,19 @@ def test_evaluate_scenario_scores_motion_on_the_moving_bodies(monkeypatch: pytes
     assert body.shape == (1, 3) and 0.1 < body[0, 1] - face[0, 1] < 0.4  # on the chest, below the face
     scenarios.evaluate_scenario("S1", 0, duration_s=3.0, config=PipelineConfig(inference="face"), bodies=True)
     assert seen["positions_at"] is None
+
+
+def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.MonkeyPatch) -> None:
+    from app.commands import eval as eval_command
+
+    asked: list[bool] = []
+
+    def stop(name: str, seed: int, **kwargs: object) -> ScenarioScore:
+        asked.append(bool(kwargs["bodies"]))
+        raise SystemExit(0)
+
+    monkeypatch.setattr(eval_command, "evaluate_scenario", stop)
+    for argv, bodies in ((["--motion"], True), ([], True), (["--motion", "--no-bodies"], False)):
+        with pytest.raises(SystemExit):
+            main(["eval", "scenarios", "--scenario", "S1", "--no-calibrate", *argv])
+        assert asked[-1] is bodies
