@@ -7,7 +7,7 @@ import math
 from collections.abc import Callable
 
 __all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_method_arguments", "count", "duration", "pipeline_config",
-           "port", "positive"]
+           "port", "positive", "wants_bodies"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
@@ -85,10 +85,20 @@ def add_mics_argument(p: argparse.ArgumentParser) -> None:
 
 
 def add_bodies_argument(p: argparse.ArgumentParser) -> None:
-    """``--bodies``: the simulated people with arms, hands and a table (issue 18)."""
-    p.add_argument("--bodies", action="store_true",
-                   help="the simulated people have forearms and hands that gesture while they talk, and the seated "
-                        "ones sit behind a table (default: heads and shirts)")
+    """``--bodies/--no-bodies``: how the simulated people are drawn (issue 18); :func:`wants_bodies` resolves the
+    default. None when neither is given, so that a real source can refuse either."""
+    p.add_argument("--bodies", action=argparse.BooleanOptionalAction, default=None,
+                   help="the simulated people have a checked shirt, arms and hands that gesture (most while they "
+                        "talk), and the seated ones sit behind a table (default); --no-bodies: flat heads and "
+                        "shirts that only nod, the scene of the earlier figures")
+
+
+def wants_bodies(args: argparse.Namespace) -> bool:
+    """Whether the simulated room draws bodies: yes unless ``--no-bodies``.
+
+    Motion-guided inference (Algorithm 1) needs people that move like people (textured clothing, gesturing arms);
+    face-guided inference looks at the faces, which the bodies do not cover."""
+    return args.bodies is not False
 
 
 def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline imports this module's types

@@ -17,6 +17,7 @@ Ctrl-C (or :meth:`Pipeline.stop`, e.g. from a SIGTERM handler) stops every threa
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -70,7 +71,8 @@ class PipelineConfig:
         thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
     *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
-        possible waits for room instead).
+        possible waits for room instead). Motion-guided, the frames' queue holds at least one interval at 60 FPS:
+        HM3D runs once per interval, all at once, and the next interval's frames arrive meanwhile.
     max_audio_lead_s : a replay as fast as possible: the ITD worker waits while the audio it extracts is more than
         this far ahead of the last frame vision took, so that no buffer downstream has to drop what vision has not
         used yet (ITDs run far faster than vision). Must exceed the time frame, a window and the vote's wait.
@@ -271,6 +273,14 @@ class _Stop(Exception):
     """Raised inside a worker when the pipeline stops."""
 
 
+def _frame_capacity(config: PipelineConfig) -> int:
+    """The frames' queue length: ``frame_queue``, or one interval at 60 FPS when motion-guided (see
+    :class:`PipelineConfig`)."""
+    if config.inference != "motion":
+        return config.frame_queue
+    return max(config.frame_queue, math.ceil(config.interval_s * 60.0))
+
+
 class Pipeline:
     """Runs a :class:`Source` through vision, ITD extraction and fusion in threads; calls ``on_result`` from the
     fusion thread for every fused result (so that all Rerun logging happens in one thread).
@@ -290,7 +300,7 @@ class Pipeline:
         self._stop = threading.Event()
         self._errors: list[tuple[str, BaseException]] = []
         c = self.config
-        self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(c.frame_queue, "frames")
+        self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(_frame_capacity(c), "frames")
         self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
         self._q_fusion: DropOldestQueue[FusionMessage] = DropOldestQueue(c.fusion_queue, "fusion")
         self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}

@@ -3,7 +3,8 @@
 - :mod:`sim.synthetic`: the feature-level sequences of the paper's section 7.1 (3D points and ITDs);
   :mod:`sim.synthetic_eval` runs Algorithm 1 and 2 on them.
 - :mod:`sim.scenario`: the scenarios of section 7.3 (people, sound events, rooms); :mod:`sim.render` draws the
-  stereo images; :mod:`sim.roomsim` makes the room acoustics and reads the real speech and noise;
+  stereo images (people's bodies from :mod:`sim.person_body`; :mod:`sim.body_truth` says where a motion-guided
+  method should find them); :mod:`sim.roomsim` makes the room acoustics and reads the real speech and noise;
   :mod:`sim.audio` renders the microphones' signals of a scenario.
 - :mod:`sim.calibration`: a calibration session of section 5.3 with known truth.
 

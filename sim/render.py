@@ -3,8 +3,9 @@
 It produces the visual input of the paper's pipeline (section 5.2: F3D faces, HM3D moving points) with ground truth:
 the 3D centre of every face at every instant, and the surfaces of the people, so that F3D and HM3D can be scored.
 
-Everything is a textured planar quad (walls, floor, bodies, heads) drawn by a homography per camera, far to near
-(painter's algorithm), with sensor noise. Faces are crops of real photographs cut around the hand-labelled boxes of
+Everything is a textured planar quad (walls, floor, bodies, heads, arms, tables) drawn by a homography per camera,
+far to near (painter's algorithm), with sensor noise; a texture with a fourth channel is drawn where its alpha is set
+(rounded shoulders, fingers). People with bodies are :mod:`sim.person_body`'s. Faces are crops of real photographs cut around the hand-labelled boxes of
 ``../shared/data/faces`` (:func:`load_face_textures`) or, on a clean machine, a drawn face that OpenCV's frontal
 Haar cascade finds (:func:`drawn_face_texture`).
 
@@ -16,6 +17,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 import cv2
@@ -23,6 +25,7 @@ import numpy as np
 
 from avcore.faces import HaarFaceDetector
 from avcore.stereo import StereoRig
+from sim.person_body import BodyPose, body_quads, body_texture, table_quads
 from sim.roomsim import resolve_data_dir
 
 __all__ = [
@@ -34,6 +37,7 @@ __all__ = [
     "load_face_textures",
     "drawn_face_texture",
     "default_scene",
+    "drawing_order",
     "load_textures",
 ]
 
@@ -145,18 +149,34 @@ def drawn_face_texture(size_px: int = 96, skin_bgr: tuple[int, int, int] = (150,
     return FaceTexture(img, box, "drawn")
 
 
+@lru_cache(maxsize=256)
+def skin_of(face: FaceTexture) -> tuple[float, float, float]:
+    """BGR, the median colour of the brighter half of the middle of the face box (the cheeks and the forehead, not
+    the eyes, the mouth or the shadows): the skin of the person's hands."""
+    bx, by, bw, bh = face.face_box
+    x0, y0 = int(bx + 0.25 * bw), int(by + 0.25 * bh)
+    patch = face.image[y0:y0 + max(int(0.5 * bh), 1), x0:x0 + max(int(0.5 * bw), 1)].reshape(-1, 3)
+    if not patch.size:
+        return (140.0, 170.0, 210.0)
+    grey = patch.astype(np.float64).sum(axis=1)
+    b, g, r = np.median(patch[grey >= np.median(grey)], axis=0)
+    return (float(b), float(g), float(r))
+
+
 @dataclass(frozen=True, eq=False)
 class Person:
-    """A person: a head plane carrying a face texture above a body plane, optionally swaying and nodding.
+    """A person: a head plane carrying a face texture above a body, optionally swaying and nodding.
 
     position : (3,) float, metres: the face centre at rest, scene frame.
     face_width_m : physical width of the labelled face box (an adult face is about 0.15-0.17 m).
     sway_m, sway_hz : amplitude (metres) and frequency of a side-to-side sway of the whole person along x.
     nod_rad, nod_hz : amplitude (radians) and frequency of a head nod about the horizontal axis of the face centre.
-    phase : radians, added to both oscillations. shirt_bgr : colour of the body.
-    arms : draw two forearms (sleeves) and hands in front of the body (a person with a body, issue 18); gesture_m,
-    gesture_hz : how far (metres) and how fast the hands swing (a talker gestures). table : a table's front in front of
-    a seated person hides the lower body (drawn by :meth:`props`).
+    phase : radians, added to every oscillation. shirt_bgr : colour of the shirt.
+    arms : a body (issue 18, :mod:`sim.person_body`): a checked shirt on a torso with rounded shoulders, upper arms,
+    forearms and hands, and legs unless a table hides them; without it the body is one flat striped plane.
+    gesture_m, gesture_hz : how far (metres) and how fast the hands swing (a talker about 0.15 m, a listener a
+    little); the shoulders rock with them. table : a table in front of a seated person hides the lower body (drawn by
+    :meth:`props`).
     """
 
     face: FaceTexture
@@ -189,6 +209,11 @@ class Person:
 
     def quads(self, t: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """The person's planes at time ``t``: [(corners (4, 3) metres TL, TR, BR, BL, texture), ...], body first."""
+        return [(corners, tex) for _, corners, tex in self.parts(t)]
+
+    def parts(self, t: float) -> list[tuple[str, np.ndarray, np.ndarray]]:
+        """The person's planes at time ``t`` with their names: [(name, corners, texture), ...], body first. A texture
+        of four channels carries a binary alpha."""
         tex = self.face.image
         bx, by, bw, bh = self.face.face_box
         m_per_px = self.face_width_m / bw
@@ -204,68 +229,33 @@ class Person:
             + np.outer((tex_corners[:, 1] - fy) * m_per_px, down)
         # the body hangs from the chin, a little behind the face (shoulders are behind the face)
         top = centre[1] + (h - 0.5 - fy) * m_per_px * 0.9
-        z = centre[2] + 0.06
-        half = 0.23
-        body = np.array([[centre[0] - half, top, z], [centre[0] + half, top, z],
-                         [centre[0] + half, top + 0.7, z], [centre[0] - half, top + 0.7, z]])
-        quads = [(body, self._shirt()), (head, tex)]
-        if self.arms:
-            quads += self._arms(t, centre, top)
-        return quads
-
-    def _arms(self, t: float, centre: np.ndarray, top: float) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Forearms from the elbows (at the body's sides) to the hands in front of the chest, and the hands."""
-        out = []
-        for sign in (-1.0, 1.0):
-            w = 2 * np.pi * self.gesture_hz * t + self.phase + (0.0 if sign < 0 else 1.7)
-            elbow = np.array([centre[0] + sign * 0.22, top + 0.32, centre[2] + 0.02])
-            wrist = np.array([centre[0] + sign * 0.12 + self.gesture_m * np.sin(w),
-                              top + 0.24 - 0.6 * self.gesture_m * np.sin(1.7 * w), centre[2] - 0.18])
-            out.append((_strip(elbow, wrist, 0.09), self._texture("sleeve")))
-            hand_c = wrist + np.array([0.0, 0.0, -0.01])
-            out.append((_strip(hand_c - np.array([0.0, 0.05, 0.0]), hand_c + np.array([0.0, 0.05, 0.0]), 0.09),
-                        self._texture("hand")))
-        return out
+        if not self.arms:
+            z, half = centre[2] + 0.06, 0.23
+            body = np.array([[centre[0] - half, top, z], [centre[0] + half, top, z],
+                             [centre[0] + half, top + 0.7, z], [centre[0] - half, top + 0.7, z]])
+            return [("body", body, self._flat_shirt()), ("head", head, tex)]
+        pose = BodyPose(centre, top, self.gesture_m, 2 * np.pi * self.gesture_hz * t + self.phase)
+        body_parts = body_quads(pose, legs=not self.table)
+        return [(kind, corners, self._texture(kind)) for kind, corners in body_parts[:1]] + [("head", head, tex)] \
+            + [(kind, corners, self._texture(kind)) for kind, corners in body_parts[1:]]
 
     def props(self, t: float) -> list[tuple[np.ndarray, np.ndarray]]:
-        """What stands with the person but is not them: the front of a table (``table``) that hides the lower body."""
+        """What stands with the person but is not them: a table (``table``), its top and front, that hides the lower
+        body."""
         if not self.table:
             return []
-        c = np.asarray(self.position)
-        y_top = c[1] + 0.58
-        z = c[2] - 0.30
-        corners = np.array([[c[0] - 0.40, y_top, z], [c[0] + 0.40, y_top, z], [c[0] + 0.40, y_top + 1.0, z],
-                            [c[0] - 0.40, y_top + 1.0, z]])
-        return [(corners, self._texture("table"))]
+        return [(corners, body_texture(kind, (0, 0, 0), (0.0, 0.0, 0.0), 0))  # every table alike
+                for kind, corners in table_quads(np.asarray(self.position))]
+
+    def skin_bgr(self) -> tuple[float, float, float]:
+        """The hands' skin: the face's (:func:`skin_of`)."""
+        return skin_of(self.face)
 
     def _texture(self, kind: str) -> np.ndarray:
-        """Sleeves (the shirt's colour, folds), hands (skin, finger lines), a table front (wood grain)."""
-        key = f"_{kind}_texture"
-        cached = self.__dict__.get(key)
-        if cached is not None:
-            return cached
-        rng = np.random.default_rng([abs(hash(self.shirt_bgr)) % (2**32), len(kind)])
-        if kind == "sleeve":
-            img = np.empty((60, 24, 3), np.uint8)
-            img[:] = self.shirt_bgr
-            for y in range(4, 60, 11):
-                img[y:y + 2] = np.clip(np.array(self.shirt_bgr) * 0.55, 0, 255).astype(np.uint8)
-        elif kind == "hand":
-            img = np.empty((30, 24, 3), np.uint8)
-            img[:] = (140, 170, 210)
-            for x in range(3, 24, 5):
-                img[:18, x] = (100, 125, 160)
-        else:
-            img = np.empty((80, 160, 3), np.uint8)
-            img[:] = (60, 95, 140)
-            for y in range(0, 80, 6):
-                img[y] = (45, 70, 105)
-        noise = rng.normal(0, 10, img.shape[:2])[..., None]
-        img = np.clip(img + noise, 0, 255).astype(np.uint8)
-        object.__setattr__(self, key, img)
-        return img
+        """A body or table texture of :func:`sim.person_body.body_texture` (made once for all people alike)."""
+        return body_texture(kind, tuple(self.shirt_bgr), self.skin_bgr(), abs(hash(tuple(self.shirt_bgr))) % (2**32))
 
-    def _shirt(self) -> np.ndarray:
+    def _flat_shirt(self) -> np.ndarray:
         cached = self.__dict__.get("_shirt_texture")
         if cached is None:
             rng = np.random.default_rng(abs(hash(self.shirt_bgr)) % (2**32))
@@ -369,6 +359,11 @@ class StereoSceneRenderer:
             return
         homography = cv2.getPerspectiveTransform(src, dst - np.float32([x0, y0]))
         roi = canvas[y0:y1, x0:x1]
+        if texture.shape[2] == 4:  # a binary alpha: draw where it is set
+            patch = cv2.warpPerspective(texture, homography, (x1 - x0, y1 - y0), flags=cv2.INTER_LINEAR,
+                                        borderMode=cv2.BORDER_CONSTANT, borderValue=(0, 0, 0, 0))
+            cv2.copyTo(patch[..., :3], (patch[..., 3] >= 128).view(np.uint8), roi)
+            return
         warped = cv2.warpPerspective(texture, homography, (x1 - x0, y1 - y0), dst=roi, flags=cv2.INTER_LINEAR,
                                      borderMode=cv2.BORDER_TRANSPARENT)
         if warped is not roi and not np.shares_memory(warped, canvas):  # OpenCV could not write in place
@@ -399,8 +394,7 @@ class StereoSceneRenderer:
 
     def render(self, t: float = 0.0) -> RenderedFrame:
         """The two rectified images at time ``t`` seconds, with the ground truth of that instant."""
-        quads = [(q, tex) for p in self.people for q, tex in p.quads(t) + p.props(t)]
-        quads.sort(key=lambda qt: -float(qt[0][:, 2].mean()))  # far to near
+        quads = [(corners, tex) for _, _, corners, tex in drawing_order(self.people, t)]
         images = []
         rng = np.random.default_rng([self.seed, int(round(t * 1e6)) % (2**32)])
         for side in ("left", "right"):
@@ -452,24 +446,34 @@ class StereoSceneRenderer:
 
     # ------------------------------------------------------------------ ground truth for HM3D
     def distance_to_people(self, points: np.ndarray, t: float) -> np.ndarray:
-        """Distance of each point to the nearest person surface (head or body plane) at time ``t``.
+        """Distance of each point to the nearest person surface (head, body, arm, hand) at time ``t``.
 
         points : (m, 3) float, metres  ->  (m,) float, metres (inf when there is nobody).
         """
+        return self.nearest_parts(points, t)[0]
+
+    def nearest_parts(self, points: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
+        """Distance of each point to the nearest person surface at time ``t``, and that surface's name
+        (:meth:`Person.parts`: "head", "shirt", "hand", ...; "" when there is nobody). The distance is to the whole
+        quad, its transparent corners included. points : (m, 3) metres -> (m,) metres, (m,) str."""
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
         best = np.full(pts.shape[0], np.inf)
+        names = np.full(pts.shape[0], "", dtype=object)
         for p in self.people:
-            for corners, _ in p.quads(t):
-                best = np.minimum(best, _distance_to_quad(pts, corners))
-        return best
+            for name, corners, _ in p.parts(t):
+                d = _distance_to_quad(pts, corners)
+                names[d < best] = name
+                best = np.minimum(best, d)
+        return best, names
 
 
-def _strip(a: np.ndarray, b: np.ndarray, width: float) -> np.ndarray:
-    """A quad of ``width`` from a to b, facing the camera (its width along x-y, across the segment's image)."""
-    d = b - a
-    across = np.array([-d[1], d[0], 0.0])
-    across = across / max(np.linalg.norm(across), 1e-9) * width / 2
-    return np.array([a - across, a + across, b + across, b - across])
+def drawing_order(people: Sequence[Person], t: float) -> list[tuple[int, str, np.ndarray, np.ndarray]]:
+    """Everything the people bring at time ``t``, in the order it is drawn (far to near by mean depth, the painter's
+    algorithm): [(person index, part name, corners (4, 3), texture), ...]; a table's part is named "prop"."""
+    quads = [(i, name, corners, tex) for i, p in enumerate(people) for name, corners, tex in p.parts(t)]
+    quads += [(i, "prop", corners, tex) for i, p in enumerate(people) for corners, tex in p.props(t)]
+    quads.sort(key=lambda q: -float(q[2][:, 2].mean()))  # stable: equal depths keep the people's order
+    return quads
 
 
 def _distance_to_quad(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
@@ -491,7 +495,8 @@ def default_scene(faces_dir: str | Path | None = None, *, moving: bool = False, 
 
     faces_dir : ``../shared/data/faces`` for real face crops; None (or absent) for drawn faces.
     moving : people sway (5-8 cm) and nod (about 10 degrees), so that HM3D finds motion.
-    bodies : people with forearms and hands (gesturing when ``moving``) behind a table.
+    bodies : people with bodies (:mod:`sim.person_body`: a checked shirt, arms and hands that gesture when
+    ``moving``) behind a table.
     """
     if not 0 <= n_people <= 5:
         raise ValueError(f"n_people must be between 0 and 5, got {n_people!r}")

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from app.errors import UserError
 from app.options import (MAX_SIMULATED_S, add_bodies_argument, add_method_arguments, add_mics_argument, count,
-                         duration, pipeline_config)
+                         duration, pipeline_config, wants_bodies)
 from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets, signed_us,
                              synthetic_json)
 from app.paths import output_dir
@@ -151,7 +151,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
             t0 = time.perf_counter()
             score = evaluate_scenario(name, seed, duration_s=args.duration, config=config,
                                       mics=calibration.mics if calibration else None, mic_array=args.mics,
-                                      bodies=args.bodies)
+                                      bodies=wants_bodies(args))
             c = score.counts
             _progress(f"{name} seed {seed}: TP {c.tp}, FN {c.fn}, FP {c.fp} ({time.perf_counter() - t0:.0f} s)")
             if args.timeline is not None and score.timeline is not None:

@@ -16,7 +16,7 @@ from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.sources.live import LiveConfig, add_device_arguments, live_config
 from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_method_arguments,
-                         add_mics_argument, count, duration, pipeline_config, port)
+                         add_mics_argument, count, duration, pipeline_config, port, wants_bodies)
 from app.paths import output_file
 from app.pipeline import FusionResult, Pipeline, PipelineConfig, PipelineStats
 from app.results import ResultsWriter
@@ -110,8 +110,9 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
     if spec.startswith("sim:") and args.duration is not None and args.duration > MAX_SIMULATED_S:
         raise UserError(f"--duration {args.duration:g}: the simulated room runs at most {MAX_SIMULATED_S:g} s "
                         "(it renders the whole scenario's audio in memory); for longer runs, repeat or use a recording")
-    if args.bodies and not spec.startswith("sim:"):
-        raise UserError(f"--bodies draws the simulated room's people; {spec} has real ones")
+    if args.bodies is not None and not spec.startswith("sim:"):
+        flag = "--bodies" if args.bodies else "--no-bodies"
+        raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")
     if args.mics != "pair" and not spec.startswith("sim:"):
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {spec} brings its own (one "
                         "pair from the rig file or the recording)")
@@ -142,7 +143,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         else:
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
-                                 mics=args.mics, bodies=args.bodies, progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+                                 mics=args.mics, bodies=wants_bodies(args), progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
         return _run_checked(spec, args, target, config, source, results, publisher,
                             wall_time=live is not None or spec == "bus")

@@ -25,7 +25,10 @@ Per interval of 0.4 s (a second, stricter view)
       ``sounding`` but not speaking). People outside the field of view are not counted (no face-guided system can
       report them), but their speech reaches the microphones.
     - Detection: in every frame, the detected faces are associated with the people by 3D position with the protocol
-      of section 7 (:func:`avcore.evaluation.match_clusters`, tau_loc = 0.35 m). A person found in at least one frame
+      of section 7 (:func:`avcore.evaluation.match_clusters`, tau_loc = 0.35 m). The motion-guided variant's people
+      (each a cluster of HM3D points) are associated with the centre of each person's visible moving body over the
+      result's interval (:mod:`sim.body_truth`: where its points can be), not with the face; the face-guided
+      variant's with the faces. A person found in at least one frame
       of the interval is *detected speaking* when the associated face was judged speaking in most of the frames
       where it was found; a person found in none is *missed* (which counts as judged silent).
     - TP: speaking, detected speaking. FN: speaking, detected silent (``fn_missed_face`` of them because the face
@@ -60,6 +63,7 @@ import logging
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -116,6 +120,7 @@ PAPER_SCENARIOS: dict[str, dict[str, int]] = {
 }
 
 Progress = Callable[[str], None]
+Positions = Callable[[float], np.ndarray]
 
 
 class _Counts:
@@ -377,8 +382,10 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     face-guided, the paper's on NAO). mics : the microphone pair with an audio-visual correction (e.g.
     :func:`calibrate_on_preset`); default the simulator's nominal pair with c1 = 1, c0 = 0. mic_array : the
     robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); with several pairs the fusion uses them all and
-    ``mics`` must be None (the simulated microphones are exact). bodies : people with forearms, hands and a table
-    (:class:`app.sources.sim.SimSource`).
+    ``mics`` must be None (the simulated microphones are exact). bodies : people with a torso, arms and hands that
+    gesture, the seated behind a table (:class:`app.sources.sim.SimSource`). A motion-guided run is scored against
+    the centre of each person's visible moving body (:meth:`app.sources.sim.SimSource.body_centres`), a face-guided
+    one against the faces.
     """
     if mics is not None and mic_array != "pair":
         raise ValueError("an audio-visual correction (mics) applies to the one pair; use mic_array='pair' with it")
@@ -398,8 +405,11 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     stream = source.stream
     scenario: Scenario = stream.scenario  # type: ignore[attr-defined]
     audio = np.concatenate([b.samples for b in stream.audio_blocks()], axis=0).astype(np.float64)
+    positions_at: Positions | None = None
+    if cfg.inference == "motion":  # the centre of the visible moving body over the result's interval
+        positions_at = partial(stream.body_centres, interval_s=cfg.interval_s)  # type: ignore[attr-defined]
     score = score_run(scenario, fused, audio[:, list(source.channels)], float(stream.samplerate_hz), source.mics,
-                      cfg, frame_stamps_s=np.asarray(stream.frame_stamps_s))
+                      cfg, frame_stamps_s=np.asarray(stream.frame_stamps_s), positions_at=positions_at)
     score.seeds = [seed]
     meta = getattr(stream, "meta", {})
     score.speech, score.faces = str(meta.get("speech", "")), str(meta.get("faces", ""))
@@ -438,9 +448,9 @@ def _truth_per_interval(truths: list, frame_interval: np.ndarray, n_intervals: i
 
 
 def _judge(scenario: Scenario, fused: Sequence[FusionResult], n_intervals: int, score: ScenarioScore,
-           face_figures: bool) -> _Judged:
-    """Match every result's people to the truth of its instant; with ``face_figures``, also the per-frame visual
-    figures (the F3D faces) into ``score``."""
+           face_figures: bool, positions_at: Positions | None = None) -> _Judged:
+    """Match every result's people to the truth of its instant (the faces, or ``positions_at(stamp)``); with
+    ``face_figures``, also the per-frame visual figures (the F3D faces) into ``score``."""
     n_people = len(scenario.actors)
     ordered = sorted(fused, key=lambda f: f.stamp_s)
     out = _Judged(np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people)), np.zeros(n_intervals),
@@ -450,7 +460,8 @@ def _judge(scenario: Scenario, fused: Sequence[FusionResult], n_intervals: int, 
         k = min(int(r.stamp_s / INTERVAL_S + 1e-9), n_intervals - 1)
         tr = scenario.truth(r.stamp_s)
         xyz, judged_speaking = r.positions, r.speaking
-        match = match_clusters(xyz, tr.positions_m, tau_loc=TAU_LOC_M)
+        truth_xyz = tr.positions_m if positions_at is None else positions_at(r.stamp_s)
+        match = match_clusters(xyz, truth_xyz, tau_loc=TAU_LOC_M)
         out.results_per[k] += 1
         matched = set()
         for g, d in match.pairs:
@@ -471,12 +482,15 @@ def _judge(scenario: Scenario, fused: Sequence[FusionResult], n_intervals: int, 
 
 
 def score_run(scenario: Scenario, fused: Sequence[FusionResult], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
-              config: PipelineConfig, *, frame_stamps_s: np.ndarray) -> ScenarioScore:
+              config: PipelineConfig, *, frame_stamps_s: np.ndarray, positions_at: Positions | None = None
+              ) -> ScenarioScore:
     """Score the fused results of one run of ``scenario`` (see the module docstring for the protocol).
 
     fused : the results in any order (stamps in seconds from the scenario's start); what counts of each is its
     people's positions and speaking states (:attr:`FusionResult.positions`, ``speaking``). audio : (n, 2) the microphone
     signals (left, right), full scale 1. frame_stamps_s : (F,) the stamps of the camera frames, seconds.
+    positions_at : where the people are for the matching, ``stamp -> (N, 3)`` metres; default the faces of
+    :meth:`Scenario.truth` (see :func:`evaluate_scenario` for the motion-guided truth).
     """
     motion = config.inference == "motion"
     n_people = len(scenario.actors)
@@ -486,7 +500,7 @@ def score_run(scenario: Scenario, fused: Sequence[FusionResult], audio: np.ndarr
     truths = [scenario.truth(float(t)) for t in frame_stamps_s]
     frame_interval = np.minimum((np.asarray(frame_stamps_s) / INTERVAL_S + 1e-9).astype(int), n_intervals - 1)
     visible, speaking, spoke, frames_per = _truth_per_interval(truths, frame_interval, n_intervals, n_people)
-    j = _judge(scenario, fused, n_intervals, score, face_figures=not motion)
+    j = _judge(scenario, fused, n_intervals, score, face_figures=not motion, positions_at=positions_at)
     score.counts = _interval_counts(visible, speaking, spoke, j.found, j.judged, j.false_speaking, j.results_per)
     # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends
     held = scenario.speaking_at(frame_stamps_s, hold_s=TIMING_REFERENCE_S)

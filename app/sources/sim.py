@@ -39,6 +39,7 @@ from sim.render import (
     StereoSceneRenderer,
 )
 from sim.audio import SimAudio, load_clip_bank, render_audio
+from sim.body_truth import interval_times, visible_moving_centres
 from sim.render import load_textures
 from sim.scenario import (
     ClipBank,
@@ -53,6 +54,8 @@ log = logging.getLogger(__name__)
 
 NOD_HZ = 2.0
 GESTURE_M = 0.15  # how far a talker's hands swing (SimSource(bodies=True))
+LISTENING_GESTURE_M = 0.03  # and a listener's: people with bodies are never quite still
+GESTURE_RAMP_S = 0.25  # how long the hands take to go from one to the other
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -149,14 +152,26 @@ class SimSource(ReplayStream):
     # -------------------------------------------------------------- ReplayStream
     def people(self, t: float) -> list[Person]:
         """The renderer's people at ``t`` seconds: each actor's face texture at its path position, nodding while
-        speaking."""
+        speaking; with bodies, gesturing while speaking (a little while listening), the seated behind a table."""
         pos = self.scenario.positions(t)
         nods = self.scenario.nod_amplitudes(t)
-        b = self.bodies  # arms and hands (a talker gestures), and a table in front of the seated
+        b = self.bodies
+        # the share of the last GESTURE_RAMP_S spent speaking: hands start and stop swinging smoothly, not at a jump
+        talking = self.scenario.speaking_at(np.linspace(t - GESTURE_RAMP_S, t, 6)).mean(axis=0) if b else None
+
+        def gesture(i: int) -> float:
+            return LISTENING_GESTURE_M + (GESTURE_M - LISTENING_GESTURE_M) * talking[i] if b else 0.0
+
         return [Person(face=self.textures[self._face_of[i]], position=tuple(p), shirt_bgr=a.shirt_bgr,
-                       nod_rad=float(nod), nod_hz=NOD_HZ, phase=1.3 * i, arms=b,
-                       gesture_m=GESTURE_M if b and nod > 0 else 0.0, table=b and a.posture == "seated")
+                       nod_rad=float(nod), nod_hz=NOD_HZ, phase=1.3 * i, arms=b, gesture_m=gesture(i),
+                       table=b and a.posture == "seated")
                 for i, (a, p, nod) in enumerate(zip(self.scenario.actors, pos, nods))]
+
+    def body_centres(self, stamp_s: float, interval_s: float) -> np.ndarray:
+        """(N, 3) metres: each actor's centre of the visible moving body over the interval of ``interval_s`` centred
+        on ``stamp_s`` (:mod:`sim.body_truth`), the truth of a motion-guided result."""
+        times = interval_times(stamp_s, interval_s)
+        return visible_moving_centres(self.stereo, [self.people(float(t)) for t in times], times)
 
     def _images(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         t = float(self.frame_stamps_s[k])

@@ -242,6 +242,15 @@ def test_motion_guided_variant_runs() -> None:
     assert any(r.output.n >= 1 for r in results)
 
 
+def test_motion_guided_frames_wait_for_hm3d_a_whole_interval() -> None:
+    """HM3D runs once per 0.4 s interval, all at once: the frames arriving meanwhile (12 at 30 FPS) must not be
+    dropped, so the motion-guided frames' queue holds an interval at 60 FPS; face-guided it stays short."""
+    face = Pipeline(FakeSource(), PipelineConfig(), lambda r: None)
+    motion = Pipeline(FakeSource(), PipelineConfig(inference="motion"), lambda r: None)
+    assert face._q_frames.maxsize == PipelineConfig().frame_queue == 4
+    assert motion._q_frames.maxsize == 24
+
+
 def test_person_ids_are_stable() -> None:
     results, _ = _run(FakeSource(duration_s=1.0))
     by_id: dict[int, list[np.ndarray]] = {}

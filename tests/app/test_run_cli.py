@@ -108,3 +108,28 @@ def test_serve_binds_to_localhost(capsys: pytest.CaptureFixture[str]) -> None:
     assert session.server is None
     with pytest.raises(ProcessLookupError):  # the viewer binary the rerun launcher started is gone too
         os.killpg(group, 0)
+
+
+@pytest.mark.parametrize(("argv", "bodies"), [
+    (["demo", "--motion"], True),
+    (["demo"], True),
+    (["demo", "--motion", "--no-bodies"], False),
+    (["run", "--source", "sim:S1", "--no-bodies"], False),
+    (["run", "--source", "sim:S1", "--bodies"], True),
+])
+def test_the_simulated_people_have_bodies_unless_told_otherwise(argv: list[str], bodies: bool,
+                                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    """`avhear demo` and `avhear run --source sim:` draw people with bodies by default (issue 18); --no-bodies gives
+    the flat scene."""
+    from app.commands import run as run_command
+    from app.errors import UserError
+
+    asked: dict[str, object] = {}
+
+    def stop(spec: str, **kwargs: object) -> None:
+        asked.update(kwargs)
+        raise UserError("stopped here")
+
+    monkeypatch.setattr(run_command, "open_source", stop)
+    assert main([*argv, "--headless"]) == 2
+    assert asked["bodies"] is bodies

@@ -256,3 +256,69 @@ def test_eval_scenarios_frame_itds_switch() -> None:
     assert parser.parse_args(["eval", "scenarios", "--no-frame-itds"]).frame_itds is False
     assert parser.parse_args(["eval", "scenarios"]).vote_frames == 9
     assert parser.parse_args(["eval", "scenarios", "--vote-frames", "1"]).vote_frames == 1
+
+
+def test_motion_guided_results_are_matched_to_the_positions_given(people_result: Callable[..., FusionResult]) -> None:
+    """The motion-guided scoring matches people to ``positions_at`` (the centres of the moving bodies), not to the
+    faces: results 0.45 m below the faces (beyond tau_loc) are the people there, and nobody at the faces."""
+    scenario = _scenario("S2")
+    below = np.array([0.0, 0.45, 0.0])
+    stamps = (np.arange(int(scenario.duration_s / INTERVAL_S)) + 0.5) * INTERVAL_S
+    fused = []
+    for t in stamps:
+        tr = scenario.truth(float(t))
+        fused.append(people_result(float(t), tr.positions_m[tr.visible] + below, tr.speaking[tr.visible]))
+    silence = np.zeros((int(scenario.duration_s * 16000), 2))
+    frames = np.arange(int(scenario.duration_s * FPS)) / FPS
+
+    def score(positions_at: Callable[[float], np.ndarray] | None) -> ScenarioScore:
+        return score_run(scenario, fused, silence, 16000.0, scenario.mics, PipelineConfig(inference="motion"),
+                         frame_stamps_s=frames, positions_at=positions_at)
+
+    at_bodies = score(lambda t: scenario.positions(t) + below).counts
+    assert at_bodies.tp > 0 and at_bodies.fn_missed_face == 0 and at_bodies.fp_false_face == 0
+    at_faces = score(None).counts
+    assert at_faces.tp == 0 and at_faces.fn_missed_face == at_faces.fn == at_bodies.tp + at_bodies.fn
+
+
+def test_evaluate_scenario_scores_motion_on_the_moving_bodies(monkeypatch: pytest.MonkeyPatch) -> None:
+    """evaluate_scenario hands the motion-guided scoring the simulated source's body centres; face-guided, none."""
+    from app.eval import scenarios
+
+    seen: dict[str, object] = {}
+
+    class NoRun:
+        def __init__(self, *args: object) -> None:
+            pass
+
+        def run(self) -> object:
+            return type("Stats", (), {"summary": lambda self: ""})()
+
+    def keep(*args: object, positions_at: object = None, **kwargs: object) -> ScenarioScore:
+        seen["positions_at"] = positions_at
+        return ScenarioScore("S1", "motion", [0], 3.0)
+
+    monkeypatch.setattr(scenarios, "Pipeline", NoRun)
+    monkeypatch.setattr(scenarios, "score_run", keep)
+    scenarios.evaluate_scenario("S1", 0, duration_s=3.0, config=PipelineConfig(inference="motion"), bodies=True)
+    body = seen["positions_at"](1.5)  # type: ignore[operator]
+    face = make_scenario("S1", clip_durations_s=[[0.5] * 10], duration_s=3.0).positions(1.5)
+    assert body.shape == (1, 3) and 0.1 < body[0, 1] - face[0, 1] < 0.4  # on the chest, below the face
+    scenarios.evaluate_scenario("S1", 0, duration_s=3.0, config=PipelineConfig(inference="face"), bodies=True)
+    assert seen["positions_at"] is None
+
+
+def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.MonkeyPatch) -> None:
+    from app.commands import eval as eval_command
+
+    asked: list[bool] = []
+
+    def stop(name: str, seed: int, **kwargs: object) -> ScenarioScore:
+        asked.append(bool(kwargs["bodies"]))
+        raise SystemExit(0)
+
+    monkeypatch.setattr(eval_command, "evaluate_scenario", stop)
+    for argv, bodies in ((["--motion"], True), ([], True), (["--motion", "--no-bodies"], False)):
+        with pytest.raises(SystemExit):
+            main(["eval", "scenarios", "--scenario", "S1", "--no-calibrate", *argv])
+        assert asked[-1] is bodies

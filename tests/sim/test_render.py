@@ -1,10 +1,13 @@
 """Tests of sim.render: the stereo scene renderer and its ground truth."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from avcore.faces import HaarFaceDetector
+from avcore.motion import harris_motion_points
 from sim.render import Person, StereoSceneRenderer, default_scene, drawn_face_texture, load_face_textures
 from avcore.stereo import StereoRig
 
@@ -95,22 +98,70 @@ def test_every_drawn_skin_is_found_by_the_default_detector(skin):
             assert len(boxes) and np.min(np.linalg.norm(centres - (truth[:2] + truth[2:] / 2), axis=1)) < 15, (z, t)
 
 
-def test_people_with_arms_gesture_and_a_table_hides_their_lower_body():
-    """Bodies in the rendered scenes (issue 18): forearms and hands in front of the chest that swing while the person
-    gestures, and a table front that covers the lower body; the table is not a person."""
+def _alone(rig: StereoRig, people: list[Person]) -> StereoSceneRenderer:
+    """A scene of only these people (and their tables) on black, without sensor noise."""
+    scene = StereoSceneRenderer(rig, people, noise_std=0.0)
+    scene._background["left"] = np.zeros((480, 640, 3), np.uint8)
+    scene._background["right"] = np.zeros((480, 640, 3), np.uint8)
+    return scene
+
+
+def _travel(person: Person, name: str) -> float:
+    """How far (metres) the corners of the parts called ``name`` move over 1.2 s."""
+    corners = [np.array([c for n, c, _ in person.parts(t) if n == name]) for t in np.arange(0.0, 1.2, 0.05)]
+    return float(max(np.abs(c - corners[0]).max() for c in corners))
+
+
+def test_a_body_has_arms_that_gesture_while_talking_and_a_little_while_listening():
+    """Bodies in the rendered scenes (issue 18): torso, upper arms, forearms and hands (legs where no table hides
+    them); the arms swing with the gesture, a talker's far more than a listener's, and not at all without one."""
+    talker = Person(drawn_face_texture(), (0.0, -0.1, 2.0), arms=True, gesture_m=0.15, table=True)
+    listener, still = replace(talker, gesture_m=0.03), replace(talker, gesture_m=0.0)
+    assert sorted(n for n, _, _ in talker.parts(0.0)) == ["hand", "hand", "head", "shirt", "sleeve", "sleeve",
+                                                           "upper_sleeve", "upper_sleeve"]
+    assert [n for n, _, _ in replace(talker, table=False).parts(0.0)].count("trousers") == 2
+    for name in ("upper_sleeve", "sleeve", "hand", "shirt"):
+        assert _travel(talker, name) > 3 * _travel(listener, name) > 0.003, name
+        assert _travel(still, name) == 0.0
+    assert _travel(talker, "hand") > 0.15
+
+
+def test_the_table_hides_the_lower_half_of_a_seated_person():
+    """On the rendered pixels: the same person in two shirt colours differs only where the clothes can be seen. Behind
+    a table, nothing of them shows below the table's front edge, and that edge hides the lower part of the torso."""
     rig = StereoRig.ideal(554.0, (640, 480), 0.12)
     face = drawn_face_texture()
-    plain = Person(face=face, position=(0.0, -0.1, 2.0))
-    body = Person(face=face, position=(0.0, -0.1, 2.0), arms=True, gesture_m=0.15, table=True)
-    assert len(body.quads(0.0)) == len(plain.quads(0.0)) + 4 and not plain.props(0.0)
-    hands = [np.concatenate([q.mean(axis=0) for q, _ in body.quads(t)[-3::2]]) for t in (0.0, 0.3)]
-    assert np.abs(hands[0] - hands[1]).max() > 0.03  # the hands moved
-    img_plain = StereoSceneRenderer(rig, [plain], noise_std=0.0).render(0.0).left
-    img_body = StereoSceneRenderer(rig, [body], noise_std=0.0).render(0.0).left
-    (table,) = body.props(0.0)
-    below = rig.project(np.array([[0.0, table[0][0][1] + 0.2, 2.0]]))[0][0]  # the shirt, 20 cm below the table top
-    x, y = int(round(below[0])), int(round(below[1]))
-    assert not np.array_equal(img_plain[y, x], img_body[y, x])  # covered by the table
-    scene = StereoSceneRenderer(rig, [body], noise_std=0.0)
-    table_centre = table[0].mean(axis=0)[None]
-    assert scene.distance_to_people(table_centre, 0.0)[0] > 0.05
+
+    def clothes_rows(table: bool) -> np.ndarray:
+        people = [Person(face, (0.0, -0.15, 2.0), shirt_bgr=c, arms=True, table=table)
+                  for c in ((140, 70, 40), (40, 140, 70))]
+        a, b = (_alone(rig, [p]).render(0.0).left for p in people)
+        return np.flatnonzero(np.any(a != b, axis=(1, 2)))
+
+    person = Person(face, (0.0, -0.15, 2.0), arms=True, table=True)
+    torso = next(c for n, c, _ in person.parts(0.0) if n == "shirt")
+    v_top, v_bottom = rig.project(torso)[0][[0, 2], 1]
+    edge = rig.project(person.props(0.0)[1][0])[0][:, 1].min()  # the table front's top edge
+    behind, free = clothes_rows(True), clothes_rows(False)
+    assert free.max() > v_bottom  # without a table: the whole torso and the legs
+    assert behind.max() <= edge + 1  # with one: nothing below its edge
+    height = v_bottom - v_top
+    assert behind.min() < v_top + 0.2 * height and behind.max() - behind.min() > 0.3 * height  # the upper body shows
+    assert v_bottom - behind.max() > 0.35 * height  # the lower part of the torso does not
+    table_centre = person.props(0.0)[1][0].mean(axis=0)[None]
+    assert _alone(rig, [person]).distance_to_people(table_centre, 0.0)[0] > 0.05  # a table is not a person
+
+
+def test_hm3d_finds_corners_on_the_clothes_and_arms_not_only_the_faces():
+    """HM3D (Harris corners that move) on one interval of people with bodies: the points lie on the people, and
+    most of them on the shirts, arms and hands, where the clothing's checks and the fingers are."""
+    scene = default_scene(None, moving=True, bodies=True, seed=0)
+    times = [0.2 + i / 15 for i in range(6)]
+    frames = [scene.render(t) for t in times]
+    found = harris_motion_points([f.left for f in frames], [f.right for f in frames], scene.rig)
+    nearest = [scene.nearest_parts(found.points[found.frame_index == k], t) for k, t in enumerate(times)]
+    d, part = np.concatenate([n[0] for n in nearest]), np.concatenate([n[1] for n in nearest])
+    assert len(found) > 1000 and np.mean(d < 0.1) > 0.95
+    on = part[d < 0.1]
+    assert np.mean(on == "shirt") > 0.1 and np.mean(np.isin(on, ["upper_sleeve", "sleeve", "hand"])) > 0.3
+    assert 0.0 < np.mean(on == "head") < 0.5
