@@ -52,3 +52,18 @@ def test_simulate_refuses_to_overwrite_and_rejects_bad_options(tmp_path, capsys)
     assert main(args + ["--force"]) == 0
     assert main(["simulate", "S4", "-o", str(out), "--duration", "0.2", "--force"]) == 2
     assert "duration_s must be between 1 and 3600" in capsys.readouterr().err
+
+
+def test_simulate_draws_bodies_unless_asked_not_to(tmp_path, capsys):
+    """The recording's people have bodies by default (as in demo and eval scenarios); --no-bodies gives the flat
+    scene. The same seed draws the same room, so the two recordings' first images differ by the bodies alone."""
+    images = {}
+    for flag in ([], ["--no-bodies"]):
+        out = tmp_path / ("flat" if flag else "bodies")
+        assert main(["simulate", "S1", "-o", str(out), "--duration", "1", "--fps", "4", "--seed", "1",
+                     "--data", str(tmp_path / "none"), "--video", "png", *flag]) == 0
+        first = next(item for item in open_recording(out).stream() if isinstance(item, StereoFrame))
+        images[bool(flag)] = first.left.astype(float)
+    capsys.readouterr()
+    changed = np.abs(images[False] - images[True]).mean(axis=-1) > 30
+    assert 0.02 < changed.mean() < 0.6  # arms, hands, a table: a part of the image, not all of it
