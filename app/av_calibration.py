@@ -24,6 +24,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from typing import Any
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,7 +35,7 @@ from app.pipeline import DEFAULT_ITD_METHOD
 from app.sources.recording import Recording
 from avcore.calibration import CalibrationReport, fit_av_calibration_report
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.itd import ItdTrack, extract_itds, geometry_options
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "FaceTrack",
     "MAX_REFINE_SHIFT_M",
     "MIN_PAIRS",
+    "calibrate_array",
     "calibrate_recording",
     "draw_calibration_figure",
     "extract_recording_itds",
@@ -156,13 +158,15 @@ def locate_recording_faces(recording: Recording, *, detector: FaceDetector | Non
 
 
 def extract_recording_itds(recording: Recording, mics: MicPair, *, method: str = DEFAULT_ITD_METHOD,
-                           window_s: float = 0.15, hop_s: float = 0.02, energy_threshold: float = 1e-3) -> ItdTrack:
-    """The ITDs (section 5.1) of the recording's left and right channels, window centres on the recording's clock.
+                           window_s: float = 0.15, hop_s: float = 0.02, energy_threshold: float = 1e-3,
+                           channels: tuple[int, int] | None = None) -> ItdTrack:
+    """The ITDs (section 5.1) of the recording's left and right channels (or the pair of ``channels``), window
+    centres on the recording's clock.
 
     Same extractor settings as the pipeline (``app.pipeline``): lags within 1.2 times the largest ITD the
     microphones allow, and for the ``*-robust`` methods their distance and the speed of sound.
     """
-    left, right = recording.channels["left"], recording.channels["right"]
+    left, right = channels if channels is not None else (recording.channels["left"], recording.channels["right"])
     blocks = [np.asarray(b.samples, dtype=np.float64) for b in recording.audio_blocks(realtime=False)]
     if not blocks:
         return ItdTrack.empty()
@@ -240,11 +244,15 @@ def calibrate_recording(recording: Recording, mics: MicPair, *, method: str = "r
                         refine_positions: bool = False, itd_method: str = DEFAULT_ITD_METHOD,
                         window_s: float = 0.15, hop_s: float = 0.02, energy_threshold: float = 1e-3,
                         max_gap_s: float | None = None, detector: FaceDetector | None = None,
-                        progress: Callable[[int, int], None] | None = None) -> CalibrationResult:
+                        progress: Callable[[int, int], None] | None = None, faces: FaceTrack | None = None,
+                        channels: tuple[int, int] | None = None) -> CalibrationResult:
     """Section 5.3 on one recording: F3D faces, ITDs, pairs, and the fit of c1, c0 (eq. itd_up).
 
     mics : the hand-measured microphones (from the rig file); their c1, c0 are the "before" mapping.
     method, refine_positions : see :func:`avcore.calibration.fit_av_calibration_report`.
+    faces : the faces already located in this recording (:func:`locate_recording_faces`), to fit several pairs on
+    one pass of F3D; None: located here. channels : the recording's channels of ``mics`` (left, right); None: the
+    recording's left and right.
 
     Raises
     ------
@@ -254,11 +262,12 @@ def calibrate_recording(recording: Recording, mics: MicPair, *, method: str = "r
     """
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
-    faces = locate_recording_faces(recording, detector=detector, progress=progress)
+    if faces is None:
+        faces = locate_recording_faces(recording, detector=detector, progress=progress)
     timings["faces"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     itds = extract_recording_itds(recording, mics, method=itd_method, window_s=window_s, hop_s=hop_s,
-                                  energy_threshold=energy_threshold)
+                                  energy_threshold=energy_threshold, channels=channels)
     timings["itds"] = time.perf_counter() - t0
     pairs = pair_faces_with_itds(faces, itds, max_gap_s=max_gap_s)
     if len(pairs) < MIN_PAIRS:
@@ -278,3 +287,41 @@ def calibrate_recording(recording: Recording, mics: MicPair, *, method: str = "r
         raise UserError(f"{recording.folder}: the calibration fit failed: {exc}") from None
     timings["fit"] = time.perf_counter() - t0
     return CalibrationResult(mics, faces, itds, pairs, report, itd_method, timings, rejected)
+
+
+def calibrate_array(recording: Recording, array: MicArray, **options: Any
+                    ) -> tuple[MicArray, list[CalibrationResult | str]]:
+    """Section 5.3 on every pair of a microphone array: each pair is a microphone pair of its own (eq. itd on its
+    two positions), so each gets its own c1, c0 of eq. (itd_up), fitted on the same faces (F3D runs once) and the
+    ITDs of its two channels (``array.channels``). The recording must hold every channel the array names.
+
+    A pair whose fit is refused keeps its c1, c0: a pair along the cameras' axis (NAO's front and rear microphones)
+    hears every face in view at nearly the same ITD, and a person walking across the view cannot calibrate it.
+
+    options : those of :func:`calibrate_recording` (positions are not refined: the array's geometry is shared by
+    its pairs). Returns the array with the fitted pairs' c1, c0, and for each pair (in the order of ``array.pairs``)
+    its result or the reason its fit was refused. Raises :class:`UserError` when no pair could be fitted.
+    """
+    need = max(array.channels)  # type: ignore[arg-type]
+    if recording.n_channels <= need:
+        raise UserError(f"{recording.folder}: the rig's array uses channels {list(array.channels)} but the recording "
+                        f"has {recording.n_channels}: record with every microphone of the array (avhear record with "
+                        "the same rig), or give the rig of the microphones that made this recording")
+    options.pop("refine_positions", None)
+    faces = options.pop("faces", None)
+    if faces is None:
+        faces = locate_recording_faces(recording, detector=options.pop("detector", None),
+                                       progress=options.pop("progress", None))
+    results: list[CalibrationResult | str] = []
+    for k, (i, j) in enumerate(array.pairs):  # type: ignore[union-attr]
+        try:
+            results.append(calibrate_recording(recording, array.pair(k), faces=faces,
+                                               channels=(array.channels[i], array.channels[j]),  # type: ignore[index]
+                                               **options))
+        except UserError as exc:
+            results.append(str(exc).split(": ", 1)[-1])
+    if all(isinstance(r, str) for r in results):
+        raise UserError(f"{recording.folder}: no pair of the array could be calibrated; the first said: {results[0]}")
+    c1 = tuple(array.c1[k] if isinstance(r, str) else r.report.c1 for k, r in enumerate(results))  # type: ignore
+    c0 = tuple(array.c0[k] if isinstance(r, str) else r.report.c0 for k, r in enumerate(results))  # type: ignore
+    return MicArray(array.positions, array.pairs, array.speed_of_sound, c1, c0, array.channels), results

@@ -24,6 +24,8 @@ The rig calibration file (one per robot or laptop) holds the stereo rig and the 
       rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # optional: the preset's frame -> the scene frame
       translation_m: [0, -0.05, 0]                   # optional: where the preset's origin is in the scene frame
       channels: [0, 1, 2, 3]      # optional: the input stream's channel of each microphone (default the preset's)
+      c1: [0.98, 1.01, ...]       # optional: each pair's correction of eq. (itd_up), in the order of the pairs
+      c0_s: [0.0, 1.0e-6, ...]    # (avhear calibrate av writes them; default 1 and 0)
 
 Any section may be absent (a rig calibrated for its cameras but not yet for sound), not all. With an ``array``,
 a live run uses every pair of it; without, the ``microphones`` pair.
@@ -45,7 +47,7 @@ from avcore.stereo import StereoRig
 __all__ = ["RigConfig", "load_rig", "save_rig", "rig_to_dict", "rig_from_dict"]
 
 _TOP_KEYS = ("stereo", "microphones", "array")
-_ARRAY_KEYS = ("preset", "positions_m", "rotation", "translation_m", "channels", "speed_of_sound_m_s")
+_ARRAY_KEYS = ("preset", "positions_m", "rotation", "translation_m", "channels", "speed_of_sound_m_s", "c1", "c0_s")
 _MIC_KEYS = ("left_m", "right_m", "speed_of_sound_m_s", "c1", "c0_s")
 _MIC_REQUIRED = ("left_m", "right_m")
 
@@ -178,6 +180,11 @@ def _array_from_dict(value: object, path: Path | str) -> MicArray:
             if not isinstance(channels, list) or any(isinstance(c, bool) or not isinstance(c, int) for c in channels):
                 raise _fail(path, "array.channels", f"must be a list of channel numbers, got {channels!r}")
             array = MicArray(array.positions, array.pairs, array.speed_of_sound, array.c1, array.c0, tuple(channels))
+        if "c1" in a or "c0_s" in a:
+            n = array.n_pairs
+            c1 = _numbers(a["c1"], path, "array.c1", (n,)) if "c1" in a else array.c1
+            c0 = _numbers(a["c0_s"], path, "array.c0_s", (n,)) if "c0_s" in a else array.c0
+            array = MicArray(array.positions, array.pairs, array.speed_of_sound, tuple(c1), tuple(c0), array.channels)
     except ValueError as exc:
         raise UserError(f"{path}: section 'array': {exc}") from None
     return array
@@ -213,7 +220,9 @@ def rig_to_dict(rig: RigConfig) -> dict[str, Any]:
     if rig.array is not None:
         out["array"] = {"positions_m": [list(p) for p in rig.array.positions],
                         "channels": list(rig.array.channels),  # type: ignore[arg-type]
-                        "speed_of_sound_m_s": float(rig.array.speed_of_sound)}
+                        "speed_of_sound_m_s": float(rig.array.speed_of_sound),
+                        "c1": [float(v) for v in rig.array.c1],  # type: ignore[union-attr]
+                        "c0_s": [float(v) for v in rig.array.c0]}  # type: ignore[union-attr]
     return out
 
 

@@ -290,7 +290,7 @@ def _check_av_inputs(args: argparse.Namespace) -> tuple[RigConfig, Path]:
     """The rig (with microphones), the recording's existence and every output path, before any work; returns the
     rig and the figure's path."""
     rig = load_rig(args.rig)
-    if rig.microphones is None:
+    if rig.microphones is None and rig.array is None:
         raise UserError(f"{args.rig}: has no 'microphones' section: {MICROPHONES_HINT}")
     if not args.recording.exists():
         raise UserError(f"{args.recording}: no such recording folder; record the calibration sequence (a person "
@@ -351,6 +351,8 @@ def run_av(args: argparse.Namespace) -> int:
     from app.sources.recording import open_recording
 
     rig, figure = _check_av_inputs(args)
+    if rig.array is not None:
+        return _run_av_array(args, rig, figure)
     recording = open_recording(args.recording)
     mics = rig.microphones
     print(f"calibrating {args.recording}: {len(recording.frame_stamps_s)} frames, "
@@ -377,6 +379,58 @@ def run_av(args: argparse.Namespace) -> int:
     if not args.no_rrd:
         rrd = figure.with_suffix(".rrd")
         log_calibration_rrd(result, rrd, figure_png=figure)
+        print(f"wrote {rrd} (open with `rerun {rrd}`)")
+    return 0
+
+
+def _run_av_array(args: argparse.Namespace, rig: RigConfig, figure: Path) -> int:
+    """``calibrate av`` with a microphone array in the rig: c1, c0 of every pair (:func:`calibrate_array`), one table
+    row per pair (a pair the fit refuses keeps its values, and the row says why); the rig file gets them in its
+    ``array`` section; the figure and ``.rrd`` show the first pair fitted."""
+    from app.av_calibration import calibrate_array
+    from app.console.calibration import log_calibration_rrd
+    from app.eval.calibration_figure import save_calibration_figure
+    from app.sources.recording import open_recording
+
+    array = rig.array
+    assert array is not None
+    if args.refine_positions:
+        raise UserError("--refine-positions refines one pair's two microphones; with an array in the rig, measure "
+                        "its placement (rotation, translation_m) instead, and leave the flag out")
+    recording = open_recording(args.recording)
+    print(f"calibrating {args.recording}: {len(recording.frame_stamps_s)} frames, "
+          f"{recording.n_samples / recording.samplerate_hz:.1f} s of audio; the array of {args.rig}: "
+          f"{len(array.positions)} microphones, {array.n_pairs} pairs", flush=True)
+    try:
+        fitted, results = calibrate_array(recording, array, method=args.method, itd_method=args.itd_method,
+                                          energy_threshold=args.energy_threshold, max_gap_s=args.pair_window,
+                                          progress=_frame_progress())
+    finally:
+        recording.close()
+    fitted_results = [r for r in results if not isinstance(r, str)]
+    first = fitted_results[0]
+    _print_av_report(first, args)
+    print(f"\n{'pair':>4} {'mics':>6} {'cm':>5} {'face/ITD pairs':>15} {'c1':>8} {'c0 [us]':>8} "
+          f"{'median |residual| [us]':>24}")
+    for k, ((i, j), r) in enumerate(zip(array.pairs, results)):  # type: ignore[arg-type]
+        head = f"{k:>4} {f'{i}-{j}':>6} {array.pair(k).distance_m * 100:5.1f}"
+        if isinstance(r, str):
+            print(f"{head}   kept c1 {fitted.c1[k]:.4f}, c0 {fitted.c0[k] * 1e6:+.2f} us: {r}")  # type: ignore[index]
+            continue
+        rep = r.report
+        print(f"{head} {rep.n_pairs:>15} {rep.c1:8.4f} {rep.c0 * 1e6:+8.2f} {rep.median_abs_before_s * 1e6:11.1f} -> "
+              f"{rep.median_abs_after_s * 1e6:5.1f}")
+    header = (f"avhear rig calibration: audio-visual c1, c0 ({first.report.method}) of {len(fitted_results)} of the "
+              f"array's {array.n_pairs} pairs from {args.recording}")
+    stereo = rig.stereo if rig.stereo is not None else recording.stereo
+    save_rig(args.output, RigConfig(stereo=stereo, microphones=rig.microphones, array=fitted), header=header)
+    print(f"\nwrote {args.output} (the array's c1, c0 per pair"
+          + ("; its 'microphones' pair is copied unchanged)" if rig.microphones is not None else ")"))
+    save_calibration_figure(first, figure)
+    print(f"wrote {figure} (the first pair fitted; extracted ITDs red, faces before blue, after green)")
+    if not args.no_rrd:
+        rrd = figure.with_suffix(".rrd")
+        log_calibration_rrd(first, rrd, figure_png=figure)
         print(f"wrote {rrd} (open with `rerun {rrd}`)")
     return 0
 

@@ -190,3 +190,53 @@ def test_pairs_skip_frames_without_exactly_one_face():
     assert len(pair_faces_with_itds(faces, _itds([]))) == 0
     with pytest.raises(ValueError, match="max_gap_s"):
         pair_faces_with_itds(faces, _itds([0.0]), max_gap_s=0.0)
+
+
+@pytest.fixture(scope="module")
+def nao_recording(tmp_path_factory):
+    """Eight seconds of the calibration preset heard by NAO's four microphones (the array is in its rig.yaml)."""
+    missing = tmp_path_factory.mktemp("clean-nao") / "no-shared-data"
+    source = SimSource.from_preset("calibration", duration_s=8.0, seed=3, fps=15, data_dir=missing, mics="nao")
+    return write_recording(tmp_path_factory.mktemp("rec-nao") / "calib", source)
+
+
+def test_an_array_gets_c1_c0_on_every_pair(nao_recording, tmp_path, capsys):
+    """With an array in the rig, every pair is fitted on the same faces and its own two channels, and each fit lowers
+    its pair's residuals; NAO's front-rear pair hears every face in view at nearly one ITD, so its fit is refused
+    and it keeps its values, with the reason on its row; the rig file keeps each pair's c1, c0 and reads back."""
+    rig = load_rig(nao_recording / "rig.yaml")
+    assert rig.array is not None and rig.array.n_pairs == 6
+    out = tmp_path / "rig.yaml"
+    assert _run(["calibrate", "av", str(nao_recording), "--rig", str(nao_recording / "rig.yaml"), "-o", str(out),
+                 "--no-rrd"]) == 0
+    printed = capsys.readouterr().out
+    rows = re.findall(r"^\s+(\d) +\d-\d +[\d.]+ +(\d+) +([\d.]+) +([+-][\d.]+) +([\d.]+) -> +([\d.]+)$", printed,
+                      flags=re.M)
+    kept = re.findall(r"^\s+(\d) +(\d)-(\d) +[\d.]+ +kept c1 1.0000, c0 \+0.00 us: .*one azimuth", printed, flags=re.M)
+    assert len(rows) == 5 and len(kept) == 1, printed
+    front_rear = {rig.array.positions[int(kept[0][1])][2], rig.array.positions[int(kept[0][2])][2]}
+    assert max(front_rear) - min(front_rear) > 0.08  # the refused pair lies along the cameras' axis (z)
+    fitted = load_rig(out).array
+    assert fitted is not None and fitted.positions == rig.array.positions and fitted.pairs == rig.array.pairs
+    for k, n_pairs, c1, c0, before, after in rows:
+        assert fitted.c1[int(k)] == pytest.approx(float(c1), abs=1e-4)
+        assert fitted.c0[int(k)] == pytest.approx(float(c0) * 1e-6, abs=1e-8)
+        assert int(n_pairs) >= 50 and 0.5 < float(c1) < 1.5 and float(after) < float(before)
+    assert fitted.c1[int(kept[0][0])] == 1.0 and fitted.c0[int(kept[0][0])] == 0.0
+    # the rig file's per-pair values are checked on load: one per pair
+    text = out.read_text().replace("c1: [", "c1: [1.0, ", 1)
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(text)
+    with pytest.raises(UserError, match="key 'array.c1': must be a list of 6 numbers"):
+        load_rig(bad)
+
+
+def test_an_array_with_channels_the_recording_lacks_is_one_line(nao_recording, tmp_path):
+    rig = load_rig(nao_recording / "rig.yaml")
+    wide = tmp_path / "wide.yaml"
+    text = (nao_recording / "rig.yaml").read_text()
+    save_rig(wide, RigConfig(stereo=rig.stereo, array=type(rig.array)(rig.array.positions,
+                                                                        channels=(0, 1, 2, 7))))
+    assert "channels" in text
+    with pytest.raises(UserError, match=r"uses channels \[0, 1, 2, 7\] but the recording has 4"):
+        _run(["calibrate", "av", str(nao_recording), "--rig", str(wide), "-o", str(tmp_path / "out.yaml"), "--no-rrd"])
