@@ -346,8 +346,6 @@ def _print_av_report(result: CalibrationResult, args: argparse.Namespace) -> Non
 
 def run_av(args: argparse.Namespace) -> int:
     from app.av_calibration import calibrate_recording
-    from app.console.calibration import log_calibration_rrd
-    from app.eval.calibration_figure import save_calibration_figure
     from app.sources.recording import open_recording
 
     rig, figure = _check_av_inputs(args)
@@ -374,13 +372,22 @@ def run_av(args: argparse.Namespace) -> int:
     stereo = rig.stereo if rig.stereo is not None else recording.stereo
     save_rig(args.output, RigConfig(stereo=stereo, microphones=rep.mics), header=header)
     print(f"\nwrote {args.output}")
+    _save_av_figures(result, figure, args.no_rrd)
+    return 0
+
+
+def _save_av_figures(result: CalibrationResult, figure: Path, no_rrd: bool, what: str = "") -> None:
+    """The calibration's figure (PNG) and, unless ``no_rrd``, its ``.rrd`` beside it; ``what`` says whose they
+    are when that is not obvious."""
+    from app.console.calibration import log_calibration_rrd
+    from app.eval.calibration_figure import save_calibration_figure
+
     save_calibration_figure(result, figure)
-    print(f"wrote {figure} (extracted ITDs red, faces before blue, after green)")
-    if not args.no_rrd:
+    print(f"wrote {figure} ({what}extracted ITDs red, faces before blue, after green)")
+    if not no_rrd:
         rrd = figure.with_suffix(".rrd")
         log_calibration_rrd(result, rrd, figure_png=figure)
         print(f"wrote {rrd} (open with `rerun {rrd}`)")
-    return 0
 
 
 def _run_av_array(args: argparse.Namespace, rig: RigConfig, figure: Path) -> int:
@@ -388,8 +395,6 @@ def _run_av_array(args: argparse.Namespace, rig: RigConfig, figure: Path) -> int
     row per pair (a pair the fit refuses keeps its values, and the row says why); the rig file gets them in its
     ``array`` section; the figure and ``.rrd`` show the first pair fitted."""
     from app.av_calibration import calibrate_array
-    from app.console.calibration import log_calibration_rrd
-    from app.eval.calibration_figure import save_calibration_figure
     from app.sources.recording import open_recording
 
     array = rig.array
@@ -426,12 +431,7 @@ def _run_av_array(args: argparse.Namespace, rig: RigConfig, figure: Path) -> int
     save_rig(args.output, RigConfig(stereo=stereo, microphones=rig.microphones, array=fitted), header=header)
     print(f"\nwrote {args.output} (the array's c1, c0 per pair"
           + ("; its 'microphones' pair is copied unchanged)" if rig.microphones is not None else ")"))
-    save_calibration_figure(first, figure)
-    print(f"wrote {figure} (the first pair fitted; extracted ITDs red, faces before blue, after green)")
-    if not args.no_rrd:
-        rrd = figure.with_suffix(".rrd")
-        log_calibration_rrd(first, rrd, figure_png=figure)
-        print(f"wrote {rrd} (open with `rerun {rrd}`)")
+    _save_av_figures(first, figure, args.no_rrd, "the first pair fitted; ")
     return 0
 
 
