@@ -69,8 +69,8 @@ class MatchResult:
     fp, fn, tp : int
         Visual false positives (detections beyond ``tau_loc`` of every ground truth, plus the extra detections
         assigned to an already matched ground truth), false negatives (ground truths with no detection assigned)
-        and true positives (matched pairs). ``tp + fn`` is the number of ground truths and ``tp + fp`` the number
-        of detections.
+        and true positives (matched pairs). ``tp + fn`` is the number of ground truths and ``tp + fp + ignored``
+        the number of detections.
     errors_m : (tp,) float, metres
         The localisation error of each true positive: the Euclidean distance between the two positions, in the
         order of ``pairs``.
@@ -80,6 +80,9 @@ class MatchResult:
         The auditory-state confusion over the true-positive pairs: truth speaking and detected speaking (TP),
         truth speaking and detected silent (FN), truth silent and detected speaking (FP), both silent (TN). All
         zero when the speaking states were not given.
+    ignored : int
+        Detections whose nearest person is one of ``ignore_xyz`` (present, but too hidden to be in the ground
+        truth): neither true nor false positives. Zero when no ``ignore_xyz`` was given.
     """
 
     fp: int
@@ -91,6 +94,7 @@ class MatchResult:
     audio_fn: int = 0
     audio_fp: int = 0
     audio_tn: int = 0
+    ignored: int = 0
 
 
 def _as_speaking(values: object, n: int, name: str, points_name: str) -> np.ndarray:
@@ -112,6 +116,7 @@ def match_clusters(
     detected_speaking: object | None = None,
     truth_speaking: object | None = None,
     tau_loc: float = TAU_LOC_M,
+    ignore_xyz: object | None = None,
 ) -> MatchResult:
     """Match the detected AV objects of one interval to the ground truth with the protocol of section 7.
 
@@ -129,6 +134,12 @@ def match_clusters(
         A detection whose nearest ground truth is not closer than ``tau_loc`` is a false positive (section 7:
         "if it is not closer than a threshold tau_loc we mark it as a false positive"; a detection at exactly
         ``tau_loc`` is therefore a false positive). Default 0.35 m, the paper's value.
+    ignore_xyz : (H, 3) float, metres, optional
+        People who are present but too hidden to be in the ground truth (``Interval.hidden_xyz``): a detection
+        whose nearest person, visible or hidden, is one of these and closer than ``tau_loc`` is neither a true nor
+        a false positive (``MatchResult.ignored``), the "difficult" objects of the PASCAL VOC protocol. Missing
+        them is not a false negative either. The paper's protocol is ``None`` (every detection far from the
+        ground truth is a false positive).
 
     Returns
     -------
@@ -152,16 +163,24 @@ def match_clusters(
         det_speak = _as_speaking(detected_speaking, det.shape[0], "detected_speaking", "detected_xyz")
         tru_speak = _as_speaking(truth_speaking, tru.shape[0], "truth_speaking", "truth_xyz")
 
+    hidden = np.zeros((0, 3)) if ignore_xyz is None else as_points(ignore_xyz, "ignore_xyz")
     n_det, n_tru = det.shape[0], tru.shape[0]
-    if n_tru == 0 or n_det == 0:
-        return MatchResult(fp=n_det, fn=n_tru, tp=0, errors_m=np.zeros(0), pairs=())
+    to_hidden = np.zeros(n_det, dtype=bool)
+    if n_det and hidden.shape[0]:
+        d_hidden = np.linalg.norm(det[:, None, :] - hidden[None, :, :], axis=-1).min(axis=1)
+        d_truth = (np.linalg.norm(det[:, None, :] - tru[None, :, :], axis=-1).min(axis=1) if n_tru
+                   else np.full(n_det, np.inf))
+        to_hidden = (d_hidden < tau_loc) & (d_hidden < d_truth)
+    ignored = int(np.count_nonzero(to_hidden))
+    if n_tru == 0 or n_det == ignored:
+        return MatchResult(fp=n_det - ignored, fn=n_tru, tp=0, errors_m=np.zeros(0), pairs=(), ignored=ignored)
 
     dist = np.linalg.norm(det[:, None, :] - tru[None, :, :], axis=-1)  # (D, G) metres
     nearest = np.argmin(dist, axis=1)  # (D,) first minimum on ties
     nearest_dist = dist[np.arange(n_det), nearest]
-    assigned = nearest_dist < tau_loc
+    assigned = (nearest_dist < tau_loc) & ~to_hidden
 
-    fp = int(np.count_nonzero(~assigned))
+    fp = int(np.count_nonzero(~assigned & ~to_hidden))
     pairs: list[tuple[int, int]] = []
     errors: list[float] = []
     for g in range(n_tru):
@@ -186,7 +205,8 @@ def match_clusters(
             }[(truth_on, detected_on)]
             audio[key] += 1
     return MatchResult(
-        fp=fp, fn=n_tru - tp, tp=tp, errors_m=np.asarray(errors, dtype=np.float64), pairs=tuple(pairs), **audio
+        fp=fp, fn=n_tru - tp, tp=tp, errors_m=np.asarray(errors, dtype=np.float64), pairs=tuple(pairs), **audio,
+        ignored=ignored,
     )
 
 
@@ -206,6 +226,8 @@ class EvalTotals:
         The localisation error of every true positive, in the order added (``ale_m`` is their mean).
     audio_tp, audio_fn, audio_fp, audio_tn : int
         Auditory-state counts over the true-positive pairs (table 2 reports FP, FN and TP).
+    ignored : int
+        Detections at people too hidden to be in the ground truth (``match_clusters(ignore_xyz=...)``).
     """
 
     n_intervals: int = 0
@@ -216,6 +238,7 @@ class EvalTotals:
     audio_fn: int = 0
     audio_fp: int = 0
     audio_tn: int = 0
+    ignored: int = 0
     errors_m: list[float] = field(default_factory=list, repr=False)
 
     def add(self, result: MatchResult) -> None:
@@ -231,6 +254,7 @@ class EvalTotals:
         self.audio_fn += result.audio_fn
         self.audio_fp += result.audio_fp
         self.audio_tn += result.audio_tn
+        self.ignored += result.ignored
 
     @property
     def n_truth(self) -> int:

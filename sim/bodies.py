@@ -26,7 +26,7 @@ sensor noise of :class:`sim.synthetic.SyntheticConfig`):
 points the generator would draw for them in that interval (inside the image, not hidden by the table or another
 person), computed from 4,000 draws. That is the point a method that locates a person from its motion points
 estimates; the ITDs come from the mouth. A person counts in the truth when at least 30 % of their points are
-visible. Speech is the on/off chain of :mod:`sim.synthetic`, and the ITDs have its statistics.
+visible; the others are ``Interval.hidden_xyz`` (the centre of what is seen of them). Speech is the on/off chain of :mod:`sim.synthetic`, and the ITDs have its statistics.
 """
 from __future__ import annotations
 
@@ -306,6 +306,7 @@ def generate_bodies(family: str, *, seed: int = 0, n_intervals: int = 60, mics: 
         t_mid = 0.5 * cfg.interval_s
         table_y = (bodies[0].head[1] + 0.50) if family in _SEATED else None
         chunks, labels, truth, truth_ids, truth_speaking = [], [], [], [], []
+        hidden, hidden_ids, hidden_speaking = [], [], []
         for i, body in enumerate(bodies):
             others = [o for j, o in enumerate(bodies) if j != i]
             m = int(rng.poisson(cfg.points_per_person))
@@ -317,6 +318,10 @@ def generate_bodies(family: str, *, seed: int = 0, n_intervals: int = 60, mics: 
                 truth.append(dense[seen].mean(axis=0))
                 truth_ids.append(i)
                 truth_speaking.append(bool(speaking[k, i]))
+            else:  # present, too hidden to be in the truth: the centre of what is seen of them, or of the body
+                hidden.append(dense[seen].mean(axis=0) if seen.any() else dense.mean(axis=0))
+                hidden_ids.append(i)
+                hidden_speaking.append(bool(speaking[k, i]))
             pts = _noisy(rng, pts[keep], cfg)
             chunks.append(pts)
             labels.append(np.full(pts.shape[0], i, dtype=np.int64))
@@ -332,6 +337,8 @@ def generate_bodies(family: str, *, seed: int = 0, n_intervals: int = 60, mics: 
             index=k, t_s=t0, interval_s=cfg.interval_s, points=points, point_ids=point_ids, itds=itds,
             itd_ids=itd_ids, truth_xyz=np.array(truth).reshape(-1, 3),
             truth_speaking=np.array(truth_speaking, dtype=bool), truth_ids=np.array(truth_ids, dtype=np.int64),
+            hidden_xyz=np.array(hidden).reshape(-1, 3), hidden_speaking=np.array(hidden_speaking, dtype=bool),
+            hidden_ids=np.array(hidden_ids, dtype=np.int64),
         ))
     return out
 

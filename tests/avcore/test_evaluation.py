@@ -18,6 +18,25 @@ def test_tau_loc_is_the_papers_value() -> None:
     assert TAU_LOC_M == 0.35
 
 
+def test_a_detection_at_a_hidden_person_is_neither_true_nor_false() -> None:
+    hidden = [[0.5, 0.0, 4.0]]
+    det = [[0.0, 0.05, 2.0], [0.55, 0.0, 4.1], [3.0, 0.0, 3.0]]  # a visible person, the hidden one, nobody
+    plain = match_clusters(det, TRUTH[:1])
+    res = match_clusters(det, TRUTH[:1], ignore_xyz=hidden)
+    assert (plain.tp, plain.fp, plain.ignored) == (1, 2, 0)
+    assert (res.tp, res.fp, res.fn, res.ignored) == (1, 1, 0, 1)
+    assert res.tp + res.fp + res.ignored == len(det)
+    # a hidden person missed is no false negative; a detection nearer a visible person than a hidden one is matched
+    near = match_clusters([[0.1, 0.0, 2.0]], TRUTH[:1], ignore_xyz=[[0.3, 0.0, 2.0]])
+    assert (near.tp, near.fp, near.ignored) == (1, 0, 0)
+    alone = match_clusters([[0.5, 0.0, 4.0]], np.zeros((0, 3)), ignore_xyz=hidden)
+    assert (alone.tp, alone.fp, alone.fn, alone.ignored) == (0, 0, 0, 1)
+    totals = EvalTotals()
+    totals.add(res)
+    totals.add(alone)
+    assert totals.ignored == 2 and totals.fp == 1
+
+
 def test_perfect_detection() -> None:
     res = match_clusters(TRUTH[::-1], TRUTH)
     assert (res.fp, res.fn, res.tp) == (0, 0, 3)

@@ -58,6 +58,19 @@ def test_people_at_the_edge_and_behind_others_lose_points() -> None:
     assert min(behind) < 0.5 * max(behind)  # hidden while the one in front covers them
 
 
+def test_a_person_too_hidden_for_the_truth_is_listed_as_hidden() -> None:
+    crossing = generate_bodies("crossing", seed=0, n_intervals=60)
+    listed = [iv for iv in crossing if iv.hidden_xyz.shape[0]]
+    assert listed, "the walker behind is never hidden enough"
+    for iv in listed:
+        assert iv.hidden_xyz.shape == (iv.hidden_ids.size, 3) and iv.hidden_speaking.shape == iv.hidden_ids.shape
+        assert set(iv.hidden_ids).isdisjoint(iv.truth_ids) and iv.truth_ids.size + iv.hidden_ids.size == 3
+        for i, centre in zip(iv.hidden_ids, iv.hidden_xyz):
+            seen = _person_points(iv, i)
+            if seen.shape[0] >= 20:  # what is seen of them lies around their listed centre
+                assert np.linalg.norm(seen.mean(axis=0) - centre) < 0.2
+
+
 def test_talkers_itds_come_from_their_mouths() -> None:
     mics = MicPair()
     for iv in generate_bodies("standing", seed=4, n_intervals=20, mics=mics):
