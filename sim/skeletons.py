@@ -34,12 +34,19 @@ the viewing frustum.
 
 Ground truth
 ------------
-A person's position (``Interval.truth_xyz``) is the **centre of the visible body**: the mean, over the interval,
-of the uniformly-by-area distributed surface points that are visible (facing the camera, in view, not behind the
-table or another person), whatever their texture or motion. It is a property of the body and the camera, not of
-the features, so that a method is not rewarded for following the texture. A person is in the ground truth when
-at least ``min_visible_fraction`` of the surface that faces the camera above the table is visible (not cut by the
-image border or hidden by someone in front). The ITDs of a speaker come from the mouth.
+A person's position (``Interval.truth_xyz``) is the **centre of the visible moving body**, the project's truth for
+a motion-guided method (as :mod:`sim.bodies` and :mod:`sim.body_truth` for the rendered scenes): the mean, over the
+interval, of the uniformly-by-area distributed surface points that are visible (facing the camera, in view, not
+behind the table or another person), each weighted by how much it moves, ``v^2 / (v^2 + v0^2)``, the motion
+filter's share *without* the texture. It is a property of the body, its motion and the camera, not of the features:
+a plain sleeve that moves counts as much as a checked one, so a method is not rewarded for following the texture;
+a body part that does not move is not there for a motion-guided method to find (a standing person's still legs). A
+person none of whose visible points moves is at the centre of the head. ``truth_point="body"`` weighs every
+visible point alike (the visible body whether it moves or not), ``"head"`` is the head's centre.
+
+A person is in the ground truth when at least ``min_visible_fraction`` of the surface that faces the camera above
+the table is visible (not cut by the image border or hidden by someone in front); the others are
+``Interval.hidden_xyz``. The ITDs of a speaker come from the mouth.
 
 Families (``FAMILIES``)
 -----------------------
@@ -95,8 +102,8 @@ class BodyConfig:
     outlier_depth_m : depth range of the frustum outliers; also the nearest depth kept.
     min_visible_fraction : a person is in the ground truth when at least this share of its camera-facing surface
         above the table is visible.
-    truth_point : "body" (default): a person's ground-truth position is the centre of its visible body; "head":
-        the centre of its head (see the module docstring).
+    truth_point : "moving" (default): a person's ground-truth position is the centre of its visible moving body;
+        "body": of its visible body, moving or not; "head": the centre of its head (see the module docstring).
     speaking_share, mean_talk_s, itds_when_speaking, itds_when_silent, itd_outlier_fraction, itd_sigma_s : the
         auditory side, as in :class:`sim.synthetic.SyntheticConfig`.
     """
@@ -115,7 +122,7 @@ class BodyConfig:
     fov_deg: tuple[float, float] = (60.0, 45.0)
     outlier_depth_m: tuple[float, float] = (0.5, 6.0)
     min_visible_fraction: float = 0.3
-    truth_point: str = "body"
+    truth_point: str = "moving"
     speaking_share: float = 0.5
     mean_talk_s: float = 2.0
     itds_when_speaking: float = 22.0
@@ -137,8 +144,8 @@ class BodyConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0 <= v < 1):
                 raise ValueError(f"{name} must be a fraction in [0, 1), got {v!r}")
-        if self.truth_point not in ("body", "head"):
-            raise ValueError(f"truth_point must be 'body' or 'head', got {self.truth_point!r}")
+        if self.truth_point not in ("moving", "body", "head"):
+            raise ValueError(f"truth_point must be 'moving', 'body' or 'head', got {self.truth_point!r}")
         if not 0 < self.speaking_share < 1:
             raise ValueError(f"speaking_share must be in (0, 1), got {self.speaking_share!r}")
 
@@ -530,13 +537,17 @@ def _interval(rng: np.random.Generator, cfg: BodyConfig, mics: MicPair, scene: _
             vis &= ~_occluded(p0, aj, bj)
         frac = vis.sum() / max(shown.sum(), 1)
         visible.append(frac >= cfg.min_visible_fraction)
-        if cfg.truth_point == "head":
-            truth.append(heads[i])
-        else:
-            truth.append(p0[vis].mean(axis=0) if vis.any() else p0[shown].mean(axis=0))
         speed = np.linalg.norm(p1 - p0, axis=1) / (dt / _N_FRAMES)
         v0 = cfg.motion_speed_mps
-        prob = _texture(scene.people[i], part, s, phi) * speed**2 / (speed**2 + v0**2)
+        moves = speed**2 / (speed**2 + v0**2)  # the motion filter's share, without the texture
+        if cfg.truth_point == "head":
+            truth.append(heads[i])
+        elif cfg.truth_point == "moving":
+            w = moves * vis
+            truth.append((w @ p0) / w.sum() if w.sum() > 1e-9 else heads[i])
+        else:
+            truth.append(p0[vis].mean(axis=0) if vis.any() else p0[shown].mean(axis=0))
+        prob = _texture(scene.people[i], part, s, phi) * moves
         take = vis & (rng.random(n_c) < prob)
         if take.sum() > cfg.max_points_per_person:  # the corner detector keeps a bounded number per image
             take[rng.choice(np.flatnonzero(take), int(take.sum()) - cfg.max_points_per_person, replace=False)] = False

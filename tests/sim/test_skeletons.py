@@ -34,11 +34,12 @@ def test_intervals_are_well_formed(seqs: dict[str, list]) -> None:
             assert len(it.truth_speaking) == len(it.truth_xyz)
 
 
-def test_points_are_not_a_blob_around_the_truth(seqs: dict[str, list]) -> None:
-    """Seated people's points sit on the head and the hands, above the table, few around the chest (the truth)."""
+def test_points_are_not_a_blob_around_the_truth() -> None:
+    """Seated people's points sit on the head and the hands, above the table, few around the chest (the visible
+    body's centre)."""
     table_y = SHORT.camera_height_m - 0.75
     dy = []
-    for it in seqs["seated"]:
+    for it in generate_family("seated", seed=3, config=BodyConfig(n_intervals=4, truth_point="body")):
         for g, pid in enumerate(it.truth_ids):
             pts = it.points[it.point_ids == pid]
             good = np.abs(pts[:, 2] - it.truth_xyz[g, 2]) < 0.5  # leave out the wrong stereo matches
@@ -62,13 +63,22 @@ def test_gesturing_hands_move_more_than_the_head() -> None:
     assert np.median(spans) > 0.35  # wider than a head or a torso: the hands reach out
 
 
-def test_truth_is_the_centre_of_the_visible_body_or_the_head() -> None:
-    body = generate_family("seated", seed=2, config=SHORT)
-    head = generate_family("seated", seed=2, config=BodyConfig(n_intervals=4, truth_point="head"))
-    dy = head[0].truth_xyz[:, 1] - body[0].truth_xyz[:, 1]
+def test_truth_is_the_centre_of_the_visible_moving_body_the_visible_body_or_the_head() -> None:
+    def first(truth_point: str, family: str = "seated", seed: int = 2) -> np.ndarray:
+        return generate_family(family, seed=seed, config=BodyConfig(n_intervals=4, truth_point=truth_point))[0]
+
+    body, head = first("body").truth_xyz, first("head").truth_xyz
+    dy = head[:, 1] - body[:, 1]
     # seated behind a table: the visible body's centre is at the chest, 0.15-0.4 m below the head's centre
     assert np.all((dy < -0.15) & (dy > -0.4)), dy
-    assert np.allclose(head[0].truth_xyz[:, [0, 2]], body[0].truth_xyz[:, [0, 2]], atol=0.12)
+    assert np.allclose(head[:, [0, 2]], body[:, [0, 2]], atol=0.12)
+    # the same features whatever the truth: only the truth changes
+    assert np.array_equal(first("moving").points, first("body").points)
+    # standing still at the edge: the legs are visible but do not move, so the moving body's centre is higher
+    # (smaller y, y points down) than the visible body's, and the default
+    moving, still = first("moving", "edge", 0), first("body", "edge", 0)
+    assert np.all(moving.truth_xyz[:, 1] < still.truth_xyz[:, 1] - 0.1)
+    assert np.array_equal(generate_family("edge", seed=0, config=SHORT)[0].truth_xyz, moving.truth_xyz)
 
 
 def test_a_person_half_outside_the_image_has_a_truth_inside_it() -> None:
