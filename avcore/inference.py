@@ -73,6 +73,8 @@ class MotionGuidedParams:
     merge_distance_m : 3D groups closer than this are one person (a blob cut into two 1-D clusters).
     merge_vertical_m : the same along the vertical: a body's moving parts (head, hands, legs) are stacked, so
         groups this far apart vertically (and aligned horizontally) are one person.
+    merge_reach_per_m : the horizontal merge distance grows by this much per metre that one group lies below the
+        other (``avcore.refine3d.merge_close``'s ``reach_per_m``): a gesturing hand is found beside and below its head.
     body_radius_m : if set, an object's position is the alpha-weighted mean of its clusters' points within this
         horizontal radius (and ``merge_vertical_m`` vertically) of its groups, not the groups' mean alone.
     warm_start_candidates : for every N, start EM from the better (on the new data) of the paper's initialisation
@@ -93,6 +95,7 @@ class MotionGuidedParams:
     max_sd_m: float = 0.6
     merge_distance_m: float = 0.3
     merge_vertical_m: float = 1.2
+    merge_reach_per_m: float = 0.3
     body_radius_m: float | None = 0.3
     warm_start_candidates: bool = True
 
@@ -104,6 +107,8 @@ class MotionGuidedParams:
         if not (self.merge_distance_m > 0 and self.merge_vertical_m > 0):
             raise ValueError(f"merge_distance_m and merge_vertical_m must be > 0 metres, got "
                              f"{self.merge_distance_m}, {self.merge_vertical_m}")
+        if not self.merge_reach_per_m >= 0:
+            raise ValueError(f"merge_reach_per_m must be >= 0, got {self.merge_reach_per_m}")
         if self.body_radius_m is not None and not self.body_radius_m > 0:
             raise ValueError(f"body_radius_m must be None or > 0 metres, got {self.body_radius_m}")
 
@@ -357,11 +362,11 @@ class MotionGuidedHearing:
                 g = self._body(pts, alpha[:, sorted({sources[i] for i in idx})].sum(axis=1), g)
             return g
 
-        clusters = merge_close(groups, pts, p.merge_distance_m, p.merge_vertical_m)
+        clusters = merge_close(groups, pts, p.merge_distance_m, p.merge_vertical_m, p.merge_reach_per_m)
         bodies = [merged(c) for c in clusters]
         if p.body_radius_m is not None and len(clusters) > 1:
             # body centres of a person's merged parts can be closer than the parts were: merge once more on them
-            again = merge_close(bodies, pts, p.merge_distance_m, p.merge_vertical_m)
+            again = merge_close(bodies, pts, p.merge_distance_m, p.merge_vertical_m, p.merge_reach_per_m)
             bodies = [bodies[c[0]] if len(c) == 1 else merged(sum((clusters[i] for i in c), [])) for c in again]
             clusters = [sum((clusters[i] for i in c), []) for c in again]
         objects = []

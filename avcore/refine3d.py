@@ -226,28 +226,37 @@ def group_from_members(points: np.ndarray, members: np.ndarray) -> Group3D:
 
 
 def merge_close(groups: list[Group3D], points: np.ndarray, distance_m: float,
-                vertical_m: float | None = None) -> list[list[int]]:
+                vertical_m: float | None = None, reach_per_m: float = 0.0) -> list[list[int]]:
     """Indices of groups to merge: groups whose means are closer than ``distance_m`` are one person.
 
     A person's points are sometimes cut into two 1-D clusters (their projection is not Gaussian), each giving a
     group, and a body's moving parts (head, hands, legs) form several compact groups stacked one above the other;
     two real people are never closer than a head's width side by side. ``vertical_m`` (default ``distance_m``)
-    stretches the distance along y (the scene's vertical): two groups are one person when
-    ``dx^2 + dz^2 + (dy * distance_m / vertical_m)^2 < distance_m^2``. Greedy: the closest pair first.
+    stretches the distance along y (the scene's vertical): two groups are one person when their horizontal distance
+    ``dh = hypot(dx, dz)`` is below ``r(dy) = sqrt(distance_m^2 - (dy * distance_m / vertical_m)^2)``.
+
+    ``reach_per_m`` widens that by ``reach_per_m * |dy|``: an arm reaches out and down, so a gesturing person's hands
+    lie farther to the side of the head the lower they are, while people side by side have their heads at about
+    one height. Greedy: the pair with the smallest ``dh / (r(dy) + reach_per_m * |dy|)`` first, merged while below 1.
     """
     vertical_m = distance_m if vertical_m is None else vertical_m
     if not (distance_m > 0 and vertical_m > 0):
         raise ValueError(f"distance_m and vertical_m must be > 0 metres, got {distance_m!r}, {vertical_m!r}")
-    stretch = np.array([1.0, distance_m / vertical_m, 1.0])
+    if not reach_per_m >= 0:
+        raise ValueError(f"reach_per_m must be >= 0, got {reach_per_m!r}")
     clusters = [[i] for i in range(len(groups))]
     means = [g.mean for g in groups]
     masses = [g.mass for g in groups]
     while len(clusters) > 1:
-        m = np.asarray(means) * stretch
-        d = np.linalg.norm(m[:, None] - m[None, :], axis=2)
-        np.fill_diagonal(d, np.inf)
-        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
-        if d[i, j] >= distance_m:
+        m = np.asarray(means)
+        d = m[:, None] - m[None, :]
+        dh, dy = np.hypot(d[..., 0], d[..., 2]), np.abs(d[..., 1])
+        inside = dy < vertical_m
+        reach = np.sqrt(np.maximum(distance_m**2 - (dy * distance_m / vertical_m) ** 2, 0.0)) + reach_per_m * dy
+        score = np.where(inside, dh / np.maximum(reach, 1e-12), np.inf)
+        np.fill_diagonal(score, np.inf)
+        i, j = np.unravel_index(int(np.argmin(score)), score.shape)
+        if score[i, j] >= 1:
             break
         i, j = min(i, j), max(i, j)
         tot = masses[i] + masses[j]

@@ -86,6 +86,22 @@ def test_merge_close_stacks_a_bodys_parts_but_not_people_side_by_side() -> None:
         merge_close([head, hand], pts, 0.3, 0.0)
 
 
+def test_a_hand_out_to_the_side_and_below_its_head_is_one_person_a_neighbour_is_not() -> None:
+    """An arm reaches out and down: a hand 0.34 m beside its head and 0.25 m below it is merged with reach_per_m 0.3
+    (0.29 + 0.3 x 0.25 = 0.37 m), not without it (0.29 m); a neighbour's head 0.34 m away at the same height is
+    not merged either way, and the merge is greedy from the deepest pair."""
+    rng = np.random.default_rng(6)
+    head = group_from_members(_blob(rng, [0, -0.3, 2], 200), np.ones(200))
+    hand = group_from_members(_blob(rng, [0.34, -0.05, 2], 200), np.ones(200))
+    neighbour = group_from_members(_blob(rng, [-0.34, -0.3, 2], 200), np.ones(200))
+    pts = np.zeros((200, 3))
+    groups = [head, hand, neighbour]
+    assert sorted(map(sorted, merge_close(groups, pts, 0.3, 1.2, 0.3))) == [[0, 1], [2]]
+    assert sorted(map(sorted, merge_close(groups, pts, 0.3, 1.2))) == [[0], [1], [2]]
+    with pytest.raises(ValueError, match="reach_per_m"):
+        merge_close(groups, pts, 0.3, 1.2, -0.1)
+
+
 def test_the_refinements_body_parameters_are_checked() -> None:
     from avcore.inference import MotionGuidedParams
 
@@ -93,4 +109,6 @@ def test_the_refinements_body_parameters_are_checked() -> None:
         MotionGuidedParams(body_radius_m=0.0)
     with pytest.raises(ValueError, match="merge_vertical_m"):
         MotionGuidedParams(merge_vertical_m=-1.0)
+    with pytest.raises(ValueError, match="merge_reach_per_m"):
+        MotionGuidedParams(merge_reach_per_m=-0.1)
     assert MotionGuidedParams(body_radius_m=None).body_radius_m is None
