@@ -91,7 +91,7 @@ class MotionGuidedParams:
     speaking: SpeakingTest = field(default_factory=SpeakingTest)
     refine_3d: bool = True
     kernel_sd_m: tuple[float, float, float] = (0.10, 0.20, 0.10)
-    min_points: float = 30.0
+    min_points: float = 15.0
     max_sd_m: float = 0.6
     merge_distance_m: float = 0.3
     merge_vertical_m: float = 1.2
