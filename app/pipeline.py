@@ -168,8 +168,9 @@ class FusionResult:
     stamp_s : capture time of the vision result (a frame, or an interval's centre). index : its frame number.
     image : the left image (h, w[, 3]) uint8. boxes : (N, 4) face boxes in pixels (None for motion-guided).
     xyz : (N, 3) metres, the faces (face-guided) or the HM3D points (motion-guided). itds_s : (K,) the ITDs of its
-    time frame; (K, P) with several microphone pairs, one vector per window (NaN: the pair has none). output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp (nan
-    for a source replayed as fast as possible).
+    time frame; (K, P) with several microphone pairs, one vector per window (NaN: the pair has none).
+    output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp (nan for a source
+    replayed as fast as possible).
     person_ids : (N,) stable ids of the people of ``output`` (avcore.tracking), the same person keeping its id.
     """
 
