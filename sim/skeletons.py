@@ -40,10 +40,10 @@ share of the motion points, texture included): the mean, over the interval, of t
 surface points that are visible (facing the camera, in view, not behind the table or another person), each weighted
 by how much it moves, ``v^2 / (v^2 + v0^2)``, the motion filter's share *without* the texture. It is a property of
 the body, its motion and the camera, not of the features: a plain sleeve that moves counts as much as a checked one,
-so a method is not rewarded for following the texture; a body part that does not move is not there for a motion-
-guided method to find (a standing person's still legs). A person none of whose visible points moves is at the centre
-of the head. ``truth_point="body"`` weighs every visible point alike (the visible body whether it moves or not),
-``"head"`` is the head's centre.
+so a method is not rewarded for following the texture; a body part that does not move is not there for a
+motion-guided method to find (a standing person's still legs). A person none of whose visible points moves is at the
+centre of the head. ``truth_point="body"`` weighs every visible point alike (the visible body whether it moves or
+not), ``"head"`` is the head's centre.
 
 A person is in the ground truth when at least ``min_visible_fraction`` of the surface that faces the camera above
 the table is visible (not cut by the image border or hidden by someone in front); the others are
