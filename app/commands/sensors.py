@@ -37,6 +37,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.source == "bus":
         raise UserError("avhear sensors publishes a source on the bus: give live, sim:S2 or replay:FOLDER")
+    if args.mics != "pair" and not args.source.startswith("sim:"):
+        raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {args.source} brings its own "
+                        "(the rig file's array or pair, or the recording's)")
     live = live_config(args) if args.source == "live" else None
     options = BusOptions.from_args(args)
     session = open_session(options)

@@ -127,6 +127,13 @@ def test_simulator_options_on_a_real_source_are_one_line(flag: list[str], messag
     assert message in err and "Traceback" not in err
 
 
+def test_sensors_refuse_simulated_microphones_on_a_real_source(tmp_path: Path,
+                                                               capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["sensors", "--source", f"replay:{tmp_path}", "--mics", "nao"]) == 2
+    err = capsys.readouterr().err
+    assert "--mics nao chooses the simulated room's microphones" in err and "Traceback" not in err
+
+
 def test_a_simulated_run_longer_than_the_simulator_allows(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "--source", "sim:S2", "--duration", "5000", "--headless"]) == 2
     assert "at most 1800 s" in capsys.readouterr().err
