@@ -17,10 +17,13 @@ sensor noise of :class:`sim.synthetic.SyntheticConfig`):
 * ``seated``: seated behind a table that hides everything below it; talking with moderate gestures.
 * ``standing``: standing still (a little sway), legs visible; head and hands move.
 * ``gesturing``: seated, hands and forearms giving most points, wide gestures.
-* ``walking``: walking across the room at 0.3-0.6 m/s, the whole body moving, legs swinging.
+* ``walking``: walking back and forth across the room at 0.3-0.6 m/s, each in a lane of its own depth (1.6-3.4 m,
+  0.6 m or more apart, so that they pass in front of each other, not through), the whole body moving, legs
+  swinging.
 * ``edge``: standing; one person at the edge of the field of view, part of the body outside the image.
 * ``close``: two people shoulder to shoulder (0.45-0.6 m between their heads), the third apart.
-* ``crossing``: one person walks behind another, hidden where the one in front covers them.
+* ``crossing``: one person walks behind another, hidden where the one in front covers them; the third walks in a
+  lane 0.6 m or more from both.
 
 **Ground truth.** A person's position is the centre of their visible moving body: the mean of the noise-free
 points the generator would draw for them in that interval (inside the image, not hidden by the table or another
@@ -251,14 +254,33 @@ def _cast(rng: np.random.Generator, family: str, cfg: SyntheticConfig) -> list[_
     if family in _WALKING:
         speed = rng.uniform(0.3, 0.6, 3) * rng.choice([-1.0, 1.0], 3)
         velocity[:, 0] = speed
+        if family == "walking":  # walkers pass each other, so each keeps to a lane of its own depth
+            heads[:, [0, 2]] *= (_lanes(rng, [], 3) / heads[:, 2])[:, None]  # same directions, new depths
         if family == "crossing":  # person 1 walks behind person 0, across their line of sight
             heads[1, 2] = heads[0, 2] + rng.uniform(0.9, 1.3)
             heads[1, 0] = heads[0, 0] - 1.2 * np.sign(speed[1] - speed[0] + 1e-9) * heads[1, 2] / heads[0, 2]
             velocity[0, 0] = 0.0
+            # the third walks across the room too, so it keeps to a lane clear of both
+            lane = _lanes(rng, [heads[0, 2], heads[1, 2]], 1, far_m=4.4)[0]
+            heads[2, [0, 2]] *= lane / heads[2, 2]  # same direction, new depth
     gesture = rng.uniform(0.12, 0.25, 3) if family == "gesturing" else rng.uniform(0.04, 0.10, 3)
     folds = rng.uniform([-0.15, 0.05], [0.15, 0.50], (3, 4, 2, 2))
     return [_Body(heads[i], velocity[i], seated, float(gesture[i]), folds[i], float(rng.uniform(0, 6.28)))
             for i in range(3)]
+
+
+def _lanes(rng: np.random.Generator, taken: list[float], n: int, near_m: float = 1.6, far_m: float = 3.4,
+           gap_m: float = 0.6) -> np.ndarray:
+    """n walking depths in [near_m, far_m], each ``gap_m`` or more from the others and from ``taken``.
+
+    Walkers go back and forth across the whole room (:func:`_fold`), so any two of them meet; people keep 0.6 m
+    apart (as :func:`_cast` places everyone), so two walkers at one depth would have to walk through each other.
+    """
+    while True:
+        depth = rng.uniform(near_m, far_m, n)
+        d = np.concatenate([depth, taken])
+        if np.all(np.abs(d[:, None] - d[None, :])[np.triu_indices(len(d), 1)] >= gap_m):
+            return depth
 
 
 def _fold(x: np.ndarray, limit: float = 1.2) -> np.ndarray:

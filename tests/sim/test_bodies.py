@@ -58,6 +58,16 @@ def test_people_at_the_edge_and_behind_others_lose_points() -> None:
     assert min(behind) < 0.5 * max(behind)  # hidden while the one in front covers them
 
 
+@pytest.mark.parametrize("family", ["walking", "crossing"])
+def test_walkers_pass_each_other_without_walking_through(family: str) -> None:
+    """People keep 0.6 m apart; walkers go to and fro across the room, so they keep to lanes of their own depth."""
+    for seed in (0, 1, 2):
+        for iv in generate_bodies(family, seed=seed, n_intervals=60)[::3]:
+            centres = np.concatenate([iv.truth_xyz, iv.hidden_xyz])
+            gaps = np.linalg.norm(centres[:, None] - centres[None], axis=2)[np.triu_indices(3, 1)]
+            assert gaps.min() > 0.45, (seed, iv.index)
+
+
 def test_a_person_too_hidden_for_the_truth_is_listed_as_hidden() -> None:
     crossing = generate_bodies("crossing", seed=0, n_intervals=60)
     listed = [iv for iv in crossing if iv.hidden_xyz.shape[0]]
