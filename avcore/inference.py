@@ -77,6 +77,10 @@ class MotionGuidedParams:
         other (``avcore.refine3d.merge_close``'s ``reach_per_m``): a gesturing hand is found beside and below its head.
     body_radius_m : if set, an object's position is the alpha-weighted mean of its clusters' points within this
         horizontal radius (and ``merge_vertical_m`` vertically) of its groups, not the groups' mean alone.
+    body_keeps_groups : with ``body_radius_m``, the body's points are the union of its groups' members and its
+        clusters' points in that cylinder (each point with the larger of its two weights), so that the parts of a
+        group outside the cylinder (a swinging arm, a walker smeared along its path) still count. False: the
+        cylinder's points alone, or the groups' members alone when they weigh more.
     warm_start_candidates : for every N, start EM from the better (on the new data) of the paper's initialisation
         and the previous interval's fit with N components: people move little between intervals, so EM needs
         fewer iterations (a speed-up; the paper initialises every N from the selected model only).
@@ -97,6 +101,7 @@ class MotionGuidedParams:
     merge_vertical_m: float = 1.2
     merge_reach_per_m: float = 0.3
     body_radius_m: float | None = 0.3
+    body_keeps_groups: bool = True
     warm_start_candidates: bool = True
 
     def __post_init__(self) -> None:
@@ -111,6 +116,8 @@ class MotionGuidedParams:
             raise ValueError(f"merge_reach_per_m must be >= 0, got {self.merge_reach_per_m}")
         if self.body_radius_m is not None and not self.body_radius_m > 0:
             raise ValueError(f"body_radius_m must be None or > 0 metres, got {self.body_radius_m}")
+        if not isinstance(self.body_keeps_groups, bool):
+            raise TypeError(f"body_keeps_groups must be a bool, got {type(self.body_keeps_groups).__name__}")
 
     @classmethod
     def paper(cls) -> MotionGuidedParams:
@@ -308,15 +315,20 @@ class MotionGuidedHearing:
     def _body(self, pts: np.ndarray, w: np.ndarray, g: Group3D) -> Group3D:
         """The object's position from all its clusters' points in a body-sized cylinder around its groups.
 
-        Compact groups hold the densest moving parts (a head, a hand); the rest of the body (sleeves, shoulders,
-        a torso) gives sparser points that no group takes. Their alpha-weighted mean inside a vertical cylinder
-        of radius ``body_radius_m`` and half-height ``merge_vertical_m`` around the groups is the body's centre.
+        Eq. (hat_svect) restricted to the person's body. Compact groups hold the densest moving parts (a head, a
+        hand); the rest of the body (sleeves, shoulders, a torso) gives sparser points that no group takes. Their
+        alpha-weighted mean inside a vertical cylinder of radius ``body_radius_m`` and half-height
+        ``merge_vertical_m`` around the groups is the body's centre. With ``body_keeps_groups`` the groups' members
+        count as well where they reach outside the cylinder (each point weighs the larger of its membership and
+        its cylinder weight): neither set alone is the whole body.
         """
         p = self.params
         d = pts - g.mean
         inside = (np.hypot(d[:, 0], d[:, 2]) < p.body_radius_m) & (np.abs(d[:, 1]) < p.merge_vertical_m)
         ww = w * inside
-        if ww.sum() <= g.mass:
+        if p.body_keeps_groups:
+            ww = np.maximum(ww, g.members)
+        elif ww.sum() <= g.mass:
             return g
         return Group3D(g.members, g.mass, (ww @ pts) / ww.sum(), g.cov)
 

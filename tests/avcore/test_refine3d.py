@@ -112,3 +112,22 @@ def test_the_refinements_body_parameters_are_checked() -> None:
     with pytest.raises(ValueError, match="merge_reach_per_m"):
         MotionGuidedParams(merge_reach_per_m=-0.1)
     assert MotionGuidedParams(body_radius_m=None).body_radius_m is None
+
+
+def test_a_body_keeps_its_groups_parts_outside_the_cylinder() -> None:
+    """A head and a hand held out to the side (one merged group) and a sparse torso no group takes: the body's
+    centre is the mean of all three, the hand outside the 0.3 m cylinder around the group included."""
+    from avcore.geometry import MicPair
+    from avcore.inference import MotionGuidedHearing, MotionGuidedParams
+
+    rng = np.random.default_rng(7)
+    head = [0.0, -0.3, 2.0] + rng.normal(0, [0.06, 0.08, 0.05], (150, 3))
+    hand = [0.5, 0.1, 2.0] + rng.normal(0, 0.03, (60, 3))
+    torso = rng.uniform([-0.17, -0.15, 1.95], [0.17, 0.35, 2.05], (120, 3))
+    pts = np.concatenate([head, hand, torso])
+    group = group_from_members(pts, np.r_[np.ones(210), np.zeros(120)])
+    assert np.hypot(*(hand.mean(axis=0) - group.mean)[::2]) > 0.3  # the hand is outside the cylinder
+    centre = MotionGuidedHearing(MicPair(), MotionGuidedParams())._body(pts, np.ones(len(pts)), group).mean
+    assert np.linalg.norm(centre - pts.mean(axis=0)) < 0.01
+    with pytest.raises(TypeError, match="body_keeps_groups"):
+        MotionGuidedParams(body_keeps_groups=1)  # type: ignore[arg-type]
