@@ -42,8 +42,10 @@ by how much it moves, ``v^2 / (v^2 + v0^2)``, the motion filter's share *without
 the body, its motion and the camera, not of the features: a plain sleeve that moves counts as much as a checked one,
 so a method is not rewarded for following the texture; a body part that does not move is not there for a
 motion-guided method to find (a standing person's still legs). A person none of whose visible points moves is at the
-centre of the head. ``truth_point="body"`` weighs every visible point alike (the visible body whether it moves or
-not), ``"head"`` is the head's centre.
+centre of the head. ``truth_point="points"`` weighs each point by its texture as well: the mean of the distribution
+the person's motion points are drawn from, as the paper scores against the mean of each ground-truth cluster
+(section 7.1) and as :mod:`sim.bodies` does; ``"body"`` weighs every visible point alike (the visible body whether it
+moves or not); ``"head"`` is the head's centre.
 
 A person is in the ground truth when at least ``min_visible_fraction`` of the surface that faces the camera above
 the table is visible (not cut by the image border or hidden by someone in front); the others are
@@ -104,7 +106,8 @@ class BodyConfig:
     min_visible_fraction : a person is in the ground truth when at least this share of its camera-facing surface
         above the table is visible.
     truth_point : "moving" (default): a person's ground-truth position is the centre of its visible moving body;
-        "body": of its visible body, moving or not; "head": the centre of its head (see the module docstring).
+        "points": the mean of its motion points' distribution; "body": of its visible body, moving or not;
+        "head": the centre of its head (see the module docstring).
     speaking_share, mean_talk_s, itds_when_speaking, itds_when_silent, itd_outlier_fraction, itd_sigma_s : the
         auditory side, as in :class:`sim.synthetic.SyntheticConfig`.
     """
@@ -145,8 +148,8 @@ class BodyConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0 <= v < 1):
                 raise ValueError(f"{name} must be a fraction in [0, 1), got {v!r}")
-        if self.truth_point not in ("moving", "body", "head"):
-            raise ValueError(f"truth_point must be 'moving', 'body' or 'head', got {self.truth_point!r}")
+        if self.truth_point not in ("moving", "points", "body", "head"):
+            raise ValueError(f"truth_point must be 'moving', 'points', 'body' or 'head', got {self.truth_point!r}")
         if not 0 < self.speaking_share < 1:
             raise ValueError(f"speaking_share must be in (0, 1), got {self.speaking_share!r}")
 
@@ -543,8 +546,10 @@ def _interval(rng: np.random.Generator, cfg: BodyConfig, mics: MicPair, scene: _
         moves = speed**2 / (speed**2 + v0**2)  # the motion filter's share, without the texture
         if cfg.truth_point == "head":
             truth.append(heads[i])
-        elif cfg.truth_point == "moving":
+        elif cfg.truth_point in ("moving", "points"):
             w = moves * vis
+            if cfg.truth_point == "points":
+                w = w * _texture(scene.people[i], part, s, phi)
             truth.append((w @ p0) / w.sum() if w.sum() > 1e-9 else heads[i])
         else:
             truth.append(p0[vis].mean(axis=0) if vis.any() else p0[shown].mean(axis=0))
