@@ -114,9 +114,13 @@ def main() -> None:
     args = parser.parse_args()
     if args.seed < 0 or args.interval < 0:
         parser.error("--seed and --interval must be >= 0")
+    if args.out.suffix.lower() not in (".png", ".jpg", ".jpeg"):
+        parser.error(f"--out {args.out}: give a .png or .jpg file")
+    if not args.out.parent.is_dir():  # checked before the drawing, which takes a few seconds
+        parser.error(f"--out {args.out}: no such directory {args.out.parent}; create it first")
     img = draw(args.family, args.seed, args.interval)
     if not cv2.imwrite(str(args.out), img):
-        parser.error(f"cannot write {args.out}: check the directory exists and is writable")
+        parser.error(f"cannot write {args.out}: check the directory is writable")
     print(f"wrote {args.out} ({img.shape[1]} x {img.shape[0]} px)")
 
 

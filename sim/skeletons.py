@@ -544,16 +544,15 @@ def _interval(rng: np.random.Generator, cfg: BodyConfig, mics: MicPair, scene: _
         speed = np.linalg.norm(p1 - p0, axis=1) / (dt / _N_FRAMES)
         v0 = cfg.motion_speed_mps
         moves = speed**2 / (speed**2 + v0**2)  # the motion filter's share, without the texture
+        texture = _texture(scene.people[i], part, s, phi)
         if cfg.truth_point == "head":
             truth.append(heads[i])
         elif cfg.truth_point in ("moving", "points"):
-            w = moves * vis
-            if cfg.truth_point == "points":
-                w = w * _texture(scene.people[i], part, s, phi)
+            w = moves * vis * (texture if cfg.truth_point == "points" else 1.0)
             truth.append((w @ p0) / w.sum() if w.sum() > 1e-9 else heads[i])
         else:
             truth.append(p0[vis].mean(axis=0) if vis.any() else p0[shown].mean(axis=0))
-        prob = _texture(scene.people[i], part, s, phi) * moves
+        prob = texture * moves
         take = vis & (rng.random(n_c) < prob)
         if take.sum() > cfg.max_points_per_person:  # the corner detector keeps a bounded number per image
             take[rng.choice(np.flatnonzero(take), int(take.sum()) - cfg.max_points_per_person, replace=False)] = False
