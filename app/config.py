@@ -234,6 +234,9 @@ def load_rig(path: str | Path) -> RigConfig:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise UserError(f"{p}: rig file not found; create it with `avhear calibrate stereo ... -o {p}`") from None
+    except UnicodeDecodeError as exc:
+        raise UserError(f"{p}: the rig file is not UTF-8 text (byte {exc.start} is not: a comment with an accent "
+                        "saved as Latin-1?); save it as UTF-8") from None
     except OSError as exc:
         raise UserError(f"{p}: cannot read the rig file ({exc.strerror})") from None
     try:

@@ -286,16 +286,16 @@ class Pipeline:
     """Runs a :class:`Source` through vision, ITD extraction and fusion in threads; calls ``on_result`` from the
     fusion thread for every fused result (so that all Rerun logging happens in one thread).
 
-    ``clock`` is the clock of the source's stamps (``time.monotonic`` for live and real-speed sources).
+    ``clock`` is the clock of the source's stamps (default the source's own ``clock``).
     """
 
     def __init__(self, source: Source, config: PipelineConfig | None = None,
                  on_result: Callable[[FusionResult], None] | None = None, *,
-                 detector: FaceDetector | None = None, clock: Callable[[], float] = time.monotonic) -> None:
+                 detector: FaceDetector | None = None, clock: Callable[[], float] | None = None) -> None:
         self.source = source
         self.config = config if config is not None else PipelineConfig()
         self.on_result = on_result
-        self.clock = clock
+        self.clock = clock if clock is not None else getattr(source, "clock", time.monotonic)
         self.detector = detector if detector is not None else TrackingFaceDetector()
         self.stats = PipelineStats()
         self._stop = threading.Event()

@@ -14,6 +14,8 @@ from __future__ import annotations
 import json
 import logging
 import threading
+import time
+from dataclasses import replace
 from typing import Any
 
 import cv2
@@ -82,11 +84,13 @@ class SensorPublisher:
         pub_l = self.session.declare_publisher(self.prefix + LEFT_KEY)
         pub_r = self.session.declare_publisher(self.prefix + RIGHT_KEY)
         pub_a = self.session.declare_publisher(self.prefix + AUDIO_KEY)
+        # a robot stamps at capture on its monotonic clock: the simulator's or a recording's own stamps are moved there
+        offset = time.monotonic() - self.source.clock()
 
         def frames() -> None:
             for frame in self.source.frames(stop):
-                left = image_message(frame.left, frame.stamp_s, "avhear_left", self.jpeg_quality)
-                right = image_message(frame.right, frame.right_stamp_s, "avhear_right", self.jpeg_quality)
+                left = image_message(frame.left, frame.stamp_s + offset, "avhear_left", self.jpeg_quality)
+                right = image_message(frame.right, frame.right_stamp_s + offset, "avhear_right", self.jpeg_quality)
                 pub_l.put(left)
                 pub_r.put(right)
                 self.frames += 1
@@ -94,7 +98,7 @@ class SensorPublisher:
 
         def audio() -> None:
             for block in self.source.audio(stop):
-                payload = audio_message(block)
+                payload = audio_message(replace(block, stamp_s=block.stamp_s + offset))
                 pub_a.put(payload)
                 self.audio_blocks += 1
                 self.bytes += len(payload)

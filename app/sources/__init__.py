@@ -55,6 +55,14 @@ class StreamAdapter(SourceBase):
                 self._start_s = time.monotonic()
             return self._start_s
 
+    def clock(self) -> float:
+        """Now on the stream's own clock: its earliest stamp when the real-time delivery started (the stamps stay
+        the simulator's or the recording's; see :class:`~app.sources.contract.Source`)."""
+        start = self._start()
+        if start is None:
+            return time.monotonic()  # as fast as possible: no latency is measured
+        return time.monotonic() - start + self.stream.start_s
+
     @property
     def frames_dropped(self) -> int:
         """Frames the source skipped because they were late (real-time delivery)."""

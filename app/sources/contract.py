@@ -3,6 +3,7 @@ devices, the simulated room, a recording, the bus). Sources derive from :class:`
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Iterator
 from typing import Protocol
 
@@ -27,6 +28,10 @@ class Source(Protocol):
         recording is lost); True for everything delivered at capture pace.
     overflows : audio samples lost at the input (a sound card's overflows, a bus's dropped blocks), counted.
     frames_dropped : frames skipped at the input because they came late or could not be paired, counted.
+    clock() : now, on the clock of the stamps (the pipeline's latency is ``clock() - stamp``). The convention of
+        every source: live devices and the bus stamp on the capturing machine's monotonic clock; the simulator and a
+        recording stamp on their own clock (the simulator from 0, a recording as it was captured), paced in real
+        time or not.
     close() : release what the source holds (files, subscriptions); a source is also a context manager.
     """
 
@@ -47,6 +52,8 @@ class Source(Protocol):
 
     def audio(self, stop: threading.Event) -> Iterator[AudioBlock]: ...
 
+    def clock(self) -> float: ...
+
     def close(self) -> None: ...
 
 
@@ -57,6 +64,10 @@ class SourceBase:
     array: MicArray | None = None
     overflows: int = 0
     frames_dropped: int = 0
+
+    def clock(self) -> float:
+        """The capturing machine's monotonic clock (live devices, the bus)."""
+        return time.monotonic()
 
     def close(self) -> None:
         """Nothing to release."""

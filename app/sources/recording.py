@@ -175,8 +175,8 @@ class RecordingWriter:
             raise ValueError(f"audio block must be (n, {self.n_channels}) samples, got shape {samples.shape}")
         if block.samplerate_hz != self.samplerate_hz:
             raise ValueError(f"audio block at {block.samplerate_hz} Hz, the recording is at {self.samplerate_hz} Hz")
-        if self.audio_start_s is None:
-            self.audio_start_s = block.stamp_s - block.first_sample / self.samplerate_hz
+        if self.audio_start_s is None:  # the WAV's sample 0 is this block's first (a stream joined late: not 0)
+            self.audio_start_s = block.stamp_s
             self._first_sample = block.first_sample
         elif block.first_sample != self._first_sample + self.n_samples:
             raise ValueError(f"audio block starts at sample {block.first_sample}, expected "
@@ -316,6 +316,18 @@ def _wav_layout(path: Path) -> tuple[int, int, str, int, int]:
     return rate, channels, dtypes[(tag, bits)], offset, frames
 
 
+def _csv_rows(path: Path) -> list[list[str]]:
+    """Every row of a CSV file of the folder; a file that is not UTF-8 text is a :class:`RecordingError`."""
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            return list(csv.reader(f))
+    except UnicodeDecodeError as exc:
+        raise RecordingError(f"{path}: not UTF-8 text (byte {exc.start}); the file is corrupt or was saved in "
+                             "another encoding: save it as UTF-8") from None
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read it ({exc.strerror})") from None
+
+
 class Recording(ReplayStream):
     """A recording folder opened for replay (see the module docstring for the format); made by
     :func:`open_recording`. Its stream is the same as the source that was recorded: frames with their recorded stamps
@@ -400,8 +412,7 @@ class Recording(ReplayStream):
         if not path.is_file():
             raise RecordingError(f"{path}: missing; it lists each frame's capture times "
                                  f"({','.join(FRAMES_HEADER)}, one row per frame)")
-        with open(path, newline="", encoding="utf-8") as f:
-            rows = list(csv.reader(f))
+        rows = _csv_rows(path)
         if not rows or [c.strip() for c in rows[0]] != FRAMES_HEADER:
             raise RecordingError(f"{path}: the first line must be the header {','.join(FRAMES_HEADER)}, got "
                                  f"{','.join(rows[0]) if rows else 'an empty file'}")
@@ -472,8 +483,7 @@ class Recording(ReplayStream):
         path = self.folder / "truth.csv"
         if not path.is_file():
             return None
-        with open(path, newline="", encoding="utf-8") as f:
-            rows = list(csv.reader(f))
+        rows = _csv_rows(path)
         if not rows or rows[0] != TRUTH_HEADER:
             raise RecordingError(f"{path}: the first line must be the header {','.join(TRUTH_HEADER)}; fix or "
                                  "delete the file (truth is optional)")
@@ -503,16 +513,14 @@ class Recording(ReplayStream):
         path = self.folder / "events.csv"
         if not path.is_file():
             return []
-        with open(path, newline="", encoding="utf-8") as f:
-            reader = csv.DictReader(f)
-            if reader.fieldnames != EVENTS_HEADER:
-                raise RecordingError(f"{path}: the header must be {','.join(EVENTS_HEADER)}; fix or delete it")
-            try:
-                return [{"person": int(r["person"]), "name": r["name"], "kind": r["kind"],
-                         "start_s": float(r["start_s"]), "end_s": float(r["end_s"]), "label": r["label"]}
-                        for r in reader]
-            except (TypeError, ValueError) as exc:
-                raise RecordingError(f"{path}: {exc}; fix or delete the file (events are optional)") from None
+        rows = _csv_rows(path)
+        if not rows or rows[0] != EVENTS_HEADER:
+            raise RecordingError(f"{path}: the header must be {','.join(EVENTS_HEADER)}; fix or delete it")
+        try:
+            return [{"person": int(r[0]), "name": r[1], "kind": r[2], "start_s": float(r[3]), "end_s": float(r[4]),
+                     "label": r[5]} for r in rows[1:] if r]
+        except (IndexError, ValueError) as exc:
+            raise RecordingError(f"{path}: {exc}; fix or delete the file (events are optional)") from None
 
     # -------------------------------------------------------------- ReplayStream
     def _reset(self) -> None:

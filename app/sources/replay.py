@@ -103,9 +103,9 @@ class ReplayStream:
         realtime : deliver each item at its time on ``time.monotonic()`` (frames at their stamp, blocks once their
             last sample is captured) and drop frames that are more than one frame period late; else as fast as
             possible.
-        start_s : the stamp given to the source's earliest instant; default ``time.monotonic()`` at the start in
-            real time (the pipeline's clock), else the source's own stamps (0-based for the simulator). Threads that
-            consume :meth:`frames` and :meth:`audio_blocks` separately in real time pass the same ``start_s``.
+        start_s : in real time, the instant on ``time.monotonic()`` at which the source's earliest stamp is
+            delivered (default: now); threads that consume :meth:`frames` and :meth:`audio_blocks` separately pass
+            the same. The stamps are always the source's own (0-based for the simulator).
         block_size : samples per audio block (default the source's ``block_size``).
         """
         return self._run(realtime, start_s, want_frames=True, want_audio=True, block_size=block_size)
@@ -120,13 +120,8 @@ class ReplayStream:
             self.stats.frames = self.stats.frames_dropped = 0
         if want_audio:
             self.stats.blocks = 0
-        clock0 = time.monotonic()
-        base = (clock0 if realtime else self.start_s) if start_s is None else float(start_s)
-        if realtime:
-            # deliver each item when its stamp comes on the monotonic clock: threads that share start_s are paced
-            # together, and a stamp is the time of capture as a device would give it
-            clock0 = base
-        shift = base - self.start_s  # added to the source's own stamps
+        # in real time each item is delivered when its stamp comes, counted on the monotonic clock from clock0
+        clock0 = time.monotonic() if start_s is None else float(start_s)
         period = 1.0 / self.fps
         fs = self.samplerate_hz
         k = 0 if want_frames else self.n_frames
@@ -141,7 +136,7 @@ class ReplayStream:
                     _sleep_until(clock0 + audio_due - self.start_s)
                 samples = self._samples(a, b)
                 self.stats.blocks += 1
-                yield AudioBlock(block, a, self.audio_start_s + a / fs + shift, samples, fs)
+                yield AudioBlock(block, a, self.audio_start_s + a / fs, samples, fs)
                 block += 1
                 a = b
                 continue
@@ -154,8 +149,7 @@ class ReplayStream:
                 _sleep_until(clock0 + frame_due - self.start_s)
             left, right = self._images(k)
             self.stats.frames += 1
-            yield StereoFrame(k, frame_due + shift, left, right, float(self.right_stamps_s[k]) + shift,
-                              self.truth(k))
+            yield StereoFrame(k, frame_due, left, right, float(self.right_stamps_s[k]), self.truth(k))
             k += 1
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 import csv
 import json
 import shutil
+import time
 from pathlib import Path
 
 import cv2
@@ -64,10 +65,12 @@ def test_mjpg_round_trip_is_close(source, avi_folder):
     assert np.mean(np.abs(frames[7].left - original)) < 4.0
 
 
-def test_real_time_replay_rebases_the_stamps(png_folder):
+def test_real_time_replay_keeps_the_recordings_stamps(png_folder):
+    """Paced in real time from a given instant, a replay still stamps on the recording's own clock."""
     rec = open_recording(png_folder)
-    items = list(rec.stream(realtime=True, start_s=100.0))
-    assert items[0].stamp_s == pytest.approx(100.0)
+    stamps = [item.stamp_s for item in rec.stream(realtime=True, start_s=time.monotonic())]
+    assert stamps[0] == pytest.approx(rec.start_s)
+    assert rec.start_s < 1.0  # the recording's clock, not the machine's uptime
     assert rec.stats.frames + rec.stats.frames_dropped == 15
 
 
@@ -161,3 +164,46 @@ def test_a_simulated_array_recording_replays_with_every_pair(tmp_path: Path) -> 
     assert adapter.array is not None and adapter.array.n_pairs == 6
     assert adapter.channels == tuple(rec.array.channels[i] for i in rec.array.pairs[0])
     rec.close()
+
+
+def test_a_recording_joined_late_replays_as_the_live_run(tmp_path):
+    """A robot whose streams had run 3 s when the recorder joined: the first audio block written is the stream's
+    sample 48000, and the WAV's sample 0 must carry that block's stamp. The replay then gives the live run's
+    results over the same seconds: the same frames, the same ITDs, the same people speaking."""
+    from app.config import RigConfig
+    from app.pipeline import Pipeline, PipelineConfig
+    from app.sources import StreamAdapter
+    from app.sources.recording import RecordingWriter
+
+    join_s = 3.0
+    robot = SimSource.from_preset("S1", duration_s=7.0, seed=0, fps=15,
+                                  data_dir=tmp_path / "no-shared-data")
+
+    def run(stream):  # noqa: ANN001, ANN202
+        results = []
+        Pipeline(StreamAdapter(stream, realtime=False), PipelineConfig(), results.append).run()
+        return {round(r.stamp_s, 4): r for r in results}
+
+    live = run(robot)
+    with RecordingWriter(tmp_path / "late", rig=RigConfig(robot.stereo, robot.mics), fps=robot.fps,
+                         samplerate_hz=robot.samplerate_hz, n_channels=robot.n_channels, video="png") as writer:
+        for item in robot.stream(realtime=False, block_size=256):
+            if item.stamp_s >= join_s:
+                (writer.add_frame if isinstance(item, StereoFrame) else writer.add_audio)(item)
+    rec = open_recording(tmp_path / "late")
+    assert rec.audio_start_s == pytest.approx(join_s, abs=256 / 16000)
+    replay = run(rec)
+    # after one time frame of warm-up (0.2 s of ITDs on each side), every result is the live run's (lossless
+    # images; the audio through 16-bit PCM)
+    compared = [s for s in replay if join_s + 0.5 <= s <= 6.5]
+    assert len(compared) >= 40 and all(s in live for s in compared)
+    matched = total = 0
+    for s in compared:
+        assert abs(replay[s].itds_s.shape[0] - live[s].itds_s.shape[0]) <= 2, f"the ITDs at {s} s differ"
+        assert np.array_equal(replay[s].output.speaking, live[s].output.speaking), f"who speaks at {s} s differs"
+        mine, theirs = np.ravel(replay[s].itds_s), np.ravel(live[s].itds_s)
+        if mine.size and theirs.size:
+            matched += int(np.sum(np.min(np.abs(mine[:, None] - theirs[None, :]), axis=1) <= 10e-6))
+        total += mine.size
+    assert total > 200 and matched / total >= 0.95  # the same ITDs, not only as many
+    assert sum(live[s].output.speaking.sum() for s in compared) > 10  # someone speaks in these seconds

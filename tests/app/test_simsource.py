@@ -79,16 +79,20 @@ def test_audio_blocks_of_any_size_add_up_to_the_recording(s2, block_size):
     assert all(b.samples.shape[0] == block_size for b in blocks[:-1])
 
 
-def test_real_time_stream_paces_and_stamps_on_the_monotonic_clock(missing):
+def test_real_time_stream_paces_on_the_monotonic_clock_and_stamps_from_zero(missing):
+    """Paced in real time, nothing is delivered before its capture instant; the stamps stay the simulator's own
+    (from 0), the convention of the Source contract."""
     src = SimSource.from_preset("S1", duration_s=1.0, seed=0, fps=15, data_dir=missing)
     t0 = time.monotonic()
     items, early = [], []
-    for item in src.stream(realtime=True):  # paced: nothing is delivered before its capture stamp
-        early.append(item.stamp_s - time.monotonic())
+    for item in src.stream(realtime=True, start_s=t0):
+        due = item.end_stamp_s if isinstance(item, AudioBlock) else item.stamp_s
+        early.append(t0 + due - time.monotonic())
         items.append(item)
     assert max(early) <= 1e-3
-    assert items[0].stamp_s == pytest.approx(t0, abs=0.05)
+    assert items[0].stamp_s == pytest.approx(0.0, abs=1e-9)
     assert items[-1].stamp_s - items[0].stamp_s == pytest.approx(1.0, abs=0.1)  # a second of stream
+    assert time.monotonic() - t0 == pytest.approx(1.0, abs=0.5)  # it took a second: paced, not as fast as possible
     assert src.stats.frames + src.stats.frames_dropped == 15
 
 
