@@ -6,11 +6,12 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_method_arguments", "count", "duration", "pipeline_config",
+__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "MIN_SIMULATED_S", "add_method_arguments", "count", "duration", "pipeline_config",
            "port", "positive", "wants_bodies"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
+MIN_SIMULATED_S = 1.0  # and one second at least (sim.scenario's bound)
 
 
 def positive(text: str, *, maximum: float = math.inf, what: str = "a positive number") -> float:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from app.errors import UserError
 
-__all__ = ["output_dir", "output_file"]
+__all__ = ["distinct_outputs", "output_dir", "output_file"]
 
 
 def _reason(exc: OSError) -> str:
@@ -49,3 +49,16 @@ def output_dir(path: Path | str, option: str) -> Path:
     except OSError as exc:
         raise UserError(f"cannot write into {option} {path}: {_reason(exc)}; choose another folder") from None
     return path
+
+
+def distinct_outputs(*outputs: tuple[str, Path | str | None]) -> None:
+    """Two outputs of one run never share a path: ``outputs`` are (option, path or None) pairs; the first two that
+    name one file (after resolving links and ``..``) are a :class:`UserError` naming both options."""
+    seen: dict[Path, str] = {}
+    for option, path in outputs:
+        if path is None:
+            continue
+        key = Path(path).expanduser().resolve()
+        if key in seen:
+            raise UserError(f"{seen[key]} and {option} both name {path}: each output of a run needs its own path")
+        seen[key] = option

@@ -37,6 +37,16 @@ def _num(x: Any) -> float | None:
     return x if math.isfinite(x) else None
 
 
+def _probability(p: Any, speaking: bool) -> float:
+    """``p`` to 4 decimals, still above 0.5 exactly when ``speaking`` (0.50003 would round to 0.5)."""
+    q = round(float(p), 4)
+    if speaking and q <= 0.5:
+        return 0.5001
+    if not speaking and q > 0.5:
+        return 0.5
+    return q
+
+
 def result_record(result: Any) -> dict[str, Any]:
     """One :class:`app.pipeline.FusionResult` as the JSON-ready dict of the module's schema."""
     out = result.output
@@ -48,7 +58,7 @@ def result_record(result: Any) -> dict[str, Any]:
             "id": int(pid),
             "position_m": [round(float(v), 4) for v in positions[n]],
             "speaking": bool(out.speaking[n]),
-            "probability": round(float(out.probability[n]), 4),
+            "probability": _probability(out.probability[n], bool(out.speaking[n])),
             "itd_mean_s": _num(out.itd_means[n]),
         }
         if face:

@@ -1,15 +1,20 @@
 """One Zenoh session per process, configured in one place from the command line.
 
-Defaults keep avhear off the network: the session listens on 127.0.0.1 only (port 7447, Zenoh's own, so that a
-local subscriber or ``zenoh-bridge-ros2dds`` finds it as it would find a router) and multicast scouting, which
-would announce it on the LAN, is off. Reaching another machine is explicit: ``--bus-listen``/``--bus-connect``
-with Zenoh endpoints (``tcp/192.168.1.20:7447``), or ``--bus-config FILE`` (a Zenoh JSON5 configuration file, for
-TLS, access control and everything else; then avhear changes nothing in it but the endpoints the flags give).
+Defaults keep avhear off the network and let every avhear process on one machine find the others, in any order,
+beside a Zenoh router on tcp/localhost:7447 (rmw_zenoh's) or not: avhear never listens on 7447. The first avhear
+process listens on the rendezvous ``tcp/127.0.0.1:7448`` (``AVHEAR_BUS_PORT`` changes the port); the others find it
+in use, connect to it (retrying, so a rendezvous that goes away and comes back is joined again) and listen on a port
+of their own on 127.0.0.1, which Zenoh's gossip passes on so that the processes reach each other directly. Multicast
+scouting, which would announce a session on the LAN, is off. Reaching another machine is explicit:
+``--bus-listen``/``--bus-connect`` with Zenoh endpoints (``tcp/192.168.1.20:7448``), or ``--bus-config FILE`` (a
+Zenoh JSON5 configuration file, for TLS, access control and everything else; then avhear changes nothing in it but
+the endpoints the flags give).
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,9 +22,10 @@ from typing import Any
 
 from app.errors import UserError
 
-__all__ = ["BusOptions", "DEFAULT_LISTEN", "add_bus_arguments", "bus_source", "open_session"]
+__all__ = ["BusOptions", "add_bus_arguments", "bus_source", "open_session", "rendezvous"]
 
-DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
+RENDEZVOUS_PORT = 7448  # one above Zenoh's (and rmw_zenoh's router's) 7447, which avhear leaves to them
+_ANY_PORT = "tcp/127.0.0.1:0"
 _ENDPOINT = re.compile(r"^(tcp|udp|tls|quic|ws|unixsock-stream)/(\[[0-9a-fA-F:]+\]|[^/:\s\[\]]+):(\d{1,5})(#.*)?$")
 
 
@@ -42,14 +48,15 @@ def _endpoint(text: str) -> str:
     m = _ENDPOINT.match(text)
     if not m or not 0 <= int(m.group(3)) <= 65535:
         raise argparse.ArgumentTypeError(f"{text!r} is not a Zenoh endpoint: use PROTOCOL/HOST:PORT, e.g. "
-                                         f"{DEFAULT_LISTEN} or tcp/192.168.1.20:7447")
+                                         "tcp/192.168.1.20:7448")
     return text
 
 
 def add_bus_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("bus (Zenoh)")
     g.add_argument("--bus-listen", type=_endpoint, action="append", metavar="ENDPOINT",
-                   help=f"listen on this Zenoh endpoint (repeatable; default {DEFAULT_LISTEN}, loopback only)")
+                   help="listen on this Zenoh endpoint (repeatable; default: the loopback rendezvous "
+                        f"tcp/127.0.0.1:{RENDEZVOUS_PORT}, or a free loopback port when another avhear holds it)")
     g.add_argument("--bus-connect", type=_endpoint, action="append", metavar="ENDPOINT",
                    help="connect to this Zenoh endpoint: a robot, a router (repeatable)")
     g.add_argument("--bus-config", type=Path, metavar="FILE",
@@ -62,7 +69,17 @@ def _one_line(exc: BaseException) -> str:
     return re.sub(r"\s*at /\S+\.rs:\d+\.?", "", " ".join(str(exc).split())).strip()
 
 
-def _config(options: BusOptions) -> Any:
+def rendezvous() -> str:
+    """The loopback endpoint where avhear processes on one machine meet (port ``AVHEAR_BUS_PORT`` or 7448)."""
+    text = os.environ.get("AVHEAR_BUS_PORT", "")
+    if text and not (text.isdigit() and 0 < int(text) < 65536):
+        raise UserError(f"AVHEAR_BUS_PORT={text!r} is not a port number (1-65535)")
+    return f"tcp/127.0.0.1:{int(text) if text else RENDEZVOUS_PORT}"
+
+
+def _config(options: BusOptions, *, listen: list[str] | None = None, connect: list[str] | None = None) -> Any:
+    """A Zenoh configuration: the file's, or peer mode with multicast off; ``listen``/``connect`` are the endpoints
+    avhear chose when the user gave none."""
     import zenoh
 
     if options.config is not None:
@@ -77,30 +94,49 @@ def _config(options: BusOptions) -> Any:
         config = zenoh.Config()
         config.insert_json5("mode", json.dumps("peer"))
         config.insert_json5("scouting/multicast/enabled", "false")
-        if not options.listen:
-            config.insert_json5("listen/endpoints", json.dumps([DEFAULT_LISTEN]))
-    if options.listen:
-        config.insert_json5("listen/endpoints", json.dumps(list(options.listen)))
-    if options.connect:
-        config.insert_json5("connect/endpoints", json.dumps(list(options.connect)))
-        if options.config is None:  # a robot that comes back is reached again within a second
+    listen = list(options.listen) or listen
+    connect = list(options.connect) or connect
+    if listen:
+        config.insert_json5("listen/endpoints", json.dumps(listen))
+    if connect:
+        config.insert_json5("connect/endpoints", json.dumps(connect))
+        if options.config is None:  # a robot (or the rendezvous) that comes back is reached again within a second
             config.insert_json5("connect/retry", json.dumps({"period_init_ms": 250, "period_max_ms": 1000,
                                                              "period_increase_factor": 2}))
     return config
 
 
 def open_session(options: BusOptions) -> Any:
-    """The process's Zenoh session, or a :class:`UserError` that says what to change."""
+    """The process's Zenoh session, or a :class:`UserError` that says what to change.
+
+    Without endpoints or a configuration file: the rendezvous if it is free, else a free loopback port joined to
+    the rendezvous (module docstring). With ``--bus-connect`` alone: a free loopback port, joined to those."""
     import zenoh
 
-    config = _config(options)
+    if options.config is None and not options.listen and not options.connect:
+        meet = rendezvous()
+        try:
+            return zenoh.open(_config(options, listen=[meet]))
+        except Exception:  # noqa: BLE001 - ZError: the rendezvous is taken (by another avhear): join it instead
+            return _open(zenoh, _config(options, listen=[_ANY_PORT], connect=[meet]), options)
+    listen = [_ANY_PORT] if options.config is None and not options.listen else None
+    return _open(zenoh, _config(options, listen=listen), options)
+
+
+def _open(zenoh: Any, config: Any, options: BusOptions) -> Any:
     try:
         return zenoh.open(config)
-    except Exception as exc:  # noqa: BLE001 - ZError: a port in use, an endpoint that cannot be reached ...
-        where = ", ".join(options.listen or (() if options.config else (DEFAULT_LISTEN,)))
-        hint = (f"is {where} in use (another avhear, or a Zenoh router: then join it with --bus-connect)? "
-                "Choose another with --bus-listen" if where else "check the endpoints and the configuration file")
-        raise UserError(f"cannot open the Zenoh session ({_one_line(exc)}); {hint}") from None
+    except Exception as exc:  # noqa: BLE001 - ZError: a port in use, an address this machine does not have ...
+        reason = _one_line(exc)
+        if "Address already in use" in reason:
+            hint = (f"{', '.join(options.listen)} is in use (another avhear, or a Zenoh router); choose another "
+                    "port with --bus-listen, or join it with --bus-connect")
+        elif "Cannot assign requested address" in reason:
+            hint = (f"{', '.join(options.listen)} is not an address of this machine; --bus-listen takes one of its "
+                    "own addresses (see `ip address`), --bus-connect the other machine's")
+        else:
+            hint = "check the endpoints and the configuration file"
+        raise UserError(f"cannot open the Zenoh session ({reason}); {hint}") from None
 
 
 def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:

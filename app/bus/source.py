@@ -53,6 +53,7 @@ class BusSource(SourceBase):
         self.gap_s = gap_s
         self.bad_payloads = 0
         self.gaps = 0
+        self.images_received = 0
         self._samplerate: float | None = None
         self._n_channels: int | None = None
         self.channels: tuple[int, int] = (0, 1)
@@ -147,13 +148,13 @@ class BusSource(SourceBase):
 
     def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
         index = 0
-        last = time.monotonic()
+        last: float | None = None  # a gap is counted only once the robot has been seen
         away = False
         while not stop.is_set():
             item = self._images.get(timeout=0.05)
             now = time.monotonic()
             if item is None:
-                if not away and now - last > self.gap_s:
+                if last is not None and not away and now - last > self.gap_s:
                     away = True
                     self.gaps += 1
                     log.warning("no camera frames from the robot for %.1f s: waiting for it", now - last)
@@ -162,6 +163,7 @@ class BusSource(SourceBase):
                 log.warning("the robot's sensors are back after %.1f s", now - last)
                 away = False
             last = now
+            self.images_received += 1
             side, stamp, msg = item
             if stamp < self._last_stamp[side]:  # the robot's stream started again on another clock
                 self._pairing.reset()

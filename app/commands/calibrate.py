@@ -23,7 +23,7 @@ import numpy as np
 from app.config import MICROPHONES_HINT, RigConfig, load_rig, save_rig
 from app.errors import UserError
 from app.options import count, duration
-from app.paths import output_file
+from app.paths import distinct_outputs, output_file
 from app.pipeline import DEFAULT_ITD_METHOD
 from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
 from avcore.itd import METHODS as ITD_METHODS
@@ -227,6 +227,7 @@ def _save_stereo(args: argparse.Namespace, cal: StereoCalibration) -> None:
 
 def run_stereo(args: argparse.Namespace) -> int:
     corners_path = args.corners_image or args.output.with_name(args.output.stem + "_corners.png")
+    distinct_outputs(("-o", args.output), ("--corners-image", corners_path))
     output_file(args.output, "-o")
     output_file(corners_path, "--corners-image")
     lefts, rights, images_l, images_r = _load_pairs(args)
@@ -296,8 +297,10 @@ def _check_av_inputs(args: argparse.Namespace) -> tuple[RigConfig, Path]:
         raise UserError(f"{args.recording}: no such recording folder; record the calibration sequence (a person "
                         "carrying a loudspeaker playing `avhear calibrate signal`'s white-noise bursts in a zig-zag "
                         f"across the view), or simulate one with `avhear simulate calibration -o {args.recording}`")
-    output_file(args.output, "-o")
     figure = args.figure or args.output.with_name(args.output.stem + "_av_calibration.png")
+    distinct_outputs(("-o", args.output), ("--figure", figure),
+                     ("the figure's .rrd", None if args.no_rrd else figure.with_suffix(".rrd")))
+    output_file(args.output, "-o")
     output_file(figure, "--figure")
     if not args.no_rrd:
         output_file(figure.with_suffix(".rrd"), "the figure's .rrd (--no-rrd to skip it)")

@@ -15,7 +15,7 @@ from app.errors import UserError
 from app.sources.live import LiveSource, add_device_arguments, live_config
 from app.options import count, duration, positive
 from app.paths import output_dir
-from app.sources.recorder import record
+from app.sources.recorder import RecordStats, record
 from app.sources.recording import RecordingWriter
 from app.signals import stop_on_signals
 
@@ -70,10 +70,21 @@ def run(args: argparse.Namespace) -> int:
     for error in stats.errors:
         print(f"avhear: the recording ended early: {error}; kept {stats.frames} frames in {args.output}",
               file=sys.stderr)
+    return _status(stats, stop, args.output)
+
+
+def _status(stats: RecordStats, stop: threading.Event, folder: Path) -> int:
+    """130 when interrupted; else a recording without frames or without audio is an error (exit 2), with what was
+    kept left in place."""
     if getattr(stop, "signal", None) is not None:
-        print(f"avhear: interrupted; kept {stats.frames} frames in {args.output}", file=sys.stderr)
+        print(f"avhear: interrupted; kept {stats.frames} frames in {folder}", file=sys.stderr)
         return 130
-    return 0 if stats.frames else 2
+    missing = [what for what, n in (("no camera frames", stats.frames), ("no audio", stats.audio_blocks)) if not n]
+    if missing:
+        why = f": {stats.errors[0]}" if stats.errors else ""
+        raise UserError(f"the recording in {folder} has {' and '.join(missing)}{why}; check the devices and record "
+                        "again")
+    return 0
 
 
 def _record_bus(args: argparse.Namespace) -> int:
@@ -98,7 +109,4 @@ def _record_bus(args: argparse.Namespace) -> int:
             stats = record(source, writer, duration_s=args.duration, stop=stop)
     print(f"avhear: {stats.frames} frames and {stats.audio_blocks} audio blocks in {stats.duration_s:.1f} s "
           f"written to {args.output} ({source.gaps} gaps, {source.bad_payloads} payloads that did not decode)")
-    if getattr(stop, "signal", None) is not None:
-        print(f"avhear: interrupted; kept {stats.frames} frames in {args.output}", file=sys.stderr)
-        return 130
-    return 0 if stats.frames else 2
+    return _status(stats, stop, args.output)

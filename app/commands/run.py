@@ -15,9 +15,9 @@ from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_sess
 from app.console import Console, ConsoleFrame
 from app.errors import UserError
 from app.sources.live import LiveConfig, add_device_arguments, live_config
-from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_method_arguments,
+from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, MIN_SIMULATED_S, add_bodies_argument, add_method_arguments,
                          add_mics_argument, count, duration, pipeline_config, port, wants_bodies)
-from app.paths import output_file
+from app.paths import distinct_outputs, output_file
 from app.pipeline import FusionResult, Pipeline, PipelineConfig, PipelineStats
 from app.results import ResultsWriter
 from app.sources import open_source
@@ -107,15 +107,19 @@ def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
 
 def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) -> None:
     """Everything the run will write or reach, checked before the (possibly long) preparation and run."""
-    if spec.startswith("sim:") and args.duration is not None and args.duration > MAX_SIMULATED_S:
-        raise UserError(f"--duration {args.duration:g}: the simulated room runs at most {MAX_SIMULATED_S:g} s "
-                        "(it renders the whole scenario's audio in memory); for longer runs, repeat or use a recording")
+    if spec.startswith("sim:") and args.duration is not None and not (
+            MIN_SIMULATED_S <= args.duration <= MAX_SIMULATED_S):
+        raise UserError(f"--duration {args.duration:g}: the simulated room runs between {MIN_SIMULATED_S:g} and "
+                        f"{MAX_SIMULATED_S:g} s (it renders the whole scenario's audio in memory); for longer runs, "
+                        "repeat or use a recording")
     if args.bodies is not None and not spec.startswith("sim:"):
         flag = "--bodies" if args.bodies else "--no-bodies"
         raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")
     if args.mics != "pair" and not spec.startswith("sim:"):
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {spec} brings its own (one "
                         "pair from the rig file or the recording)")
+    distinct_outputs(("--save", target.save), ("--results-jsonl", args.results_jsonl),
+                     ("--stats-json", args.stats_json))
     if target.save is not None:
         output_file(target.save, "--save")
     if args.stats_json is not None:
@@ -233,6 +237,10 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
             signal.signal(signal.SIGTERM, previous)
     stats.interrupted = stats.interrupted or terminated.is_set()
     _report(spec, args, target, stats, source, sinks)
+    if spec == "bus" and not source.images_received and not stats.interrupted:
+        session.close(keep_serving=False)
+        raise UserError(f"no robot published on {', '.join(source.keys[:2])} during the run: start `avhear sensors` "
+                        "there (the same --bus-namespace), or name its camera keys with --left-key/--right-key")
     if stats.interrupted:
         print("avhear: interrupted", file=sys.stderr)
         session.close(keep_serving=False)

@@ -6,9 +6,12 @@ import threading
 import time
 from collections.abc import Iterator
 
+import numpy as np
+
 from app.config import require_live_rig
 from app.sources.contract import SourceBase
 from app.errors import UserError
+from app.options import MAX_SIMULATED_S, MIN_SIMULATED_S
 from app.events import AudioBlock, StereoFrame
 from app.sources.live import LiveConfig, LiveSource
 from app.sources.recording import open_recording
@@ -28,7 +31,8 @@ class StreamAdapter(SourceBase):
     are on one clock.
     """
 
-    def __init__(self, stream: ReplayStream, *, realtime: bool, channels: tuple[int, int] = (0, 1)) -> None:
+    def __init__(self, stream: ReplayStream, *, realtime: bool, channels: tuple[int, int] = (0, 1),
+                 duration_s: float | None = None) -> None:
         if stream.stereo is None:
             raise UserError("the source has no stereo calibration: add a 'stereo' section to its rig.yaml")
         self.stream = stream
@@ -43,6 +47,8 @@ class StreamAdapter(SourceBase):
             pair = self.array.pairs[0]
             self.channels = (self.array.channels[pair[0]], self.array.channels[pair[1]])
         self.realtime = realtime
+        # the stream ends after duration_s seconds of its own clock (everything stamped before start + duration)
+        self.end_s = np.inf if duration_s is None else stream.start_s + float(duration_s)
         self._start_s: float | None = None
         self._lock = threading.Lock()
 
@@ -70,13 +76,13 @@ class StreamAdapter(SourceBase):
 
     def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
         for frame in self.stream.frames(realtime=self.realtime, start_s=self._start()):
-            if stop.is_set():
+            if stop.is_set() or frame.stamp_s >= self.end_s:
                 return
             yield frame
 
     def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
         for block in self.stream.audio_blocks(realtime=self.realtime, start_s=self._start()):
-            if stop.is_set():
+            if stop.is_set() or block.stamp_s >= self.end_s:
                 return
             yield block
 
@@ -102,13 +108,17 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
         preset = arg or "S2"
         if preset not in PRESETS:
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
+        if duration_s is not None and not MIN_SIMULATED_S <= duration_s <= MAX_SIMULATED_S:
+            raise UserError(f"--duration {duration_s:g}: the simulated room runs between {MIN_SIMULATED_S:g} and "
+                            f"{MAX_SIMULATED_S:g} s")
         return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, mics=mics,
                                                    bodies=bodies, progress=progress), realtime=realtime)
     if kind == "replay":
         if not arg:
             raise UserError("give the recording folder: --source replay:recordings/NAME")
         rec = open_recording(arg)
-        return StreamAdapter(rec, realtime=realtime, channels=(rec.channels["left"], rec.channels["right"]))
+        return StreamAdapter(rec, realtime=realtime, channels=(rec.channels["left"], rec.channels["right"]),
+                             duration_s=duration_s)
     if kind == "live":
         if rig_path is None:
             raise UserError("a live run needs the rig calibration: --rig rig.yaml (avhear calibrate stereo makes one)")

@@ -3,6 +3,7 @@ room's cameras and microphones, `avhear run --source bus` runs the pipeline on t
 from __future__ import annotations
 
 import json
+import os
 import signal
 import socket
 import subprocess
@@ -12,6 +13,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from app.bus.messages import decode
 
@@ -200,3 +202,110 @@ def test_the_robots_microphone_array_reaches_the_laptop() -> None:
     finally:
         out, err = sensors.communicate(timeout=60)
     assert sensors.returncode == 0, err
+
+
+def _bus_recipe() -> list[list[str]]:
+    """The README's one-machine bus recipe, as written: the `avhear ...` lines of the block after its marker."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = text.split("<!-- the bus recipe", 1)[1].split("```bash", 1)[1].split("```", 1)[0]
+    lines = [line.split("#", 1)[0].split() for line in block.splitlines()]
+    return [words[1:] for words in lines if words and words[0] == "avhear"]
+
+
+def _router_on_7447():  # noqa: ANN202
+    """A router-mode Zenoh session on tcp/127.0.0.1:7447, as rmw_zenoh's `ros2 run rmw_zenoh_cpp rmw_zenohd`;
+    None when one is there already (the condition under test holds then too)."""
+    import zenoh
+
+    with socket.socket() as probe:
+        if probe.connect_ex(("127.0.0.1", 7447)) == 0:
+            return None
+    config = zenoh.Config()
+    config.insert_json5("mode", '"router"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", '["tcp/127.0.0.1:7447"]')
+    return zenoh.open(config)
+
+
+@pytest.mark.parametrize("order", ["robot first, subscriber last", "subscriber first, robot last, beside a router"])
+def test_the_readmes_bus_recipe_on_one_machine(order: str, tmp_path: Path) -> None:
+    """The README's `avhear sensors`, `avhear run --source bus --publish` and `avhear record --source bus` as typed,
+    with a third-party subscriber that connects to the rendezvous, on one machine in two orders, the second beside
+    a router-mode session on 7447. AVHEAR_BUS_PORT moves the rendezvous off 7448 so that a developer's own avhear
+    cannot interfere; the commands are the README's."""
+    import zenoh
+
+    sensors_args, run_args, record_args = _bus_recipe()
+    assert sensors_args[0] == "sensors" and run_args[:3] == ["run", "--source", "bus"] and record_args[0] == "record"
+    meet = _free_port()
+    env = dict(os.environ, AVHEAR_BUS_PORT=str(meet), PYTHONPATH=str(ROOT))
+    router = _router_on_7447() if "router" in order else None
+    received: list[bytes] = []
+    lock = threading.Lock()
+
+    def start(args: list[str]) -> subprocess.Popen:
+        return subprocess.Popen([sys.executable, "-m", "app", *args], stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env)
+
+    def subscriber():  # noqa: ANN202 - a program of the user's, as the README says to write it
+        config = zenoh.Config()
+        config.insert_json5("mode", '"peer"')
+        config.insert_json5("scouting/multicast/enabled", "false")
+        config.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{meet}"]))
+        session = zenoh.open(config)
+        session.declare_subscriber("avhear/results", lambda s: (lock.acquire(), received.append(
+            s.payload.to_bytes()), lock.release()))
+        return session
+
+    def count() -> int:
+        with lock:
+            return len(received)
+
+    procs: list[subprocess.Popen] = []
+    session = None
+    try:
+        if order.startswith("subscriber"):
+            session = subscriber()
+            procs += [start(run_args), start(sensors_args)]
+        else:
+            procs += [start(sensors_args), start(run_args)]
+        sensors, run = (procs[1], procs[0]) if order.startswith("subscriber") else (procs[0], procs[1])
+        if session is None:
+            session = subscriber()
+        _wait_for(lambda: count() > 30, 120, "30 results at the subscriber")
+        record = subprocess.run([sys.executable, "-m", "app", *record_args], capture_output=True, text=True,
+                                cwd=tmp_path, env=env, timeout=120)
+        assert record.returncode == 0, record.stderr
+        for proc in (run, sensors):
+            proc.send_signal(signal.SIGTERM)
+        outs = {name: proc.communicate(timeout=60) for name, proc in (("run", run), ("sensors", sensors))}
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+        if session is not None:
+            session.close()
+        if router is not None:
+            router.close()
+    for name, (_, err) in outs.items():
+        assert "Traceback" not in err and "in use" not in err, f"{name}: {err}"
+    assert run.returncode == 130, outs["run"][1]
+    from app.sources.recording import open_recording
+
+    rec = open_recording(tmp_path / record_args[record_args.index("-o") + 1])
+    assert rec.n_frames > 60 and rec.n_samples > 2 * 16000
+    results = [json.loads(p) for p in received]
+    assert any(p["speaking"] for r in results for p in r["people"])
+
+
+def test_a_run_on_the_bus_with_no_robot_is_an_error(tmp_path: Path, rig_file: Path) -> None:
+    """No robot ever publishes: no gap is counted (the robot was never there to go away), and the run exits 2
+    with one line naming the keys it listened to, instead of 0 with nothing."""
+    env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()))
+    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "bus", "--rig", str(rig_file),
+                           "--bus-namespace", "lab", "--duration", "2", "--headless"], capture_output=True,
+                          text=True, cwd=ROOT, env=env, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert "0 gaps" in done.stdout
+    assert "no robot published on lab/stereo/left/image_rect_color/compressed" in done.stderr
+    assert "Traceback" not in done.stderr

@@ -3,10 +3,26 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from app.cli import main
+from app.pipeline import FusionResult
+from app.results import result_record
+
+
+def _result(*, probability: list[float], speaking: list[bool], xyz: list[list[float]] | None = None,
+            itd_means: list[float] | None = None) -> FusionResult:
+    """A face-guided result of ``len(probability)`` people as the pipeline hands it to the sinks."""
+    n = len(probability)
+    output = SimpleNamespace(speaking=np.array(speaking), probability=np.array(probability),
+                             itd_means=np.array(itd_means if itd_means is not None else [0.0] * n))
+    return FusionResult(stamp_s=1.0, index=30, image=np.zeros((4, 4, 3), np.uint8),
+                        boxes=np.tile([10, 20, 30, 30], (n, 1)),
+                        xyz=np.array(xyz if xyz is not None else [[0.0, 0.0, 2.0]] * n), itds_s=np.zeros(0),
+                        output=output, latency_s=float("nan"), person_ids=np.arange(n))
 
 
 def _lines(path: Path) -> list[dict]:
@@ -65,3 +81,14 @@ def test_a_recording_gives_the_same_results_in_real_time_and_as_fast_as_possible
     assert len(states["fast"]) == 40  # 4 s at 10 FPS
     assert any(s for _, people in states["fast"] for _, s in people)
     assert states["realtime"] == states["fast"]
+
+
+@pytest.mark.parametrize(("probability", "speaking"), [(0.50003, True), (0.5, True), (0.50007, False),
+                                                        (0.49996, False), (0.99999, True), (0.0, False)])
+def test_the_written_probability_is_above_one_half_exactly_when_speaking(probability: float, speaking: bool) -> None:
+    """Rounding to 4 decimals must not break the schema's promise (0.50003 would be written as 0.5)."""
+    result = _result(probability=[probability], speaking=[speaking])
+    person = result_record(result)["people"][0]
+    assert person["speaking"] is speaking
+    assert (person["probability"] > 0.5) == speaking
+    assert person["probability"] == pytest.approx(probability, abs=2e-4)
