@@ -41,7 +41,19 @@ def build_parser() -> argparse.ArgumentParser:
     sub.required = True
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_parser(sub)
+    _every_command(parser)
     return parser
+
+
+def _every_command(parser: argparse.ArgumentParser) -> None:
+    """Each (sub-)command's parser takes ``-v`` too, and knows itself (``_parser``: its own usage for a mistake)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for command in set(action.choices.values()):
+                command.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
+                                     help="more log output (-vv for debug)")
+                command.set_defaults(_parser=command)
+                _every_command(command)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -69,7 +81,9 @@ def _interrupt(signum: int, _frame: object) -> None:
 
 def _main(argv: Sequence[str] | None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, unknown = parser.parse_known_args(argv)
+    if unknown:  # said by the command's own parser, with its usage, not the top level's
+        getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(unknown)}")
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
     try:

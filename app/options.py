@@ -6,8 +6,8 @@ import argparse
 import math
 from collections.abc import Callable
 
-__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "MIN_SIMULATED_S", "add_method_arguments", "count", "duration", "pipeline_config",
-           "port", "positive", "wants_bodies"]
+__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "MIN_SIMULATED_S", "add_method_arguments", "count", "duration",
+           "odd_count", "pipeline_config", "port", "positive", "wants_bodies"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
@@ -52,6 +52,19 @@ def count(minimum: int = 0, maximum: int | None = None) -> Callable[[str], int]:
 port = count(1, 65535)
 
 
+def odd_count(minimum: int, maximum: int) -> Callable[[str], int]:
+    """An odd integer in [minimum, maximum]."""
+    within = count(minimum, maximum)
+
+    def parse(text: str) -> int:
+        value = within(text)
+        if value % 2 == 0:
+            raise argparse.ArgumentTypeError(f"expected an odd number (a vote centred on each result), got {text!r}")
+        return value
+    parse.__name__ = "odd number"
+    return parse
+
+
 def add_method_arguments(p: argparse.ArgumentParser) -> None:
     """The pipeline's method options, the same for ``run``, ``demo`` and ``eval scenarios``
     (:func:`pipeline_config` reads them)."""
@@ -70,7 +83,7 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                    help="face-guided with gcc-phat-robust: the speaking test also looks at the single 32 ms "
                         "frames' ITDs, where a talker masked by a louder one in every 150 ms window still wins "
                         "some frames (default); --no-frame-itds decides on the windows' ITDs alone")
-    p.add_argument("--vote-frames", type=count(1, 99), default=9, metavar="N",
+    p.add_argument("--vote-frames", type=odd_count(1, 99), default=9, metavar="N",
                    help="face-guided: each person's speaking state is the majority over N consecutive results "
                         "centred on it (odd; default 9, 0.3 s at 30 FPS); 1: each frame decides alone")
 

@@ -58,7 +58,7 @@ class BusSource(SourceBase):
         self._n_channels: int | None = None
         self.channels: tuple[int, int] = (0, 1)
         if rig is None:
-            rig, self._samplerate, self.channels = self._ask_rig(prefix + RIG_KEY, rig_timeout_s)
+            rig, self._samplerate, self.channels = self._ask_rig(prefix + RIG_KEY, rig_timeout_s, ns)
         if rig.stereo is None or (rig.microphones is None and rig.array is None):
             raise UserError("the rig needs a 'stereo' section and a 'microphones' or 'array' section (give --rig "
                             "with both)")
@@ -79,7 +79,7 @@ class BusSource(SourceBase):
             session.declare_subscriber(self.keys[2], self._on_audio),
         ]
 
-    def _ask_rig(self, key: str, timeout_s: float) -> tuple[RigConfig, float, tuple[int, int]]:
+    def _ask_rig(self, key: str, timeout_s: float, namespace: str) -> tuple[RigConfig, float, tuple[int, int]]:
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             for reply in self.session.get(key, timeout=1.0):
@@ -92,8 +92,10 @@ class BusSource(SourceBase):
                 except (ValueError, KeyError, TypeError) as exc:
                     raise UserError(f"the robot's rig on {key} does not read: {exc}") from None
             time.sleep(0.2)
-        raise UserError(f"no robot answered on {key} within {timeout_s:g} s: start `avhear sensors` there (and "
-                        "reach it with --bus-connect), or give its rig with --rig")
+        where = (f"in the namespace {namespace!r} (does the robot run with --bus-namespace {namespace}?)" if namespace
+                 else "without a namespace (does the robot run with a --bus-namespace?)")
+        raise UserError(f"no robot answered on {key} within {timeout_s:g} s {where}: start `avhear sensors` there "
+                        "(on another machine, reach it with --bus-connect), or give its rig with --rig")
 
     # -- Zenoh's threads: decode and hand over ---------------------------------------------------------------
 

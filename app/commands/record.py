@@ -32,7 +32,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "with --source bus, the robot's unless given")
     p.add_argument("--fps", type=functools.partial(positive, maximum=240.0), default=30.0,
                    help="frames per second asked of the cameras (default 30)")
-    p.add_argument("--samplerate", type=count(8000, 192000), default=16000)
+    p.add_argument("--samplerate", type=count(8000, 192000), default=16000, metavar="HZ",
+                   help="audio sample rate asked of the microphone, Hz (default 16000, the method's)")
     p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS", help="stop after this long")
     p.add_argument("--video", choices=("avi", "png"), default="avi", help="MJPG video or PNG image sequences")
     p.add_argument("--force", action="store_true", help="replace a recording already in the folder")

@@ -63,7 +63,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     _common(demo, duration_help=f"seconds of the simulated room to run (default 20, at most {MAX_SIMULATED_S:g})",
             max_duration_s=MAX_SIMULATED_S)
     demo.set_defaults(func=run_demo, duration=20.0)
-    run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER or live")
+    run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER, live or bus",
+                         description="Runs the pipeline (who is there, where, who speaks) on a source: the simulated "
+                         "room (sim:S1..S5), a recording folder (replay:FOLDER), cameras and a microphone (live, "
+                         "with --rig), or a robot's sensors on the bus (bus). Results go to the Rerun console, a "
+                         "results file (--results-jsonl) and the bus (--publish). Ctrl-C stops and keeps "
+                         "everything.")
     run.add_argument("--source", default="sim:S2",
                      help="sim:S1..S5|calibration, replay:FOLDER, live, or bus (a robot's `avhear sensors`)")
     run.add_argument("--left-key", default=None, metavar="KEY",

@@ -211,6 +211,7 @@ class ViewerSession:
                                 f"connection within {FLUSH_TIMEOUT_S:.0f} s; restart it, or use --save FILE.rrd")
         elif target.serve:
             rec.connect_grpc(self._start_server(), default_blueprint=blueprint)
+            print(f"avhear: the web viewer is at {self.web_url}", file=sys.stderr, flush=True)
         else:
             rec.spawn(default_blueprint=blueprint)
         self.recording = rec
@@ -268,8 +269,8 @@ class ViewerSession:
         if self.recording is not None:
             flushed = _bounded(lambda: self.recording.flush(timeout_sec=FLUSH_TIMEOUT_S), FLUSH_TIMEOUT_S + 1)
             if self.server is not None and keep_serving:
-                print(f"avhear: the web viewer is at {self.web_url} ... Ctrl-C stops it", file=sys.stderr,
-                      flush=True)
+                print(f"avhear: the run has ended; the web viewer stays at {self.web_url} ... Ctrl-C stops it",
+                      file=sys.stderr, flush=True)
                 try:
                     while self.server.poll() is None:
                         time.sleep(0.5)

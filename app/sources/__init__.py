@@ -124,4 +124,4 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
             raise UserError("a live run needs the rig calibration: --rig rig.yaml (avhear calibrate stereo makes one)")
         rig = require_live_rig(rig_path)
         return LiveSource(live or LiveConfig(), rig.stereo, rig.microphones, rig.array)
-    raise UserError(f"unknown source {spec!r}: use sim:S2, replay:FOLDER or live")
+    raise UserError(f"unknown source {spec!r}: use sim:S2, replay:FOLDER, live or bus")

@@ -336,6 +336,9 @@ class Recording(ReplayStream):
     def __init__(self, folder: str | Path, *, block_size: int = 512) -> None:
         super().__init__()
         self.folder = Path(folder)
+        if self.folder.is_file():
+            raise RecordingError(f"{self.folder} is a file: a recording is a folder (frames.csv, audio.wav, rig.yaml "
+                                 "and the images); give the folder that holds them (recordings/FORMAT.md)")
         if not self.folder.is_dir():
             raise RecordingError(f"{self.folder}: no such recording folder; record one with `avhear simulate S2 -o "
                                  f"{self.folder}` or see recordings/FORMAT.md")

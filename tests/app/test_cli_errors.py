@@ -2,6 +2,7 @@
 done (or half done) before the mistake is found. Each case is one that used to crash or hang."""
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import threading
@@ -213,3 +214,86 @@ def test_a_bad_method_combination_is_refused_before_the_preparation(capsys: pyte
     assert main(["demo", "--vote-frames", "4", "--headless"]) == 2
     err = capsys.readouterr().err
     assert "vote_frames must be an odd number" in err and "preparing" not in err
+
+
+@pytest.mark.parametrize("argv", [
+    ["demo", "--duration", "2", "--fast", "--save", "{d}/x.out", "--results-jsonl", "{d}/x.out"],
+    ["run", "--source", "sim:S1", "--headless", "--stats-json", "{d}/s.json", "--results-jsonl", "{d}/./s.json"],
+    ["calibrate", "stereo", "--left", "{d}/l*.png", "--right", "{d}/r*.png", "--pattern", "9x6", "--square", "0.025",
+     "-o", "{d}/rig.yaml", "--corners-image", "{d}/rig.yaml"],
+])
+def test_two_outputs_of_one_run_never_share_a_path(argv: list[str], tmp_path: Path,
+                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([a.format(d=tmp_path) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert "each output of a run needs its own path" in err and "Traceback" not in err
+    assert not list(tmp_path.iterdir())  # refused before anything was written
+
+
+@pytest.mark.parametrize("command", [["run", "--source", "sim:S2", "--headless"], ["demo", "--headless"],
+                                     ["sensors", "--source", "sim:S2"]])
+def test_a_simulated_room_shorter_than_a_second_is_one_line(command: list[str],
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([*command, "--duration", "0.5"]) == 2
+    err = capsys.readouterr().err
+    assert "--duration 0.5: the simulated room runs between 1 and" in err and "Traceback" not in err
+
+
+def test_a_rig_file_that_is_not_utf8_is_one_line(tmp_path: Path, rig_file: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    latin1 = tmp_path / "latin1.yaml"
+    latin1.write_bytes("# calibré au labo\n".encode("latin-1") + rig_file.read_bytes())
+    (tmp_path / "rec").mkdir()
+    assert main(["calibrate", "av", str(tmp_path / "rec"), "--rig", str(latin1), "-o", str(tmp_path / "o.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert "is not UTF-8 text" in err and "save it as UTF-8" in err and "Traceback" not in err
+
+
+def test_serve_prints_the_viewers_address_before_the_run(tmp_path: Path) -> None:
+    """Without a terminal the run ends with the data; the address was printed when the viewer started, so that a
+    person (or a script) can open it while the run goes on."""
+    grpc, web = _free_port(), _free_port()
+    done = _cli("demo", "--serve", "--duration", "2", "--fast", "--grpc-port", str(grpc), "--web-port", str(web))
+    assert done.returncode == 0, done.stderr
+    address = f"the web viewer is at http://127.0.0.1:{web}/"
+    assert address in done.stderr
+    assert done.stderr.index(address) < done.stderr.index("running sim:S2")
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["run", "--source", "foo", "--headless"], "use sim:S2, replay:FOLDER, live or bus"),
+    (["run", "--vote-frames", "4"], "argument --vote-frames: expected an odd number"),
+    (["run", "--source", "replay:README.md", "--headless"], "README.md is a file: a recording is a folder"),
+    (["run", "--no-such-option"], "usage: avhear run"),
+    (["calibrate", "stereo", "--no-such-option"], "usage: avhear calibrate stereo"),
+])
+def test_messages_name_what_was_wrong(argv: list[str], said: str) -> None:
+    done = _cli(*argv, timeout_s=60)
+    assert done.returncode == 2
+    assert said in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_wrong_namespace_is_named(tmp_path: Path) -> None:
+    env_port = str(_free_port())
+    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "bus", "--bus-namespace", "labo",
+                           "--headless"], capture_output=True, text=True, cwd=ROOT, timeout=120,
+                          env={**os.environ, "AVHEAR_BUS_PORT": env_port})
+    assert done.returncode == 2
+    assert "in the namespace 'labo' (does the robot run with --bus-namespace labo?)" in done.stderr
+
+
+def test_verbose_after_the_command_and_every_command_described() -> None:
+    from app.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_known_args(["run", "-vv"])[0].verbose == 2
+    assert parser.parse_known_args(["-v", "run"])[0].verbose == 1
+    assert "Runs the pipeline" in _cli("run", "--help", timeout_s=60).stdout
+    assert "audio sample rate" in _cli("record", "--help", timeout_s=60).stdout
+
+
+def test_cannot_assign_is_not_called_in_use(capsys: pytest.CaptureFixture[str]) -> None:
+    """An address this machine does not have is not 'in use': the hint says what --bus-listen takes."""
+    assert main(["run", "--source", "bus", "--bus-listen", "tcp/192.0.2.7:7448", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "is not an address of this machine" in err and "in use" not in err

@@ -133,3 +133,23 @@ def test_the_simulated_people_have_bodies_unless_told_otherwise(argv: list[str],
     monkeypatch.setattr(run_command, "open_source", stop)
     assert main([*argv, "--headless"]) == 2
     assert asked["bodies"] is bodies
+
+
+def test_a_simulated_run_in_real_time_stamps_from_zero(tmp_path: Path) -> None:
+    """`stamp_s` is on the source's clock: the simulator's starts at 0 whether paced in real time or not (it was
+    the machine's uptime in real time)."""
+    out = tmp_path / "r.jsonl"
+    assert main(["run", "--source", "sim:S1", "--duration", "1.5", "--headless", "--results-jsonl", str(out)]) == 0
+    stamps = [json.loads(line)["stamp_s"] for line in out.read_text().splitlines()]
+    assert stamps and 0.0 <= stamps[0] < 0.2 and stamps[-1] < 1.5
+    latencies = [json.loads(line)["latency_s"] for line in out.read_text().splitlines()]
+    assert all(lat is not None and 0.0 < lat < 5.0 for lat in latencies)  # measured on the same clock
+
+
+def test_a_replay_stops_after_its_duration(tmp_path: Path) -> None:
+    folder, out = tmp_path / "s1", tmp_path / "r.jsonl"
+    assert main(["simulate", "S1", "-o", str(folder), "--duration", "4", "--fps", "10"]) == 0
+    assert main(["run", "--source", f"replay:{folder}", "--duration", "1.5", "--fast", "--headless",
+                 "--results-jsonl", str(out)]) == 0
+    stamps = [json.loads(line)["stamp_s"] for line in out.read_text().splitlines()]
+    assert stamps and max(stamps) < 1.5 and len(stamps) >= 12  # 1.5 s of the 4 s, at 10 FPS
