@@ -91,12 +91,16 @@ def evaluate_sequence(
     mics, totals, seeds = _start(name, mics, seeds)
     for seed in seeds:
         hearing = MotionGuidedHearing(mics, params)
+        this_seed = EvalTotals()  # the progress line is this seed's; the table sums the seeds
         for interval in generate_sequence(name, seed=seed, mics=mics, config=config):
             out = hearing.step(interval.points, interval.itds)
-            totals.add(match_clusters(out.positions, interval.truth_xyz, detected_speaking=out.speaking,
-                                      truth_speaking=interval.truth_speaking))
+            match = match_clusters(out.positions, interval.truth_xyz, detected_speaking=out.speaking,
+                                   truth_speaking=interval.truth_speaking)
+            totals.add(match)
+            this_seed.add(match)
         if progress is not None:
-            progress(f"{name} seed {seed} ({variant or 'custom'}): TP {totals.tp}/{totals.n_truth}")
+            progress(f"{name} seed {seed} ({variant or 'custom'}): TP {this_seed.tp}/{this_seed.n_truth} "
+                     f"(all seeds so far: {totals.tp}/{totals.n_truth})")
     return SequenceScore(name, variant, seeds, totals)
 
 

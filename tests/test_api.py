@@ -18,3 +18,21 @@ def test_results_iterate_in_order_and_stop_when_the_loop_ends() -> None:
     it.close()  # leaving early stops the pipeline's threads
     assert first.index == 0
     assert not [t for t in threading.enumerate() if t.name.startswith("avhear-")]
+
+
+def test_a_script_beside_the_clone_imports_the_package(tmp_path) -> None:  # noqa: ANN001
+    """A clone in ~/avhear and a script run from ~: `import avhear` finds the clone's folder before the installed
+    package; it must still be the package (it was an empty namespace package: "module 'avhear' has no attribute
+    'results'")."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    (tmp_path / "avhear").symlink_to(root, target_is_directory=True)
+    script = "import avhear; print(avhear.__file__); print(next(avhear.results('sim:S1', duration_s=1.0)).stamp_s)"
+    done = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    where, stamp = done.stdout.split()
+    assert where == str(tmp_path / "avhear" / "__init__.py")  # the clone's folder was the one found
+    assert 0.0 <= float(stamp) < 1.0

@@ -152,12 +152,12 @@ def run_scenarios(args: argparse.Namespace) -> int:
             score = evaluate_scenario(name, seed, duration_s=args.duration, config=config,
                                       mics=calibration.mics if calibration else None, mic_array=args.mics,
                                       bodies=wants_bodies(args))
-            c = score.counts
-            _progress(f"{name} seed {seed}: TP {c.tp}, FN {c.fn}, FP {c.fp} ({time.perf_counter() - t0:.0f} s)")
+            u = score.utterances  # the table's first unit
+            _progress(f"{name} seed {seed}: per spoken number TP {u.tp}, FN {u.fn}, FP {u.fp} "
+                      f"({time.perf_counter() - t0:.0f} s)")
             if args.timeline is not None and score.timeline is not None:
                 from app.eval.figure import save_timeline
 
-                u = score.utterances
                 path = args.timeline / f"{name}_seed{seed}.png"
                 save_timeline(score.timeline, path, f"{name} seed {seed}, {config.inference}-guided, per spoken "
                               f"number: TP {u.tp}, FN {u.fn}, FP {u.fp}")

@@ -40,3 +40,22 @@ def test_c0_never_prints_as_minus_zero(value: float, text: str) -> None:
     from app.eval.tables import signed_us
 
     assert signed_us(value) == text
+
+
+def test_eval_synthetic_progress_is_each_seeds_own(capsys: pytest.CaptureFixture[str]) -> None:
+    """A progress line counts its own seed (the sum so far is said as such), so that its numbers are not mistaken
+    for a seed's."""
+    assert main(["eval", "synthetic", "--sequence", "StaCon", "--seed", "0", "1", "--variant", "avhear",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    (row,) = out["results"]
+    single = json.loads(_json_of(["eval", "synthetic", "--sequence", "StaCon", "--seed", "1", "--variant", "avhear",
+                                  "--json"], capsys))["results"][0]
+    assert main(["eval", "synthetic", "--sequence", "StaCon", "--seed", "0", "1", "--variant", "avhear"]) == 0
+    err = capsys.readouterr().err
+    assert f"StaCon seed 1 (avhear): TP {single['tp']}/408 (all seeds so far: {row['tp']}/816)" in err
+
+
+def _json_of(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    assert main(argv) == 0
+    return capsys.readouterr().out

@@ -322,3 +322,4 @@ def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.M
         with pytest.raises(SystemExit):
             main(["eval", "scenarios", "--scenario", "S1", "--no-calibrate", *argv])
         assert asked[-1] is bodies
+    assert (f"S2 seed 0: per spoken number TP {u['tp']}, FN {u['fn']}, FP {u['fp']} ") in captured.err  # as the table
