@@ -249,9 +249,7 @@ class MotionGuidedHearing:
         # (d) BIC (eq. criteria) from the log-likelihood of eq. (log-like) over both modalities, 1/s densities
         ll = log_likelihoods(data.x_us, data.stats[:, 0], fused, u)
         ll += log_likelihoods(a_us, np.ones(a_us.size), fused, u) + n_obs * np.log(US)
-        # bic_score for N = 0..n_max at once (the same arithmetic)
-        penalty = 1.5 * np.arange(1, p.n_max + 1) * np.log(n_obs) if n_obs > 0 else 0.0
-        bic = np.append(bic_score(ll0, 0, n_obs), ll - penalty)
+        bic = bic_score(np.append(ll0, ll), np.arange(p.n_max + 1), n_obs)
         return inits, vis, fused, bic
 
     def step(self, points_xyz: object, itds_s: object) -> MotionGuidedOutput:

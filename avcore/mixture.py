@@ -396,11 +396,14 @@ def fit_fusion_em(
     return FusionResult(model, model.responsibilities(a), ll, int(n_iter[0]), bool(conv[0]), objective)
 
 
-def bic_score(log_likelihood: float, n_components: int, n_observations: int) -> float:
-    """BIC of eq. (criteria): L - D_N log(M + K) / 2 with D_N = 3 N free parameters."""
-    if n_observations <= 0:
-        return float(log_likelihood)
-    return float(log_likelihood) - 1.5 * n_components * np.log(n_observations)
+def bic_score(log_likelihood: float | np.ndarray, n_components: int | np.ndarray,
+              n_observations: int) -> float | np.ndarray:
+    """BIC of eq. (criteria): L - D_N log(M + K) / 2 with D_N = 3 N free parameters (a mean, a variance and a
+    weight per person). Arrays of log-likelihoods and N score every candidate at once (Algorithm 1's step (d))."""
+    ll = np.asarray(log_likelihood, dtype=np.float64)
+    penalty = 1.5 * np.asarray(n_components, dtype=np.float64) * np.log(n_observations) if n_observations > 0 else 0.0
+    score = ll - penalty
+    return float(score) if score.ndim == 0 else score
 
 
 # ----------------------------------------------------------------------------------------------------------------

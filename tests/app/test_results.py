@@ -92,3 +92,34 @@ def test_the_written_probability_is_above_one_half_exactly_when_speaking(probabi
     assert person["speaking"] is speaking
     assert (person["probability"] > 0.5) == speaking
     assert person["probability"] == pytest.approx(probability, abs=2e-4)
+
+
+def test_the_results_file_says_where_the_people_are(tmp_path: Path) -> None:
+    """The written values against the simulated room's truth: each person's position is the nearest true face's
+    (x > 0 is to the right), and a speaking person's `itd_mean_s` has the sign and size of the delay between the
+    microphones at their true place, computed here from the distances to the pair (-6 cm and +6 cm on x, the
+    default pair) and the speed of sound: positive when the sound reaches the right microphone first."""
+    from app.sources.sim import SimSource
+
+    out = tmp_path / "r.jsonl"
+    assert main(["demo", "--scenario", "S2", "--duration", "4", "--fast", "--headless", "--results-jsonl",
+                 str(out)]) == 0
+    room = SimSource.from_preset("S2", duration_s=4.0, seed=0)
+    left, right = np.array([-0.06, 0.0, 0.0]), np.array([0.06, 0.0, 0.0])
+    placed = itds = 0
+    for row in _lines(out):
+        truth = room.truth(row["index"])
+        for person in row["people"]:
+            p = np.array(person["position_m"])
+            d = np.linalg.norm(truth.positions_m - p, axis=1)
+            nearest = truth.positions_m[int(np.argmin(d))]
+            assert d.min() < 0.15, (row["index"], p, truth.positions_m)
+            if abs(nearest[0]) > 0.2:  # someone clearly to one side (S2's middle person sits at x = 0)
+                assert np.sign(p[0]) == np.sign(nearest[0])
+            placed += 1
+            if person["speaking"] and person["itd_mean_s"] is not None:
+                delay = (np.linalg.norm(nearest - left) - np.linalg.norm(nearest - right)) / 343.0
+                assert person["itd_mean_s"] == pytest.approx(delay, abs=60e-6), (row["index"], nearest)
+                itds += 1
+    sides = {np.sign(x) for x in room.truth(0).positions_m[:, 0]}
+    assert placed > 200 and itds > 20 and sides >= {-1.0, 1.0}  # people on both sides, and talkers heard

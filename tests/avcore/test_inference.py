@@ -283,3 +283,29 @@ def test_motion_guided_with_two_pairs_tells_a_talker_behind_from_a_person_in_fro
     np.testing.assert_allclose(both.positions, one.positions)
     left = int(np.argmin(one.positions[:, 0]))
     assert one.speaking[left] and not both.speaking.any()
+
+
+@pytest.mark.parametrize("params", [MotionGuidedParams(), MotionGuidedParams.paper()], ids=["avhear", "paper"])
+def test_algorithm_1_selects_n_by_the_papers_bic(params: MotionGuidedParams, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Eq. (criteria): BIC_N = L_N - D_N log(M + K) / 2 with D_N = 3 N. The log-likelihoods the algorithm scores are
+    taken where it scores them; its BIC and its choice of N must be that formula's, written out here (a penalty of
+    1.0 or 3.0 instead of 1.5 changes the chosen N on these intervals)."""
+    import avcore.inference as inference
+
+    seen: list[tuple[np.ndarray, np.ndarray, int]] = []
+    real = inference.bic_score
+
+    def spy(ll, n, m):  # noqa: ANN001, ANN202
+        seen.append((np.array(ll, dtype=float), np.array(n), int(m)))
+        return real(ll, n, m)
+
+    monkeypatch.setattr(inference, "bic_score", spy)
+    for seed in (1, 3):
+        pts, itds = _interval(np.random.default_rng(seed), n_per=150)
+        out = MotionGuidedHearing(MICS, params).step(pts, itds)
+        ll, n, m = seen[-1]
+        assert m == pts.shape[0] + itds.size  # M + K: every point and every ITD of the interval
+        np.testing.assert_array_equal(n, np.arange(params.n_max + 1))
+        expected = ll - 3 * n * np.log(pts.shape[0] + itds.size) / 2
+        np.testing.assert_allclose(out.bic, expected, rtol=0, atol=1e-9)
+        assert out.n_selected == int(np.argmax(expected))

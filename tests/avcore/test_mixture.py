@@ -109,6 +109,9 @@ def test_bic_picks_the_true_number_on_separated_mixtures() -> None:
 def test_bic_formula() -> None:
     assert bic_score(-100.0, 2, 1000) == pytest.approx(-100.0 - 6 * np.log(1000) / 2)
     assert bic_score(-5.0, 0, 0) == -5.0
+    # every candidate N at once, as Algorithm 1 scores them
+    np.testing.assert_allclose(bic_score(np.array([-10.0, -8.0, -7.0]), np.arange(3), 100),
+                               [-10.0, -8.0 - 1.5 * np.log(100), -7.0 - 3.0 * np.log(100)])
 
 
 @pytest.mark.filterwarnings("ignore:EM did not converge")

@@ -198,3 +198,24 @@ def test_the_pairs_test_with_one_pair_is_the_one_pair_test() -> None:
             s2, p2, t2 = test.decide_pairs(beta, a[:, None], means[:, None], var[:, None], np.array([[-4e-4, 4e-4]]),
                                            None, frames[:, None], bands[:, None])
             assert np.array_equal(s1, s2) and np.allclose(p1, p2, atol=1e-12) and t1 == t2
+
+
+@pytest.mark.parametrize("n_itds", [50, 400])
+def test_the_outlier_aware_threshold_either_side(n_itds: int) -> None:
+    """One person at 0 with sigma 20 us: the window is +-40 us, 8 % of the +-500 us support. If a fifth of the K
+    ITDs strayed uniformly, the window would hold Poisson(lam = 0.2 K 0.08) of them; the person speaks when the
+    count exceeds that Poisson's 90 % quantile (scipy's, an independent reference) and is at least 2. Counts just
+    at and just below the threshold decide both ways (a threshold scaled by 1.5 flips the first)."""
+    test = SpeakingTest(frame_rescue=False)
+    model = Mixture1D(np.array([0.5, 0.5]), np.array([0.0]), np.array([(20e-6) ** 2]), (-500e-6, 500e-6))
+    lam = 0.2 * n_itds * (80e-6 / 1000e-6)
+    threshold = max(int(stats.poisson.ppf(0.9, lam)) + 1, 2)
+    assert threshold == (3 if n_itds == 50 else 11)  # the two regimes: min_itds-bound and quantile-bound
+    for count, speaks in ((threshold, True), (threshold - 1, False)):
+        inside = np.linspace(-30e-6, 30e-6, count)
+        outside = np.full(n_itds - count, 400e-6)  # nobody's: far from the person
+        itds = np.concatenate([inside, outside])
+        beta = (np.abs(itds) < 100e-6).astype(float)[:, None]  # the person's posterior: 1 inside, 0 outside
+        speaking, probability, _ = test.decide(beta, itds, model)
+        assert bool(speaking[0]) is speaks, (count, threshold)
+        assert bool(probability[0] > 0.5) is speaks
