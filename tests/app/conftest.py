@@ -45,7 +45,7 @@ def make_video() -> Callable[..., Path]:
 
 class FakeInputStream:
     """Stands in for sounddevice.InputStream: calls the callback from its own thread, like PortAudio, with block
-    k filled with the value k; block 5 reports an input overflow."""
+    k filled with the value k / 1000 (distinct after 16-bit PCM); block 5 reports an input overflow."""
 
     n_blocks = 20
 
@@ -70,7 +70,7 @@ class FakeInputStream:
         for k in range(self.n_blocks):
             if self._stop.is_set():
                 return
-            data = np.full((self.blocksize, self.channels), k, np.float32)
+            data = np.full((self.blocksize, self.channels), k / 1000, np.float32)
             info = types.SimpleNamespace(currentTime=t, inputBufferAdcTime=t)
             status = types.SimpleNamespace(input_overflow=(k == 5))
             self.callback(data, self.blocksize, info, status)

@@ -88,7 +88,16 @@ def test_publish_between_two_processes() -> None:
              "--bus-namespace", "lab", "--bus-connect", f"tcp/127.0.0.1:{port}",
              "--bus-listen", f"tcp/127.0.0.1:{_free_port()}"],
             capture_output=True, text=True, cwd=ROOT, timeout=120)
-        time.sleep(0.5)  # the last samples in flight
+
+        def arrived(key: str) -> int:
+            with lock:
+                return len(received.get(key, []))
+
+        # the last samples may still be in flight when the process ends: wait for them, not for a set time
+        deadline = time.monotonic() + 30.0
+        while min(arrived(f"lab/{k}") for k in ("avhear/results", "humans/voices/tracked", "tf")) < 60:
+            assert time.monotonic() < deadline, {k: len(v) for k, v in received.items()}
+            time.sleep(0.02)
     assert done.returncode == 0, done.stderr
     assert "60 results published on the bus (0 dropped" in done.stdout
     with lock:

@@ -102,7 +102,11 @@ def test_sensors_to_run_to_a_subscriber_and_the_robot_coming_back() -> None:
             for proc in (first, second, run):
                 if proc is not None and proc.poll() is None:
                     proc.kill()
-        time.sleep(0.3)
+
+        def both_arrived() -> bool:  # each result is published with its voices: wait for the last ones in flight
+            with lock:
+                return len(voices) == len(received)
+        _wait_for(both_arrived, 30, "the last results and their voices")
     assert run.returncode == 130, err  # stopped by SIGTERM, after its summary
     assert "Traceback" not in err
     assert "the robot's sensors are back" in err
@@ -136,12 +140,15 @@ def test_an_undecodable_payload_is_counted_and_skipped(tmp_path: Path) -> None:
         config.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
         with zenoh.open(config) as laptop:
             source = BusSource(laptop, rig=rig)
-            time.sleep(0.5)  # the subscriptions reach the robot's session
+            left, right = robot.declare_publisher(LEFT_KEY), robot.declare_publisher(RIGHT_KEY)
+            # the laptop's subscriptions have reached the robot's session: its publishers have a match
+            _wait_for(lambda: left.matching_status.matching and right.matching_status.matching, 30,
+                      "the laptop's subscriptions")
             image = np.full((48, 64, 3), 90, np.uint8)
-            robot.put(LEFT_KEY, b"\x00\x01\x00\x00garbage")
+            left.put(b"\x00\x01\x00\x00garbage")
             for k in range(3):
-                robot.put(LEFT_KEY, image_message(image, 1.0 + k / 30, "l"))
-                robot.put(RIGHT_KEY, image_message(image, 1.0 + k / 30, "r"))
+                left.put(image_message(image, 1.0 + k / 30, "l"))
+                right.put(image_message(image, 1.0 + k / 30, "r"))
             stop = threading.Event()
             frames = []
             threading.Timer(2.0, stop.set).start()

@@ -598,7 +598,6 @@ def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict
 
 
 def test_blueprint_views_look_at_what_the_console_logs(recorded: dict, recorded_pairs: dict, tmp_path: Path) -> None:
-    assert default_blueprint() is not None
     path = save_default_blueprint(tmp_path / "console.rbl")
     origins = _origins(path)
     assert {"scene/cameras/left", "birdseye", "itd", "itd/bars", "itd_pairs", "people", "scene", "counts",

@@ -198,6 +198,7 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
     said = [e for e in make_scenario("S2", clip_durations_s=bank.durations_s, duration_s=4.0, seed=0).events
             if e.kind == "speech"]
     assert len(said) >= 3 and u["tp"] + u["fn"] == len(said)
+    assert f"S2 seed 0: per spoken number TP {u['tp']}, FN {u['fn']}, FP {u['fp']} " in captured.err  # as the table
     assert 0.0 <= row["frames_all_faces_found"] <= 1.0 and row["f3d_median_error_m"] < 0.1
     assert row["itd_windows_one_talker"] > 0 and 0.0 <= row["itd_accuracy_40us"] <= 1.0
     assert out["paper"]["S2"] == PAPER_SCENARIOS["S2"] == {"fp": 22, "fn": 31, "tp": 176}
@@ -241,8 +242,9 @@ def test_eval_scenarios_bad_arguments(capsys: pytest.CaptureFixture[str]) -> Non
         assert stop.value.code == 2 and f"argument {option}" in capsys.readouterr().err
     assert main(["eval", "scenarios", "--duration", "0.5"]) == 2
     assert "--duration" in capsys.readouterr().err
-    assert main(["eval", "scenarios", "--vote-frames", "4"]) == 2
-    assert "vote_frames must be an odd number" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["eval", "scenarios", "--vote-frames", "4"])
+    assert "argument --vote-frames: expected an odd number" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["eval", "scenarios", "--scenario", "S9"])
     assert "invalid choice" in capsys.readouterr().err
@@ -282,30 +284,29 @@ def test_motion_guided_results_are_matched_to_the_positions_given(people_result:
 
 
 def test_evaluate_scenario_scores_motion_on_the_moving_bodies(monkeypatch: pytest.MonkeyPatch) -> None:
-    """evaluate_scenario hands the motion-guided scoring the simulated source's body centres; face-guided, none."""
+    """evaluate_scenario runs the real pipeline and hands the real scoring the simulated source's body centres
+    (motion-guided; face-guided, none). The scorer is observed, not replaced: the score is the run's."""
     from app.eval import scenarios
 
     seen: dict[str, object] = {}
+    real = scenarios.score_run
 
-    class NoRun:
-        def __init__(self, *args: object) -> None:
-            pass
-
-        def run(self) -> object:
-            return type("Stats", (), {"summary": lambda self: ""})()
-
-    def keep(*args: object, positions_at: object = None, **kwargs: object) -> ScenarioScore:
+    def observe(*args: object, positions_at: object = None, **kwargs: object) -> ScenarioScore:
         seen["positions_at"] = positions_at
-        return ScenarioScore("S1", "motion", [0], 3.0)
+        return real(*args, positions_at=positions_at, **kwargs)
 
-    monkeypatch.setattr(scenarios, "Pipeline", NoRun)
-    monkeypatch.setattr(scenarios, "score_run", keep)
-    scenarios.evaluate_scenario("S1", 0, duration_s=3.0, config=PipelineConfig(inference="motion"), bodies=True)
+    monkeypatch.setattr(scenarios, "score_run", observe)
+    motion = scenarios.evaluate_scenario("S1", 0, duration_s=3.0, config=PipelineConfig(inference="motion"),
+                                         bodies=True)
     body = seen["positions_at"](1.5)  # type: ignore[operator]
     face = make_scenario("S1", clip_durations_s=[[0.5] * 10], duration_s=3.0).positions(1.5)
     assert body.shape == (1, 3) and 0.1 < body[0, 1] - face[0, 1] < 0.4  # on the chest, below the face
-    scenarios.evaluate_scenario("S1", 0, duration_s=3.0, config=PipelineConfig(inference="face"), bodies=True)
+    u = motion.utterances
+    assert u.tp + u.fn >= 2 and u.tp >= 1  # the person counts aloud and is heard where the body is
+    faces = scenarios.evaluate_scenario("S1", 0, duration_s=3.0, config=PipelineConfig(inference="face"),
+                                        bodies=True)
     assert seen["positions_at"] is None
+    assert faces.utterances.tp + faces.utterances.fn == u.tp + u.fn  # the same spoken numbers, scored on faces
 
 
 def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -322,4 +323,3 @@ def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.M
         with pytest.raises(SystemExit):
             main(["eval", "scenarios", "--scenario", "S1", "--no-calibrate", *argv])
         assert asked[-1] is bodies
-    assert (f"S2 seed 0: per spoken number TP {u['tp']}, FN {u['fn']}, FP {u['fp']} ") in captured.err  # as the table

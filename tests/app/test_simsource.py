@@ -92,7 +92,7 @@ def test_real_time_stream_paces_on_the_monotonic_clock_and_stamps_from_zero(miss
     assert max(early) <= 1e-3
     assert items[0].stamp_s == pytest.approx(0.0, abs=1e-9)
     assert items[-1].stamp_s - items[0].stamp_s == pytest.approx(1.0, abs=0.1)  # a second of stream
-    assert time.monotonic() - t0 == pytest.approx(1.0, abs=0.5)  # it took a second: paced, not as fast as possible
+    assert time.monotonic() - t0 >= 0.95  # paced: a second of stream takes a second at least
     assert src.stats.frames + src.stats.frames_dropped == 15
 
 

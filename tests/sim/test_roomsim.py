@@ -48,8 +48,11 @@ def test_recording_components_ground_truth_and_levels(small_recording):
     assert rec.speech.shape == rec.background.shape == rec.ego.shape == (2, n)
     assert rec.dry.shape == (1, n)
     assert rec.meta["speech"] == "synthetic"
-    np.testing.assert_allclose(rec.talker_itds_s, rec.mics.itd(rec.talkers_scene))
-    assert rec.talker_itds_s[0] > 0  # talker on the right
+    # the talker at (0.9, -0.2, 1.2) m and the paper's pair at x = -6 cm and +6 cm: the sound travels
+    # 1.5497 m to the left microphone and 1.4784 m to the right one, 71.3 mm more, 208 us at 343 m/s
+    far, near = np.sqrt(0.96**2 + 0.2**2 + 1.2**2), np.sqrt(0.84**2 + 0.2**2 + 1.2**2)
+    assert (far - near) / 343.0 == pytest.approx(208.0e-6, abs=0.1e-6)
+    np.testing.assert_allclose(rec.talker_itds_s, [(far - near) / 343.0], rtol=1e-9)
     assert 0.1 < rec.measured_rt60_s < 0.35
     left, _ = rec.mix(snr_db=10.0, ego_snr_db=None)
     active = np.any(rec.dry != 0, axis=0)

@@ -7,6 +7,7 @@ import pytest
 from sim.scenario import (
     CALIBRATION_BURST_S,
     PRESETS,
+    SOURCE_OFFSETS_M,
     Actor,
     Path3D,
     Scenario,
@@ -123,8 +124,13 @@ def test_boxes_are_the_projected_faces_and_itds_follow_the_mapping():
     centres = tr.boxes_left[:, :2] + tr.boxes_left[:, 2:] / 2 - 0.5
     uv_l, _ = s.rig.project(tr.positions_m)
     np.testing.assert_allclose(centres, uv_l, atol=1e-9)
-    mouths = tr.positions_m + [0.0, 0.05, -0.03]
-    np.testing.assert_allclose(tr.itds_s, s.mics.itd(mouths))
+    # the sound leaves from the mouth (SOURCE_OFFSETS_M), and reaches the microphones after its distance to each at
+    # 343 m/s; the delay is written out here from the microphones' positions, not taken from MicPair.itd
+    mouths = tr.positions_m + np.array(SOURCE_OFFSETS_M["speech"])
+    assert 0.02 < np.linalg.norm(SOURCE_OFFSETS_M["speech"]) < 0.1 and SOURCE_OFFSETS_M["speech"][1] > 0  # below
+    left, right = np.asarray(s.mics.left), np.asarray(s.mics.right)
+    delays = (np.linalg.norm(mouths - left, axis=1) - np.linalg.norm(mouths - right, axis=1)) / 343.0
+    np.testing.assert_allclose(tr.itds_s, delays, rtol=1e-9)
     assert tr.itds_s[0] < 0 < tr.itds_s[2]  # left person: negative, right person: positive
 
 
