@@ -30,6 +30,7 @@ from app.sources.contract import Source
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
+from app.result import Result
 from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import FrameBins, ItdStream, ItdTrack, PairsItdStream, geometry_options, gives_frame_itds
@@ -41,7 +42,7 @@ from avcore.tracking import NearestTracker
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DEFAULT_ITD_METHOD", "FusionResult", "Pipeline", "PipelineConfig", "PipelineStats", "Source"]
+__all__ = ["DEFAULT_ITD_METHOD", "Pipeline", "PipelineConfig", "PipelineStats", "Source"]
 
 
 DEFAULT_ITD_METHOD = "gcc-phat-robust"
@@ -151,8 +152,6 @@ class ClockMessage:
 
 FusionMessage = VisionMessage | ItdMessage | FrameItdsMessage | ClockMessage
 
-_NO_IMAGE = np.zeros((0, 0), dtype=np.uint8)
-
 
 def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
     """Several pairs' ITD vectors (K, P) as a track (no confidence or energy: they are per pair)."""
@@ -161,56 +160,6 @@ def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
 
-@dataclass(frozen=True)
-class FusionResult:
-    """One fused result.
-
-    stamp_s : capture time of the vision result (a frame, or an interval's centre). index : its frame number.
-    image : the left image (h, w[, 3]) uint8. boxes : (N, 4) face boxes in pixels (None for motion-guided).
-    xyz : (N, 3) metres, the faces (face-guided) or the HM3D points (motion-guided). itds_s : (K,) the ITDs of its
-    time frame; (K, P) with several microphone pairs, one vector per window (NaN: the pair has none).
-    output : FaceGuidedOutput or MotionGuidedOutput. latency_s : result time minus capture stamp (nan for a source
-    replayed as fast as possible).
-    person_ids : (N,) stable ids of the people of ``output`` (avcore.tracking), the same person keeping its id.
-    """
-
-    stamp_s: float
-    index: int
-    image: np.ndarray
-    boxes: np.ndarray | None
-    xyz: np.ndarray
-    itds_s: np.ndarray
-    output: Any
-    latency_s: float
-    person_ids: np.ndarray
-
-    @property
-    def mode(self) -> str:
-        """"face" (Algorithm 2: ``xyz`` are the faces, ``boxes`` their boxes) or "motion" (Algorithm 1: ``xyz`` are
-        the HM3D points, the people are ``output.positions``)."""
-        return "face" if self.boxes is not None else "motion"
-
-    @property
-    def positions(self) -> np.ndarray:
-        """(N, 3) metres, the people: the F3D faces (face-guided) or each AV cluster's mean (motion-guided, eq.
-        hat_svect), in the order of ``output``'s arrays and ``person_ids``."""
-        xyz = self.xyz if self.boxes is not None else self.output.positions
-        return np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
-
-    @property
-    def speaking(self) -> np.ndarray:
-        """(N,) bool, each person's speaking state (eq. audio_act)."""
-        return np.asarray(self.output.speaking, dtype=bool).reshape(-1)
-
-    def without_image(self) -> FusionResult:
-        """The same result without its image, for a sink that keeps many (the evaluation)."""
-        return replace(self, image=_NO_IMAGE)
-
-    def as_dict(self) -> dict[str, Any]:
-        """The result as one line of the results file (schema: :mod:`app.results`)."""
-        from app.results import result_record
-
-        return result_record(self)
 
 
 @dataclass
@@ -290,7 +239,7 @@ class Pipeline:
     """
 
     def __init__(self, source: Source, config: PipelineConfig | None = None,
-                 on_result: Callable[[FusionResult], None] | None = None, *,
+                 on_result: Callable[[Result], None] | None = None, *,
                  detector: FaceDetector | None = None, clock: Callable[[], float] | None = None) -> None:
         self.source = source
         self.config = config if config is not None else PipelineConfig()
@@ -598,16 +547,16 @@ class Pipeline:
         else:
             output = hearing.step(xyz, a)
         ids = tracker.update(xyz if boxes is not None else output.positions)
-        result = FusionResult(stamp, frame.index, frame.left, boxes, xyz, a, output, float("nan"), ids)
+        result = Result(stamp, frame.index, frame.left, boxes, xyz, a, output, float("nan"), ids)
         for voted in self._vote.push(result, ids, output.speaking, output.probability):
             self._emit_voted(*voted)  # the result whose vote this one completed (itself without a vote)
         self._fused += 1
         self._timed("fusion", t0, self._fused)
 
-    def _emit_voted(self, result: FusionResult, speaking: np.ndarray, probability: np.ndarray) -> None:
+    def _emit_voted(self, result: Result, speaking: np.ndarray, probability: np.ndarray) -> None:
         self._emit(replace(result, output=replace(result.output, speaking=speaking, probability=probability)))
 
-    def _emit(self, result: FusionResult) -> None:
+    def _emit(self, result: Result) -> None:
         # a replay as fast as possible runs ahead of its stamps: latency is only defined in real time
         latency = self.clock() - result.stamp_s if not self._backpressure else float("nan")
         result = replace(result, latency_s=latency)

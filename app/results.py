@@ -25,8 +25,6 @@ import math
 from pathlib import Path
 from typing import IO, Any
 
-import numpy as np
-
 from app.errors import UserError
 
 __all__ = ["ResultsWriter", "result_record"]
@@ -48,27 +46,24 @@ def _probability(p: Any, speaking: bool) -> float:
 
 
 def result_record(result: Any) -> dict[str, Any]:
-    """One :class:`app.pipeline.FusionResult` as the JSON-ready dict of the module's schema."""
-    out = result.output
-    face = result.mode == "face"
-    positions = result.positions
+    """One :class:`app.result.Result` as the JSON-ready dict of the module's schema."""
     people = []
-    for n, pid in enumerate(np.asarray(result.person_ids).ravel()):
+    for p in result.people:
         person: dict[str, Any] = {
-            "id": int(pid),
-            "position_m": [round(float(v), 4) for v in positions[n]],
-            "speaking": bool(out.speaking[n]),
-            "probability": _probability(out.probability[n], bool(out.speaking[n])),
-            "itd_mean_s": _num(out.itd_means[n]),
+            "id": p.id,
+            "position_m": [round(float(v), 4) for v in p.position_m],
+            "speaking": p.speaking,
+            "probability": _probability(p.probability, p.speaking),
+            "itd_mean_s": _num(p.itd_s[0]),  # the first pair's
         }
-        if face:
-            person["box_px"] = [int(v) for v in np.asarray(result.boxes[n]).ravel()[:4]]
+        if p.box_px is not None:
+            person["box_px"] = list(p.box_px)
         people.append(person)
     return {
         "stamp_s": round(float(result.stamp_s), 6),
         "index": int(result.index),
         "mode": result.mode,
-        "n_itds": int(np.asarray(result.itds_s).shape[0]),
+        "n_itds": result.n_itds,
         "latency_s": _num(result.latency_s),
         "people": people,
     }

@@ -39,7 +39,7 @@ __all__ = [
     "BinnedSamples",
     "EMSettings",
     "FitResult",
-    "FusionResult",
+    "FusionFit",
     "PairsFit",
     "Mixture1D",
     "bic_score",
@@ -334,7 +334,7 @@ def fit_em(
 
 
 @dataclass(frozen=True)
-class FusionResult:
+class FusionFit:
     """Output of :func:`fit_fusion_em`.
 
     model_ : the fitted mixture (seconds).
@@ -360,7 +360,7 @@ def fit_fusion_em(
     init: Mixture1D,
     *,
     settings: EMSettings = EMSettings(),
-) -> FusionResult:
+) -> FusionFit:
     """The vision-guided EM fusion of section 4.1 on projected visual features and ITDs.
 
     visual_s : (M,) float, seconds, the projected visual features v~_m.
@@ -378,7 +378,7 @@ def fit_fusion_em(
         raise ValueError("alpha must hold finite non-negative posteriors")
     if n == 0:
         model = init
-        return FusionResult(model, np.ones((a.size, 1)), model.log_likelihood(v) + model.log_likelihood(a), 0, True,
+        return FusionFit(model, np.ones((a.size, 1)), model.log_likelihood(v) + model.log_likelihood(a), 0, True,
                             np.array([model.log_likelihood(v) + model.log_likelihood(a)]))
     v_us = v * US
     sums = al.T @ np.stack([np.ones_like(v_us), v_us, v_us * v_us], axis=1)
@@ -393,7 +393,7 @@ def fit_fusion_em(
     model = unpack(fused, 0, init.support)
     ll = model.log_likelihood(v) + model.log_likelihood(a)
     objective = np.array([h[0] for h in hist]) + (v.size + a.size) * np.log(US)
-    return FusionResult(model, model.responsibilities(a), ll, int(n_iter[0]), bool(conv[0]), objective)
+    return FusionFit(model, model.responsibilities(a), ll, int(n_iter[0]), bool(conv[0]), objective)
 
 
 def bic_score(log_likelihood: float | np.ndarray, n_components: int | np.ndarray,

@@ -4,13 +4,14 @@
 import avhear
 
 for result in avhear.results("sim:S2", duration_s=5):   # or "replay:recordings/NAME", or "live" with rig_path=
-    for person in result.as_dict()["people"]:            # the schema of the results file (README)
-        if person["speaking"]:
-            print(f"{result.stamp_s:6.2f} s: person {person['id']} speaks at {person['position_m']} m")
+    for person in result.people:
+        if person.speaking:
+            print(f"{result.stamp_s:6.2f} s: person {person.id} speaks at {person.position_m} m")
 ```
 
-Each result is an :class:`app.pipeline.FusionResult` (``stamp_s``, ``person_ids``, ``xyz``, ``output.speaking``,
-``output.probability``, ... and ``as_dict()``). The pipeline runs in threads while you iterate; leaving the loop
+Each result is an :class:`app.result.Result`: ``stamp_s``, ``index``, ``mode``, ``people`` (each an
+:class:`app.result.Person`: ``id``, ``position_m``, ``speaking``, ``probability``, ``itd_s`` per microphone pair,
+``box_px`` or None), the interval's ITDs, the latency, and ``as_dict()`` (a line of the results file). The pipeline runs in threads while you iterate; leaving the loop
 (``break``, an exception, or closing the iterator) stops it.
 """
 from __future__ import annotations

@@ -34,7 +34,8 @@ from typing import Any
 import numpy as np
 
 from app.console import Console, ConsoleFrame
-from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.pipeline import Pipeline, PipelineConfig
+from app.result import Result
 from app.sources import open_source
 from app.console.viewer import ViewerSession, ViewerTarget
 
@@ -138,7 +139,7 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
     console = (Console(source.rig, source.mics, recording=session.recording, array=source.array)
                if session is not None else None)
 
-    def on_result(r: FusionResult) -> None:
+    def on_result(r: Result) -> None:
         if console is not None:
             assert session is not None
             if session.part_due():

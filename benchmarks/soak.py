@@ -22,7 +22,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pipeline import MemoryMonitor  # noqa: E402  (benchmarks/pipeline.py)
 
 from app.cli import main as avhear  # noqa: E402
-from app.pipeline import FusionResult, Pipeline, PipelineConfig  # noqa: E402
+from app.pipeline import Pipeline, PipelineConfig
+from app.result import Result  # noqa: E402
 from app.sources import open_source  # noqa: E402
 
 
@@ -32,7 +33,7 @@ def replay(folder: Path, realtime: bool) -> tuple[dict[float, tuple], dict[str, 
     n_itds: list[int] = []
     first: list[float] = []
 
-    def on_result(r: FusionResult) -> None:
+    def on_result(r: Result) -> None:
         if not first:
             first.append(r.stamp_s)
         n_itds.append(r.itds_s.size)

@@ -10,7 +10,9 @@ def test_results_iterate_in_order_and_stop_when_the_loop_ends() -> None:
     stamps, speaking = [], []
     for result in avhear.results("sim:S2", duration_s=2):
         stamps.append(result.stamp_s)
-        speaking += [p["speaking"] for p in result.as_dict()["people"]]
+        speaking += [p.speaking for p in result.people]
+        # the people are those of the results file's line, in its order
+        assert [p["id"] for p in result.as_dict()["people"]] == [p.id for p in result.people]
     assert len(stamps) == 60 and stamps == sorted(stamps)
     assert any(speaking) and not all(speaking)
     it = avhear.results("sim:S1", duration_s=5)

@@ -38,7 +38,7 @@ class ResultPublisher:
         return self._queue.dropped
 
     def publish(self, result: Any) -> None:
-        """Hand one :class:`app.pipeline.FusionResult` over; never blocks."""
+        """Hand one :class:`app.result.Result` over; never blocks."""
         if self._error is not None:
             raise RuntimeError(f"the bus publisher failed: {self._error}") from self._error
         self._queue.put(result_record(result))

@@ -18,7 +18,8 @@ from app.sources.live import LiveConfig, add_device_arguments, live_config
 from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, MIN_SIMULATED_S, add_bodies_argument, add_method_arguments,
                          add_mics_argument, count, duration, pipeline_config, port, wants_bodies)
 from app.paths import distinct_outputs, output_file
-from app.pipeline import FusionResult, Pipeline, PipelineConfig, PipelineStats
+from app.pipeline import Pipeline, PipelineConfig, PipelineStats
+from app.result import Result
 from app.results import ResultsWriter
 from app.sources import open_source
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
@@ -166,7 +167,7 @@ class _Sinks:
         self.session, self.console, self.results, self.publisher = session, console, results, publisher
         self.pipeline: Pipeline | None = None
 
-    def __call__(self, result: FusionResult) -> None:
+    def __call__(self, result: Result) -> None:
         if self.results is not None:
             self.results.write(result)
         if self.publisher is not None:

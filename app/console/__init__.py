@@ -275,13 +275,17 @@ class ConsoleFrame:
 
     @classmethod
     def from_result(cls, result: Any, diagnostics: Mapping[str, float] | None = None) -> ConsoleFrame:
-        """From the pipeline's :class:`app.pipeline.FusionResult`, face- or motion-guided (boxes or none)."""
-        if result.mode == "face":
-            return cls.from_face_guided(result.stamp_s, result.index, result.image, result.boxes, result.xyz,
-                                        result.itds_s, result.output, person_ids=result.person_ids,
-                                        diagnostics=diagnostics)
-        return cls.from_motion_guided(result.stamp_s, result.index, result.image, result.xyz, result.itds_s,
-                                      result.output, person_ids=result.person_ids, diagnostics=diagnostics)
+        """From the pipeline's :class:`app.result.Result`: its people (a box each when face-guided), its ITDs and
+        the fitted model; motion-guided, its HM3D points too."""
+        people = result.people
+        face = result.mode == "face"
+        boxes = np.array([p.box_px for p in people], dtype=np.float64).reshape(-1, 4) if face else None
+        return cls(result.stamp_s, result.index, result.image, boxes,
+                   np.array([p.position_m for p in people], dtype=np.float64).reshape(-1, 3),
+                   np.array([p.speaking for p in people], dtype=bool),
+                   np.array([p.probability for p in people], dtype=np.float64), result.itds_s,
+                   result.output.model, np.array([p.id for p in people], dtype=np.int64),
+                   None if face else result.xyz, diagnostics or {})
 
     @classmethod
     def from_motion_guided(cls, stamp_s: float, frame: int, image: np.ndarray | None, points_xyz: np.ndarray,

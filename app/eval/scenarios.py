@@ -68,7 +68,8 @@ from typing import Any
 
 import numpy as np
 
-from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.pipeline import Pipeline, PipelineConfig
+from app.result import Result
 from app.sources import StreamAdapter, open_source
 from avcore.calibration import fit_av_calibration_report
 from avcore.evaluation import TAU_LOC_M, match_clusters
@@ -358,7 +359,7 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
     faces: list[np.ndarray] = []
     itds: list[float] = []
 
-    def keep(result: FusionResult) -> None:
+    def keep(result: Result) -> None:
         if result.xyz.shape[0] == 1:
             for itd in result.itds_s:
                 faces.append(result.xyz[0])
@@ -395,9 +396,9 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     source = _open(name, seed, duration_s, progress, mic_array, bodies)
     if mics is not None:
         source.mics = mics
-    fused: list[FusionResult] = []
+    fused: list[Result] = []
 
-    def keep(result: FusionResult) -> None:
+    def keep(result: Result) -> None:
         fused.append(result.without_image())
 
     stats = Pipeline(source, cfg, keep).run()
@@ -447,7 +448,7 @@ def _truth_per_interval(truths: list, frame_interval: np.ndarray, n_intervals: i
     return vis_votes > half, speak_votes > half, speak_votes > 0, frames_per
 
 
-def _judge(scenario: Scenario, fused: Sequence[FusionResult], n_intervals: int, score: ScenarioScore,
+def _judge(scenario: Scenario, fused: Sequence[Result], n_intervals: int, score: ScenarioScore,
            face_figures: bool, positions_at: Positions | None = None) -> _Judged:
     """Match every result's people to the truth of its instant (the faces, or ``positions_at(stamp)``); with
     ``face_figures``, also the per-frame visual figures (the F3D faces) into ``score``."""
@@ -481,13 +482,13 @@ def _judge(scenario: Scenario, fused: Sequence[FusionResult], n_intervals: int, 
     return out
 
 
-def score_run(scenario: Scenario, fused: Sequence[FusionResult], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
+def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
               config: PipelineConfig, *, frame_stamps_s: np.ndarray, positions_at: Positions | None = None
               ) -> ScenarioScore:
     """Score the fused results of one run of ``scenario`` (see the module docstring for the protocol).
 
     fused : the results in any order (stamps in seconds from the scenario's start); what counts of each is its
-    people's positions and speaking states (:attr:`FusionResult.positions`, ``speaking``). audio : (n, 2) the microphone
+    people's positions and speaking states (:attr:`Result.positions`, ``speaking``). audio : (n, 2) the microphone
     signals (left, right), full scale 1. frame_stamps_s : (F,) the stamps of the camera frames, seconds.
     positions_at : where the people are for the matching, ``stamp -> (N, 3)`` metres; default the faces of
     :meth:`Scenario.truth` (see :func:`evaluate_scenario` for the motion-guided truth).

@@ -88,16 +88,16 @@ def fake_sounddevice(monkeypatch: pytest.MonkeyPatch) -> types.SimpleNamespace:
 
 @pytest.fixture
 def people_result() -> Callable[..., object]:
-    """Makes a face-guided :class:`app.pipeline.FusionResult` that holds only people: a stamp, positions (N, 3) and
+    """Makes a face-guided :class:`app.result.Result` that holds only people: a stamp, positions (N, 3) and
     speaking states (N,), as the evaluation's scoring reads them."""
-    from app.pipeline import FusionResult
+    from app.result import Result
 
-    def make(stamp_s: float, positions: np.ndarray, speaking: np.ndarray) -> FusionResult:
+    def make(stamp_s: float, positions: np.ndarray, speaking: np.ndarray) -> Result:
         xyz = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
         n = xyz.shape[0]
         output = types.SimpleNamespace(speaking=np.asarray(speaking, dtype=bool).reshape(-1),
                                        probability=np.asarray(speaking, dtype=float).reshape(-1),
                                        itd_means=np.full(n, np.nan))
-        return FusionResult(float(stamp_s), 0, np.zeros((0, 0), np.uint8), np.zeros((n, 4)), xyz, np.empty(0),
+        return Result(float(stamp_s), 0, np.zeros((0, 0), np.uint8), np.zeros((n, 4)), xyz, np.empty(0),
                             output, float("nan"), np.arange(n))
     return make

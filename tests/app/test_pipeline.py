@@ -11,7 +11,8 @@ import pytest
 from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
-from app.pipeline import FusionResult, Pipeline, PipelineConfig
+from app.pipeline import Pipeline, PipelineConfig
+from app.result import Result
 from avcore.geometry import MicPair
 from sim.render import default_scene
 
@@ -77,8 +78,8 @@ class FakeSource(SourceBase):
             yield AudioBlock(k, start, stamp, samples, FS)
 
 
-def _run(source: FakeSource, **kwargs: object) -> tuple[list[FusionResult], Pipeline]:
-    results: list[FusionResult] = []
+def _run(source: FakeSource, **kwargs: object) -> tuple[list[Result], Pipeline]:
+    results: list[Result] = []
     pipe = Pipeline(source, PipelineConfig(**kwargs), results.append)
     pipe.run(duration_s=30)
     return results, pipe
@@ -220,13 +221,13 @@ def test_stop_is_quick_and_a_worker_error_reaches_the_caller() -> None:
     assert at_stop and pipe.stats.frames <= at_stop[0] + 1 < 200
     assert not [t for t in threading.enumerate() if t.name.startswith("avhear-")]  # every worker joined
 
-    def boom(result: FusionResult) -> None:
+    def boom(result: Result) -> None:
         raise OSError("disk full")
 
     with pytest.raises(RuntimeError, match="fusion thread failed: disk full"):
         Pipeline(FakeSource(duration_s=1.0), PipelineConfig(), boom).run(duration_s=30)
 
-    def unfixable(result: FusionResult) -> None:  # a user's error (a corrupt recording) keeps its own message
+    def unfixable(result: Result) -> None:  # a user's error (a corrupt recording) keeps its own message
         raise UserError("left.avi: frame 3 cannot be decoded; re-encode it")
 
     with pytest.raises(UserError, match="^left.avi: frame 3 cannot be decoded; re-encode it$"):
@@ -310,7 +311,7 @@ def test_a_stop_loses_no_fused_frame() -> None:
     """Stopped in the middle of a real-time source (Ctrl-C, a duration): every frame the vision worker finished
     still comes out, the last ones with the ITDs there are and their vote on the neighbours there are."""
     source = FakeSource(duration_s=3.0, fps=30.0, realtime=True)
-    results: list[FusionResult] = []
+    results: list[Result] = []
     pipe = Pipeline(source, PipelineConfig(), results.append)
     stats = pipe.run(duration_s=1.2)
     assert 20 <= stats.vision_results < 90  # stopped before the end
@@ -345,7 +346,7 @@ def test_a_fast_replay_loses_no_itds_when_vision_is_slow(monkeypatch: pytest.Mon
     monkeypatch.setattr(pipeline_module, "TimeFrame", functools.partial(pipeline_module.TimeFrame,
                                                                         max_secondaries=150))
     source = FakeSource(duration_s=6.0, fps=10.0)
-    results: list[FusionResult] = []
+    results: list[Result] = []
     pipe = Pipeline(source, PipelineConfig(vote_frames=1), results.append, detector=_SlowDetector(0.03))
     pipe.run(duration_s=60)
     assert len(results) == 60
@@ -358,7 +359,7 @@ def test_real_time_and_as_fast_as_possible_give_the_same_results() -> None:
     runs = {}
     for realtime in (True, False):
         source = FakeSource(duration_s=3.0, fps=10.0, realtime=realtime)
-        results: list[FusionResult] = []
+        results: list[Result] = []
         Pipeline(source, PipelineConfig(), results.append).run(duration_s=60)
         runs[realtime] = [(round(r.stamp_s - source.t0, 6), r.person_ids.tolist(), r.output.speaking.tolist())
                           for r in results]
@@ -383,7 +384,7 @@ def test_the_pipeline_fuses_every_pair_of_naos_microphones(monkeypatch: pytest.M
     monkeypatch.setattr(FaceGuidedHearing, "step", spy)
     source = open_source("sim:S1", realtime=False, duration_s=5.0, seed=0, mics="nao")
     assert source.array is not None and source.array.n_pairs == 6
-    results: list[FusionResult] = []
+    results: list[Result] = []
     stats = Pipeline(source, PipelineConfig(), results.append).run()
     assert stats.itds > 0 and len(results) == stats.results > 100
     middle = [b for b in bins_seen[30:-30] if b is not None]

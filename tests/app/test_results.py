@@ -9,17 +9,17 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.pipeline import FusionResult
+from app.result import Result
 from app.results import result_record
 
 
 def _result(*, probability: list[float], speaking: list[bool], xyz: list[list[float]] | None = None,
-            itd_means: list[float] | None = None) -> FusionResult:
+            itd_means: list[float] | None = None) -> Result:
     """A face-guided result of ``len(probability)`` people as the pipeline hands it to the sinks."""
     n = len(probability)
     output = SimpleNamespace(speaking=np.array(speaking), probability=np.array(probability),
                              itd_means=np.array(itd_means if itd_means is not None else [0.0] * n))
-    return FusionResult(stamp_s=1.0, index=30, image=np.zeros((4, 4, 3), np.uint8),
+    return Result(stamp_s=1.0, index=30, image=np.zeros((4, 4, 3), np.uint8),
                         boxes=np.tile([10, 20, 30, 30], (n, 1)),
                         xyz=np.array(xyz if xyz is not None else [[0.0, 0.0, 2.0]] * n), itds_s=np.zeros(0),
                         output=output, latency_s=float("nan"), person_ids=np.arange(n))
@@ -123,3 +123,33 @@ def test_the_results_file_says_where_the_people_are(tmp_path: Path) -> None:
                 itds += 1
     sides = {np.sign(x) for x in room.truth(0).positions_m[:, 0]}
     assert placed > 200 and itds > 20 and sides >= {-1.0, 1.0}  # people on both sides, and talkers heard
+
+
+# a line that `avhear demo --results-jsonl` wrote on 2026-11-26, before the results file was read from
+# `Result.people`: the schema may gain fields, never rename or retype one
+WRITTEN_ON_2026_11_26 = (
+    '{"stamp_s":1.3,"index":39,"mode":"face","n_itds":0,"latency_s":null,"people":[{"id":0,"position_m":'
+    '[-0.7491,-0.1438,1.9],"speaking":false,"probability":0.0,"itd_mean_s":-0.0001279613494114315,"box_px":'
+    '[89,168,58,58]},{"id":1,"position_m":[0.0011,-0.0947,2.3976],"speaking":false,"probability":0.0,'
+    '"itd_mean_s":1.581809815972392e-07,"box_px":[310,194,47,47]}]}')
+
+
+def _shape(value: object) -> object:
+    """The schema of a JSON value: its keys in order and its types, recursively (lists by their first item)."""
+    if isinstance(value, dict):
+        return [(k, _shape(v)) for k, v in value.items()]
+    if isinstance(value, list):
+        return ["list", _shape(value[0]) if value else None]
+    return "number" if isinstance(value, (int, float)) and not isinstance(value, bool) else type(value).__name__
+
+
+def test_the_results_file_keeps_its_schema(tmp_path: Path) -> None:
+    out = tmp_path / "r.jsonl"
+    assert main(["demo", "--duration", "2", "--fast", "--headless", "--results-jsonl", str(out)]) == 0
+    old = json.loads(WRITTEN_ON_2026_11_26)
+    rows = [r for r in _lines(out) if r["people"] and r["latency_s"] is None]
+    assert rows
+    for row in rows:
+        assert [k for k, _ in _shape(row)] == [k for k, _ in _shape(old)]
+        for person in row["people"]:
+            assert _shape(person) == _shape(old["people"][0])

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from app.cli import main
-from app.pipeline import FusionResult, PipelineConfig
+from app.pipeline import PipelineConfig
+from app.result import Result
 from app.eval.scenarios import (
     INTERVAL_S,
     PAPER_SCENARIOS,
@@ -30,8 +31,8 @@ def _scenario(name: str, duration_s: float = 8.0) -> Scenario:
     return make_scenario(name, clip_durations_s=[[0.5] * 10] * 3, duration_s=duration_s, seed=3)
 
 
-def _frames(make: Callable[..., FusionResult], scenario: Scenario, judge: Callable[[FrameTruth], np.ndarray]
-            ) -> tuple[list[FusionResult], np.ndarray]:
+def _frames(make: Callable[..., Result], scenario: Scenario, judge: Callable[[FrameTruth], np.ndarray]
+            ) -> tuple[list[Result], np.ndarray]:
     """One fused result per camera frame: the visible people at their true positions, speaking as ``judge`` says."""
     stamps = np.arange(int(scenario.duration_s * FPS)) / FPS
     fused = []
@@ -42,7 +43,7 @@ def _frames(make: Callable[..., FusionResult], scenario: Scenario, judge: Callab
     return fused, stamps
 
 
-def _score(scenario: Scenario, fused: list[FusionResult], stamps: np.ndarray) -> ScenarioScore:
+def _score(scenario: Scenario, fused: list[Result], stamps: np.ndarray) -> ScenarioScore:
     silence = np.zeros((int(scenario.duration_s * 16000), 2))
     return score_run(scenario, fused, silence, 16000.0, scenario.mics, PipelineConfig(), frame_stamps_s=stamps)
 
@@ -60,7 +61,7 @@ def _truth_counts(scenario: Scenario, stamps: np.ndarray) -> tuple[int, int]:
     return speaking, silent
 
 
-def test_perfect_detections_score_every_speaking_count_as_tp(people_result: Callable[..., FusionResult]) -> None:
+def test_perfect_detections_score_every_speaking_count_as_tp(people_result: Callable[..., Result]) -> None:
     scenario = _scenario("S2")
     fused, stamps = _frames(people_result, scenario, lambda tr: tr.speaking)
     score = _score(scenario, fused, stamps)
@@ -77,7 +78,7 @@ def test_perfect_detections_score_every_speaking_count_as_tp(people_result: Call
     assert score.itd_errors_s == [] and score.n_itds == 0  # silence: no ITD passes the energy gate
 
 
-def test_wrong_states_and_missed_faces_are_counted(people_result: Callable[..., FusionResult]) -> None:
+def test_wrong_states_and_missed_faces_are_counted(people_result: Callable[..., Result]) -> None:
     scenario = _scenario("S2")
     fused, stamps = _frames(people_result, scenario, lambda tr: ~tr.speaking)  # everything inverted
     c = _score(scenario, fused, stamps).counts
@@ -97,7 +98,7 @@ def test_wrong_states_and_missed_faces_are_counted(people_result: Callable[..., 
     assert c.fp == c.fp_false_face == 20 and c.tp == speaking
 
 
-def test_timing_reference_scores_the_truth_held_longer(people_result: Callable[..., FusionResult], monkeypatch: pytest.MonkeyPatch) -> None:
+def test_timing_reference_scores_the_truth_held_longer(people_result: Callable[..., Result], monkeypatch: pytest.MonkeyPatch) -> None:
     """The per-interval timing reference counts what a detector that knows the truth, but holds each number
     TIMING_REFERENCE_S longer at both ends, would score; held 0 s it is the truth's own counts."""
     import app.eval.scenarios as scenario_eval
@@ -122,7 +123,7 @@ def test_timing_reference_scores_the_truth_held_longer(people_result: Callable[.
             assert r.fp == 0
 
 
-def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals(people_result: Callable[..., FusionResult]) -> None:
+def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals(people_result: Callable[..., Result]) -> None:
     """An FP falls either in an interval where the person speaks in some (fewer than half) of the frames, a matter
     of timing, or in one where they say nothing at all; counted here independently of score_run."""
     scenario = _scenario("S2")
@@ -150,7 +151,7 @@ def test_false_alarms_split_into_partly_spoken_and_wholly_silent_intervals(peopl
         assert c.as_dict()["fp_wholly_silent"] == wholly
 
 
-def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap(people_result: Callable[..., FusionResult]) -> None:
+def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap(people_result: Callable[..., Result]) -> None:
     scenario = _scenario("S5", duration_s=15.0)
     fused, stamps = _frames(people_result, scenario, lambda tr: np.zeros_like(tr.speaking))  # nobody ever judged speaking
     u = _score(scenario, fused, stamps).utterances
@@ -168,7 +169,7 @@ def test_missed_numbers_during_someone_elses_speech_are_counted_as_overlap(peopl
     assert u2.fn > 0 and u2.fn_overlap == 0
 
 
-def test_s4_counts_the_unseen_talker_apart(people_result: Callable[..., FusionResult]) -> None:
+def test_s4_counts_the_unseen_talker_apart(people_result: Callable[..., Result]) -> None:
     scenario = _scenario("S4", duration_s=10.0)
     assert not scenario.truth(1.0).visible[0]  # person0 sits outside the field of view
     fused, stamps = _frames(people_result, scenario, lambda tr: np.ones_like(tr.speaking))  # every visible person "speaks"
@@ -260,7 +261,7 @@ def test_eval_scenarios_frame_itds_switch() -> None:
     assert parser.parse_args(["eval", "scenarios", "--vote-frames", "1"]).vote_frames == 1
 
 
-def test_motion_guided_results_are_matched_to_the_positions_given(people_result: Callable[..., FusionResult]) -> None:
+def test_motion_guided_results_are_matched_to_the_positions_given(people_result: Callable[..., Result]) -> None:
     """The motion-guided scoring matches people to ``positions_at`` (the centres of the moving bodies), not to the
     faces: results 0.45 m below the faces (beyond tau_loc) are the people there, and nobody at the faces."""
     scenario = _scenario("S2")

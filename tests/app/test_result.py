@@ -1,0 +1,40 @@
+"""app.result: the Result every sink reads and its people."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from app.result import Result
+
+
+def _result(output: SimpleNamespace, boxes: np.ndarray | None, xyz: np.ndarray) -> Result:
+    return Result(stamp_s=2.0, index=60, image=np.zeros((2, 2, 3), np.uint8), boxes=boxes, xyz=xyz,
+                  itds_s=np.zeros((5, 6)), output=output, latency_s=0.4, person_ids=np.array([7, 3]))
+
+
+def test_face_guided_people_with_several_pairs() -> None:
+    """Each person carries its mean ITD on every pair (NAO's six), its face and its box; in output's order."""
+    pair_means = np.arange(12, dtype=float).reshape(2, 6) * 1e-5
+    out = SimpleNamespace(speaking=np.array([True, False]), probability=np.array([0.8, 0.1]),
+                          itd_means=pair_means[:, 0], pair_itd_means=pair_means)
+    faces = np.array([[-0.5, 0.0, 2.0], [0.6, -0.1, 2.4]])
+    result = _result(out, np.array([[10.4, 20.0, 30.0, 30.0], [50, 60, 20, 20]]), faces)
+    a, b = result.people
+    assert (a.id, b.id) == (7, 3) and a.speaking and not b.speaking
+    assert (a.probability, b.probability) == (0.8, 0.1)
+    np.testing.assert_array_equal(b.position_m, faces[1])
+    np.testing.assert_array_equal(b.itd_s, pair_means[1]) and b.itd_s.shape == (6,)
+    assert a.box_px == (10, 20, 30, 30) and result.mode == "face" and result.n_itds == 5
+    assert result.people is result.people  # built once
+
+
+def test_motion_guided_people_are_the_clusters() -> None:
+    """Motion-guided, the people are the clusters' means (not the HM3D points) and have no box."""
+    out = SimpleNamespace(speaking=np.array([False, True]), probability=np.array([0.2, 0.9]),
+                          itd_means=np.array([-1e-4, 2e-4]), positions=np.array([[0.1, 0, 2], [0.9, 0, 3]]))
+    result = _result(out, None, np.random.default_rng(0).normal(size=(40, 3)))
+    a, b = result.people
+    assert result.mode == "motion" and a.box_px is None and b.box_px is None
+    np.testing.assert_array_equal(b.position_m, [0.9, 0, 3])
+    assert a.itd_s.shape == (1,) and a.itd_s[0] == -1e-4
