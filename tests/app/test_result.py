@@ -24,7 +24,8 @@ def test_face_guided_people_with_several_pairs() -> None:
     assert (a.id, b.id) == (7, 3) and a.speaking and not b.speaking
     assert (a.probability, b.probability) == (0.8, 0.1)
     np.testing.assert_array_equal(b.position_m, faces[1])
-    np.testing.assert_array_equal(b.itd_s, pair_means[1]) and b.itd_s.shape == (6,)
+    assert b.itd_s.shape == (6,)
+    np.testing.assert_array_equal(b.itd_s, pair_means[1])
     assert a.box_px == (10, 20, 30, 30) and result.mode == "face" and result.n_itds == 5
     assert result.people is result.people  # built once
 
