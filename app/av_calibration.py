@@ -59,7 +59,7 @@ log = logging.getLogger(__name__)
 # Fewer pairs than this cannot support a robust line fit worth writing into a rig file (a one-minute sequence gives
 # thousands).
 MIN_PAIRS = 20
-# A hand measurement is off by 1-2 cm (issue 5); a refinement that moves a microphone further than this is fitting
+# A hand measurement is off by 1-2 cm; a refinement that moves a microphone further than this is fitting
 # something else (reverberation compressing the ITDs, a head between the microphones) and is not written.
 MAX_REFINE_SHIFT_M = 0.05
 
@@ -182,7 +182,7 @@ def extract_recording_itds(recording: Recording, mics: MicPair, *, method: str =
 
 
 def pair_faces_with_itds(faces: FaceTrack, itds: ItdTrack, *, max_gap_s: float | None = None) -> CalibrationPairs:
-    """Each ITD with the face at the centre of its window (the ``TimeFrame`` idea of DESIGN.md, in batch).
+    """Each ITD with the face at the centre of its window (the ``TimeFrame`` idea of docs/architecture.md, in batch).
 
     When the frames just before and just after the ITD's instant both hold exactly one face and lie within
     ``2 * max_gap_s`` of each other, the face is interpolated linearly between them (a walking person moves a few

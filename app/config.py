@@ -1,7 +1,7 @@
 """Configuration files: YAML in, frozen dataclasses out (and back).
 
-The only module that touches YAML (DESIGN.md). Every error names the file and the key, and says what was expected,
-so that a user can fix the file without reading the code.
+The only module that touches YAML (docs/architecture.md). Every error names the file and the key, and says what was
+expected, so that a user can fix the file without reading the code.
 
 The rig calibration file (one per robot or laptop) holds the stereo rig and the microphones::
 

@@ -99,7 +99,7 @@ def add_mics_argument(p: argparse.ArgumentParser) -> None:
 
 
 def add_bodies_argument(p: argparse.ArgumentParser) -> None:
-    """``--bodies/--no-bodies``: how the simulated people are drawn (issue 18); :func:`wants_bodies` resolves the
+    """``--bodies/--no-bodies``: how the simulated people are drawn; :func:`wants_bodies` resolves the
     default. None when neither is given, so that a real source can refuse either."""
     p.add_argument("--bodies", action=argparse.BooleanOptionalAction, default=None,
                    help="the simulated people have a checked shirt, arms and hands that gesture (most while they "

@@ -1,4 +1,5 @@
-"""The real-time process of DESIGN.md: grabber, vision, audio, ITD worker and fusion threads (paper section 6).
+"""The real-time process of docs/architecture.md: grabber, vision, audio, ITD worker and fusion threads (paper section
+6).
 
 ```
 source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] --+

@@ -11,7 +11,7 @@ T = TypeVar("T")
 class DropOldestQueue(Generic[T]):
     """A bounded FIFO whose ``put`` never blocks: when full, the oldest item is dropped and counted.
 
-    The audio callback and the camera grabber must never wait for a slow consumer (DESIGN.md); memory stays
+    The audio callback and the camera grabber must never wait for a slow consumer (docs/architecture.md); memory stays
     bounded by ``maxsize``. ``get`` blocks up to ``timeout`` seconds and returns ``None`` when nothing came.
     A replay run as fast as possible may call :meth:`wait_for_room` first: back-pressure, so nothing is lost.
     """

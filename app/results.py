@@ -10,7 +10,7 @@ Schema of one line (one fused result; fields may be added, never renamed):
  "n_itds": int,               # ITDs in its time frame
  "latency_s": float | null,   # result time minus capture stamp (null for a replay as fast as possible)
  "people": [{"id": int,                 # stable while the person is tracked
-             "position_m": [x, y, z],   # scene frame (DESIGN.md: x right, y down, z forward), metres
+             "position_m": [x, y, z],   # scene frame (docs/architecture.md: x right, y down, z forward), metres
              "speaking": bool,
              "probability": float,      # in [0, 1], above 0.5 exactly when speaking
              "itd_mean_s": float,       # the person's mean in ITD space

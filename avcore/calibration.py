@@ -165,7 +165,7 @@ def fit_av_calibration(
     faces_xyz : (N, 3) float, metres
         F3D face positions in the scene frame (section 5.2), one per pair.
     itds_s : (N,) float, seconds
-        The ITD observed at the moment of each face (DESIGN.md's sign: left arrival minus right arrival).
+        The ITD observed at the moment of each face (docs/architecture.md's sign: left arrival minus right arrival).
     mics : MicPair
         The hand-measured microphone positions and speed of sound; its own ``c1``, ``c0`` are replaced.
     method : "robust" (default) or "lstsq" (the paper's plain least squares)
@@ -288,7 +288,7 @@ def _check_positive_scale(c1: float) -> None:
     if not c1 > 0:
         raise ValueError(
             f"the fitted scale c1 = {c1:.3g} is not positive: the ITDs decrease as the face moves to the right. "
-            "The left and right channels are probably swapped (DESIGN.md: ITD = t_left - t_right)"
+            "The left and right channels are probably swapped (docs/architecture.md: ITD = t_left - t_right)"
         )
 
 

@@ -1,8 +1,8 @@
 """The deterministic part of the model: the auditory mapping from the scene to ITD space.
 
-Conventions (DESIGN.md): metres and seconds; the scene frame is the cyclopean frame of the rectified stereo pair
-(x right, y down, z forward); ITD = (arrival time at the LEFT microphone) - (arrival time at the RIGHT
-microphone), so a source on the right, closer to the right microphone, has a positive ITD.
+Conventions (docs/architecture.md): metres and seconds; the scene frame is the cyclopean frame of the rectified stereo
+pair (x right, y down, z forward); ITD = (arrival time at the LEFT microphone) - (arrival time at the RIGHT microphone),
+so a source on the right, closer to the right microphone, has a positive ITD.
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import numpy as np
 
 __all__ = ["ARRAY_PRESETS", "MicArray", "MicPair", "SPEED_OF_SOUND"]
 
-SPEED_OF_SOUND = 343.0  # m/s, DESIGN.md default
+SPEED_OF_SOUND = 343.0  # m/s, docs/architecture.md default
 
 
 def _as_position(value: object, name: str) -> tuple[float, float, float]:
@@ -156,8 +156,8 @@ class MicArray:
     positions : (Q, 3) float, metres
         The microphones in the scene frame (x right, y down, z forward).
     pairs : sequence of (i, j)
-        The pairs used, each giving the ITD ``t_i - t_j`` (DESIGN.md's sign with ``i`` as "left"); default: every
-        pair, ``i`` the one more to the left.
+        The pairs used, each giving the ITD ``t_i - t_j`` (docs/architecture.md's sign with ``i`` as "left"); default:
+        every pair, ``i`` the one more to the left.
     speed_of_sound : float, m/s
     c1, c0 : per pair (length P), the affine correction of eq. (itd_up) from the audio-visual calibration;
         default the identity for every pair.

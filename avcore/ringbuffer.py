@@ -1,11 +1,11 @@
 """Multichannel audio ring buffer.
 
-The audio callback appends blocks of any size; the ITD worker (DESIGN.md, "Data flow") reads the window that ends at
-a given sample index, or the latest ``W`` seconds. Every sample has an absolute index (0 for the first sample ever
-written), so a window's timestamp is ``stream_start_s + index / samplerate_hz``.
+The audio callback appends blocks of any size; the ITD worker (docs/architecture.md, "Data flow") reads the window that
+ends at a given sample index, or the latest ``W`` seconds. Every sample has an absolute index (0 for the first sample
+ever written), so a window's timestamp is ``stream_start_s + index / samplerate_hz``.
 
-The buffer itself takes no lock: DESIGN.md makes the ITD worker its owner, and the application hands it blocks
-through a bounded queue filled by the audio callback. Wrap it in a lock if two threads must touch it.
+The buffer itself takes no lock: docs/architecture.md makes the ITD worker its owner, and the application hands it
+blocks through a bounded queue filled by the audio callback. Wrap it in a lock if two threads must touch it.
 """
 from __future__ import annotations
 

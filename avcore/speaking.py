@@ -80,18 +80,16 @@ def _poisson_quantile(q: float, lam: np.ndarray) -> np.ndarray:
 class SpeakingTest:
     """The speaking decision of eq. (audio_act) and avhear's outlier-aware replacement of it.
 
-    The paper: speaking when beta_bar_n > tau_A = K / (N + 2). That threshold fails both ways: with nobody
-    speaking, tau_A is small and a cluster fires on a couple of stray ITDs (reverberation, noise); with talkers
-    the cameras do not see (or people the vision missed), K grows with ITDs that are nobody's in the model and
-    tau_A silences the visible talker. The outlier-aware test (``outlier_aware``) asks instead whether the ITDs
-    within +-``window_sd`` sigma of the cluster (sigma at least ``min_sd_s``) are more than chance allows: if a
-    share ``outlier_share`` of the K ITDs were spread uniformly over the ITD interval, the count in the window
-    would be Poisson; the count must exceed its ``quantile`` and be at least ``min_itds``. ``use_tau_a`` also
-    keeps the paper's threshold (off by default: it costs audio TP on the Var sequences and removes no false
-    positive, ``avhear eval synthetic``). ``count_by`` says how much an ITD in the window counts for the person:
-    ``"posterior"`` with its posterior beta_kn, so that an ITD between two people is not counted twice;
-    ``"nearest"`` with its posterior of being anyone's (1 - the outlier's), all of it for the person it lies
-    nearest to; ``"window"`` fully for everyone whose window holds it.
+    The paper: speaking when beta_bar_n > tau_A = K / (N + 2). That threshold fails both ways: with nobody speaking,
+    tau_A is small and a cluster fires on a couple of stray ITDs (reverberation, noise); with talkers the cameras do not
+    see (or people the vision missed), K grows with ITDs that are nobody's in the model and tau_A silences the visible
+    talker. The outlier-aware test (``outlier_aware``) asks instead whether the ITDs within +-``window_sd`` sigma of the
+    cluster (sigma at least ``min_sd_s``) are more than chance allows: if a share ``outlier_share`` of the K ITDs were
+    spread uniformly over the ITD interval, the count in the window would be Poisson; the count must exceed its
+    ``quantile`` and be at least ``min_itds``. ``count_by`` says how much an ITD in the window counts for the person:
+    ``"posterior"`` with its posterior beta_kn, so that an ITD between two people is not counted twice; ``"nearest"``
+    with its posterior of being anyone's (1 - the outlier's), all of it for the person it lies nearest to; ``"window"``
+    fully for everyone whose window holds it.
 
     ``"nearest"`` is the face-guided default (:class:`avcore.inference.FaceGuidedParams`): two faces closer in ITD
     than the Gaussians' width explain the same ITDs about equally well, and EM then often hands nearly all the
@@ -102,33 +100,7 @@ class SpeakingTest:
     fits on the ITDs of the whole time frame and decides on those near the frame's own instant
     (``FaceGuidedParams.decision_window_s``).
 
-    A second look at the single frames (``frame_rescue``, beyond the paper). One ITD per 150 ms window (section 4)
-    belongs to the louder talker whenever two overlap, and a quieter one can lose every window of a spoken number;
-    in the gaps between the louder talker's syllables it still wins some 32 ms frames. Given the frames' own ITDs
-    (``decide(..., frame_itds=...)``, from ``ItdStream(frame_itds=True)``), a person also speaks when more of them
-    lie within ``frame_within_s`` of the person, and nearer to them than to anyone else, than chance allows. Chance
-    is a Poisson count with two parts: the frames that stray uniformly over the ITD interval (a share
-    ``outlier_share`` of the M, as for the windows), and the other people's frames that spill over to this one (a
-    frame's ITD scatters as a Laplace of scale ``frame_spread_s``). The count must exceed the Poisson's
-    ``frame_quantile`` and reach ``frame_min``. Only the nearest person counts a frame.
-
-    A third look at the frames' frequency bands (``band_itds``, from ``ItdStream.pop_band_itds``: each 32 ms frame's
-    own peak in each of the bands cut at 800, 1600 and 2600 Hz). Two voices at once rarely fill the same bands
-    equally, so a masked talker that wins no whole frame still wins some bands. The same test counts them, with a
-    spread of ``band_spread_s`` (a band's peak scatters twice as much as a frame's). Where two voices share a band,
-    its peak falls between them (a phantom, as in summing localisation): nobody lying between two people already
-    judged speaking is called speaking on the bands. On their own the bands bring short false stretches, which the
-    pipeline's vote over 9 results removes (``PipelineConfig.vote_frames``, :func:`vote_speaking`).
-
-    A fourth look, with several microphone pairs: the bins of every pair at once (``decide_pairs(...,
-    bin_share=...)``, :func:`bin_shares`, the share of the time-frequency bins whose phases on every pair agree
-    with the person within ``bin_agreement``). A person judged speaking by the three looks is kept speaking only when
-    their share exceeds ``bin_confirm_share`` (a phantom between two talkers on the pairs' peaks owns no bins), and a
-    person whose share exceeds ``bin_claim_share`` speaks whatever the peaks say (a talker masked in every window and
-    frame still owns the bins where it is the louder).
-
-    How each part was chosen, measured and what was tried without gain: docs/experiments.md ("The speaking test",
-    "Several microphone pairs").
+    In full (every part, and why): docs/method.md ("The speaking test").
     """
 
     outlier_aware: bool = True
@@ -137,7 +109,6 @@ class SpeakingTest:
     outlier_share: float = 0.2
     quantile: float = 0.9
     min_itds: int = 2
-    use_tau_a: bool = False
     count_by: str = "posterior"
     frame_rescue: bool = True
     frame_within_s: float = 25e-6
@@ -188,7 +159,7 @@ class SpeakingTest:
             inside = np.abs(itds[:, None] - model.means[None, :]) <= half[None, :]
             counts = (self._shares(beta, itds, model.means) * inside).sum(axis=0)
             lam = self.outlier_share * k * np.minimum(2.0 * half * model.outlier_density, 1.0)
-            speaking, prob = self._count_test(counts, lam, speaking, prob)
+            speaking, prob = self._count_test(counts, lam)
             if self.frame_rescue and frame_itds is not None and len(frame_itds):
                 speaking, prob = self._rescue(speaking, prob, np.asarray(frame_itds, dtype=np.float64), model,
                                               self.frame_spread_s)
@@ -204,15 +175,11 @@ class SpeakingTest:
                 prob = np.where(between, prob, found_prob)
         return speaking, prob, tau
 
-    def _count_test(self, counts: np.ndarray, lam: np.ndarray, speaking: np.ndarray, prob: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
+    def _count_test(self, counts: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The window test: a count must exceed the chance quantile of Poisson(lam) and reach ``min_itds`` (the
-        1e-9 makes "reach" a strict test); with ``use_tau_a`` the paper's test must pass too."""
+        1e-9 makes "reach" a strict test)."""
         thr = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds) - 1e-9
-        count_prob = counts / (counts + thr)
-        if self.use_tau_a:
-            return speaking & (counts > thr), np.minimum(prob, count_prob)
-        return counts > thr, count_prob
+        return counts > thr, counts / (counts + thr)
 
     def _shares(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray) -> np.ndarray:
         """(K, N): how much each ITD counts for each person (``count_by``)."""
@@ -293,7 +260,7 @@ class SpeakingTest:
                 share = np.ones_like(b)
             counts += (share * inside).sum(axis=0)
             lam += self.outlier_share * rows.sum() * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).min(axis=1)
-        speaking, prob = self._count_test(counts, lam, speaking, prob)
+        speaking, prob = self._count_test(counts, lam)
         if self.frame_rescue and frame_itds is not None and len(frame_itds):
             speaking, prob = self._rescue_pairs(speaking, prob, np.asarray(frame_itds, dtype=np.float64), means, u,
                                                 self.frame_spread_s)

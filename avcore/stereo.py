@@ -3,8 +3,8 @@
 Paper section 5.2 (visual features are 3D points from binocular vision, expressed in cyclopean coordinates) and
 section 5.3 (the stereo calibration, done there with Bouguet's toolbox and here with OpenCV).
 
-Conventions (DESIGN.md): metres; OpenCV's camera axes (x right, y down, z forward). The **scene frame** is the
-cyclopean frame of the *rectified* pair: its axes are those of the rectified left camera and its origin lies midway
+Conventions (docs/architecture.md): metres; OpenCV's camera axes (x right, y down, z forward). The **scene frame** is
+the cyclopean frame of the *rectified* pair: its axes are those of the rectified left camera and its origin lies midway
 between the two camera centres. Image coordinates are pixels ``(u, v)`` with the origin at the centre of the
 top-left pixel (OpenCV's convention).
 

@@ -10,8 +10,9 @@ The paper's implementation used the two strategies of the RSB event synchroniser
   ITDs) whose stamp lies within ``+-window_s`` of the primary's stamp.
 
 Both are plain objects: no threads, no locks, no clocks. The caller pushes ``(stamp, item)`` and receives whatever the
-push completed; stamps are seconds on one clock (DESIGN.md). A stamp that breaks an object's ordering assumption is
-rejected with ``ValueError`` and leaves the object unchanged, so that a running pipeline can count it and go on.
+push completed; stamps are seconds on one clock (docs/architecture.md). A stamp that breaks an object's ordering
+assumption is rejected with ``ValueError`` and leaves the object unchanged, so that a running pipeline can count it and
+go on.
 """
 from __future__ import annotations
 
@@ -81,43 +82,7 @@ class ApproximateTime:
     5. the output depends only on the stamps, not on the arrival order, provided that each topic's messages arrive
        in stamp order and the queues are large enough.
 
-    Parameters
-    ----------
-    n_topics : int, >= 2
-        Number of input topics; each emitted set is a tuple of ``n_topics`` items ordered by topic.
-    queue_size : int, >= 1
-        Messages held per topic (queued plus those under examination for the current candidate). When a topic
-        overflows, its oldest message is dropped and the candidate search restarts, as in ROS. At least 2 is
-        advisable: with 1, many messages are dropped.
-    max_interval_s : float, seconds, optional
-        Largest allowed set size. Sets that would be larger are never formed: their earliest message is dropped.
-    lower_bounds_s : float or sequence of n_topics floats, seconds, optional
-        Known lower bound on the time between two consecutive messages of each topic (for a 30 FPS camera, a little
-        under 1/30 s). It does not change which sets are emitted, but lets the algorithm prove a set optimal before
-        the next message of a slow topic arrives, so sets come out earlier. A message that arrives closer to its
-        predecessor than the bound is still accepted; a warning is logged once per topic and counted in
-        :attr:`bound_violations`, since the sets emitted around it may not be optimal.
-    age_penalty : float, >= 0
-        When comparing set sizes, later sets are penalised by the factor ``1 + age_penalty`` (ROS's
-        ``setAgePenalty``). The ROS documentation's default, 0, gives the sets of minimal size (the C++ code
-        defaults to 0.1); a positive value publishes earlier at some cost in quality.
-
-    Examples
-    --------
-    >>> sync = ApproximateTime(n_topics=2, queue_size=10)
-    >>> [sync.push(topic, stamp, stamp) for topic, stamp in [(0, 0), (1, 1), (0, 3), (1, 4), (0, 6), (1, 7)]]
-    [[], [], [(0, 1)], [], [(3, 4)], []]
-
-    The pair (6, 7) waits: a message of topic 0 at 7 could still make a better set. With a lower bound of 2 s
-    between messages of topic 0 it cannot, so the pair comes out at once.
-
-    Notes
-    -----
-    The search is the one of the ROS C++ policy, with one difference in *when* it runs: ROS resumes it only when an
-    empty queue receives a message, this class also when a message arrives while a candidate waits. Some sets are
-    therefore published earlier than by ROS and none differently (as long as no queue overflows), and after every
-    push the synchroniser has published everything that the messages received so far prove optimal, whatever
-    their arrival order.
+    In full (every part, and why): docs/architecture.md ("Pairing two cameras by stamp").
     """
 
     def __init__(

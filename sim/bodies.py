@@ -1,4 +1,4 @@
-"""Synthetic sequences of people with bodies, for Algorithm 1 (issue 18): motion points where Harris corners fall on
+"""Synthetic sequences of people with bodies, for Algorithm 1: motion points where Harris corners fall on
 a real person, not a Gaussian blob.
 
 The paper's section 7.1 sequences (:mod:`sim.synthetic`) draw each person's points as an anisotropic Gaussian around
@@ -26,10 +26,11 @@ sensor noise of :class:`sim.synthetic.SyntheticConfig`):
   lane 0.6 m or more from both.
 
 **Ground truth.** A person's position is the centre of their visible moving body: the mean of the noise-free
-points the generator would draw for them in that interval (inside the image, not hidden by the table or another
-person), computed from 4,000 draws. That is the point a method that locates a person from its motion points
-estimates; the ITDs come from the mouth. A person counts in the truth when at least 30 % of their points are
-visible; the others are ``Interval.hidden_xyz`` (the centre of what is seen of them). Speech is the on/off chain of :mod:`sim.synthetic`, and the ITDs have its statistics.
+points the generator would draw for them in that interval (inside the image, not hidden by the table or another person),
+computed from 4,000 draws. That is the point a method that locates a person from its motion points estimates; the ITDs
+come from the mouth. A person counts in the truth when at least 30 % of their points are visible; the others are
+``Interval.hidden_xyz`` (the centre of what is seen of them). Speech is the on/off chain of :mod:`sim.synthetic`, and
+the ITDs have its statistics.
 """
 from __future__ import annotations
 

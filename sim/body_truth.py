@@ -1,4 +1,4 @@
-"""Where a rendered person is for a motion-guided method: the centre of the visible moving body (issue 18).
+"""Where a rendered person is for a motion-guided method: the centre of the visible moving body.
 
 Algorithm 1 (motion-guided, :class:`avcore.inference.MotionGuidedHearing`) locates a person from the HM3D points of
 an interval, which lie on whatever part of the person moves and can be seen: with a body, the head that nods, the

@@ -1,4 +1,4 @@
-"""The body of a rendered person (issue 18): torso, arms, hands and legs as textured planar quads, and a table.
+"""The body of a rendered person: torso, arms, hands and legs as textured planar quads, and a table.
 
 :class:`sim.render.Person` draws these when it has a body (``arms``). The aim is what HM3D sees on a real person:
 Harris corners lie where clothing has texture (the checks and folds of a shirt, the collar, the buttons, the cuffs,

@@ -3,14 +3,14 @@
 It produces the visual input of the paper's pipeline (section 5.2: F3D faces, HM3D moving points) with ground truth:
 the 3D centre of every face at every instant, and the surfaces of the people, so that F3D and HM3D can be scored.
 
-Everything is a textured planar quad (walls, floor, bodies, heads, arms, tables) drawn by a homography per camera,
-far to near (painter's algorithm), with sensor noise; a texture with a fourth channel is drawn where its alpha is set
-(rounded shoulders, fingers). People with bodies are :mod:`sim.person_body`'s. Faces are crops of real photographs cut around the hand-labelled boxes of
-``../shared/data/faces`` (:func:`load_face_textures`) or, on a clean machine, a drawn face that OpenCV's frontal
-Haar cascade finds (:func:`drawn_face_texture`).
+Everything is a textured planar quad (walls, floor, bodies, heads, arms, tables) drawn by a homography per camera, far
+to near (painter's algorithm), with sensor noise; a texture with a fourth channel is drawn where its alpha is set
+(rounded shoulders, fingers). People with bodies are :mod:`sim.person_body`'s. Faces are crops of real photographs cut
+around the hand-labelled boxes of ``../shared/data/faces`` (:func:`load_face_textures`) or, on a clean machine, a drawn
+face that OpenCV's frontal Haar cascade finds (:func:`drawn_face_texture`).
 
-Scene frame (DESIGN.md): the cyclopean frame of the rig, metres, x right, y down, z forward. The cameras are at
-y = 0; the floor is ``VisualRoom.floor_y`` below them.
+Scene frame (docs/architecture.md): the cyclopean frame of the rig, metres, x right, y down, z forward. The cameras are
+at y = 0; the floor is ``VisualRoom.floor_y`` below them.
 """
 from __future__ import annotations
 
@@ -172,7 +172,7 @@ class Person:
     sway_m, sway_hz : amplitude (metres) and frequency of a side-to-side sway of the whole person along x.
     nod_rad, nod_hz : amplitude (radians) and frequency of a head nod about the horizontal axis of the face centre.
     phase : radians, added to every oscillation. shirt_bgr : colour of the shirt.
-    arms : a body (issue 18, :mod:`sim.person_body`): a checked shirt on a torso with rounded shoulders, upper arms,
+    arms : a body (:mod:`sim.person_body`): a checked shirt on a torso with rounded shoulders, upper arms,
     forearms and hands, and legs unless a table hides them; without it the body is one flat striped plane.
     gesture_m, gesture_hz : how far (metres) and how fast the hands swing (a talker about 0.15 m, a listener a
     little); the shoulders rock with them. table : a table in front of a seated person hides the lower body (drawn by

@@ -2,8 +2,8 @@
 
 Built on pyroomacoustics (image-source model of a shoebox room; optional: ``pip install -e '.[sim]'``).
 
-Coordinates: talkers and microphones are given in the project's **scene frame** (DESIGN.md: origin at the head,
-x right, y down, z forward, metres). The room's own frame (pyroomacoustics: origin at a corner, z up) only appears
+Coordinates: talkers and microphones are given in the project's **scene frame** (docs/architecture.md: origin at the
+head, x right, y down, z forward, metres). The room's own frame (pyroomacoustics: origin at a corner, z up) only appears
 inside this module; the head stands at ``AcousticRoom.head_m`` (room frame) looking along the room's +y axis.
 
 Speech: real speech from ``../shared/data/speech`` (spoken digits, 8 kHz, resampled; or CMU ARCTIC sentences),

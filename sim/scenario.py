@@ -16,8 +16,8 @@ Presets (section 7.3, "Results on NAO"; the paper's room is about 5 x 5 m, the r
   a zig-zag across the whole field of view. The noise comes in bursts of 150 ms every 0.5 s (``CALIBRATION_BURST_S``),
   not continuously as in the paper: see :data:`avcore.calibration.CALIBRATION_BURST_S` for why.
 
-Scene frame (DESIGN.md): the cyclopean frame of the rectified rig, metres, x right, y down, z forward; the robot's
-head (cameras and microphones) is at the origin, 1.0 m above the floor. Times are seconds from the start of the
+Scene frame (docs/architecture.md): the cyclopean frame of the rectified rig, metres, x right, y down, z forward; the
+robot's head (cameras and microphones) is at the origin, 1.0 m above the floor. Times are seconds from the start of the
 scenario (the stream's clock adds its start).
 
 Everything is deterministic for a seed. Nothing here reads files or touches devices: the speech clips come in as a

@@ -21,48 +21,7 @@ the interval's six video frames: head sway and breathing for everyone; arm gestu
 moving sinusoidally, in bursts) that make the hands move much more than the head; walking (the body travels
 between waypoints, legs and arms swing).
 
-Points
-------
-Per interval and person, candidate surface points are drawn uniformly by area over the parts and over the six
-frames. A candidate is *visible* when its surface faces the camera, it lies in the field of view, no table hides
-it (seated people sit behind a 75 cm high table that hides everything below its top) and no nearer person's part
-covers it in the image. A visible candidate becomes an HM3D point with probability ``texture x motion``: the
-texture of its place on the body (see ``_texture``) times ``v^2 / (v^2 + v0^2)``, v its speed between two frames
-(the temporal intensity deviation of section 4.2 grows with speed). Stereo noise as in :mod:`sim.synthetic`
-(along the ray, growing with depth squared), a few wrong matches anywhere along the ray, and outliers uniform in
-the viewing frustum.
-
-Ground truth
-------------
-A person's position (``Interval.truth_xyz``) is the **centre of the visible moving body**, the project's truth for a
-motion-guided method (as :mod:`sim.body_truth` for the rendered scenes; :mod:`sim.bodies` weighs its parts by their
-share of the motion points, texture included): the mean, over the interval, of the uniformly-by-area distributed
-surface points that are visible (facing the camera, in view, not behind the table or another person), each weighted
-by how much it moves, ``v^2 / (v^2 + v0^2)``, the motion filter's share *without* the texture. It is a property of
-the body, its motion and the camera, not of the features: a plain sleeve that moves counts as much as a checked one,
-so a method is not rewarded for following the texture; a body part that does not move is not there for a
-motion-guided method to find (a standing person's still legs). A person none of whose visible points moves is at the
-centre of the head. ``truth_point="points"`` weighs each point by its texture as well: the mean of the distribution
-the person's motion points are drawn from, as the paper scores against the mean of each ground-truth cluster
-(section 7.1) and as :mod:`sim.bodies` does; ``"body"`` weighs every visible point alike (the visible body whether it
-moves or not); ``"head"`` is the head's centre.
-
-A person is in the ground truth when at least ``min_visible_fraction`` of the surface that faces the camera above
-the table is visible (not cut by the image border or hidden by someone in front); the others are
-``Interval.hidden_xyz``. The ITDs of a speaker come from the mouth.
-
-Families (``FAMILIES``)
------------------------
-``seated``: three people seated behind a table, talking (small hand gestures), not moving from their chairs.
-``standing``: three standing people walking slowly between waypoints, arms and legs swinging.
-``gesturing``: three seated or standing people in place, with wide arm gestures in bursts.
-``edge``: three standing people, one or two of them partly outside the image at its side borders.
-``close``: two seated people side by side (shoulders 45-60 cm apart), a third apart.
-``behind``: one person standing near the robot, another walking back and forth behind them, a third apart.
-``STATIC_FAMILIES`` are those whose people keep their place (TP target 97 %), the others move (93 %).
-
-Scene frame and units follow DESIGN.md: metres, seconds; x right, y down, z forward; the camera at the origin,
-``camera_height_m`` above the floor. A seed gives the same sequence on every machine.
+In full (every part, and why): docs/method.md ("The skeletons generator").
 """
 from __future__ import annotations
 

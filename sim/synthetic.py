@@ -11,8 +11,8 @@ this one reproduces those statistics with a simple physical story, so that each 
   taller than wide and thin in depth, around the person's position, which is the ground truth (section 3: the
   object generates features normally distributed around ``A(S_n)``).
 * **Static** ("Sta") people do not move; **dynamic** ("Dyn") people walk at 0.3-0.6 m/s between random waypoints
-  around their own place, so that neighbours sometimes cross each other in ITD space. A walking person's points are spread along the 0.4 s of motion and the
-  ground truth is the mean position over the interval.
+  around their own place, so that neighbours sometimes cross each other in ITD space. A walking person's points are
+  spread along the 0.4 s of motion and the ground truth is the mean position over the interval.
 * **Constant** ("Con") sequences keep the three people in view all the time (the paper's tables count 408 = 3 x
   136 ground-truth objects for StaCon and DynCon). In **varying** ("Var") sequences people enter and leave the
   field of view, one at a time, so that one to three are visible (the paper counts 229 objects in 136 intervals,
@@ -26,7 +26,7 @@ this one reproduces those statistics with a simple physical story, so that each 
   points uniform in the 3D viewing frustum (0.5-6 m), whose projections onto ITD space are *not* uniform, as the
   paper observes (section 7).
 
-Scene frame and units follow DESIGN.md: metres, seconds; x right, y down, z forward; ITD = t_left - t_right.
+Scene frame and units follow docs/architecture.md: metres, seconds; x right, y down, z forward; ITD = t_left - t_right.
 Everything is drawn from ``np.random.default_rng`` seeded by ``(seed, sequence index)``: a seed gives the same
 sequence on every machine.
 """
@@ -93,93 +93,7 @@ class SyntheticConfig:
     interval_s : float, seconds
         Delta t of section 7: 0.4 s, six video frames.
 
-    People
-    ------
-    n_people : int
-        Size of the cast: 3, the paper's "one to three AV objects". Con sequences keep all in view; Var sequences
-        need at least 2 so that the number can vary.
-    depth_m : (lo, hi), metres
-        Range of the depth z of a person's position: 1.5-3.5 m, a conversation in front of a robot; nearer people
-        would fill the image, farther ones give few stereo points.
-    height_m : (lo, hi), metres
-        Range of the y coordinate (down) of a person's position, the centre of the moving body parts: -0.15 to
-        0.10 m, i.e. roughly at the height of the cameras, so that the blob stays in the vertical field of view.
-    max_azimuth_deg : float, degrees
-        People in view stand or walk within +-22 degrees of straight ahead (azimuth = atan2(x, z)), so that their
-        blob stays inside the 60 degree field of view (a blob is about 4.5 degrees wide at 1.5 m).
-    visible_azimuth_deg : float, degrees
-        A person is visible (has points and is in the ground truth) when the azimuth of its interval-mean
-        position is within +-27 degrees. Points that fall outside the field of view are dropped, so a person
-        entering or leaving near this edge is partly cut, as in an image.
-    min_separation_deg : float, degrees
-        Minimum azimuth gap between static people: 15 degrees is about 85 us of ITD near the centre, three times
-        the ITD spread of a blob at 1.5 m, so that static people are separable in ITD space (the paper's StaCon
-        reaches 96 % TP).
-    roam_deg : float, degrees
-        Dynamic people in view walk between waypoints drawn within +-10 degrees (azimuth) of their own place, the
-        place a static person would keep, and within +-max_azimuth_deg; any depth in ``depth_m``. Neighbours
-        (at least 15 degrees apart at home) therefore sometimes cross in ITD space, as in a conversation where
-        people move about, rather than all the time as three random walkers over the whole view would.
-    away_azimuth_deg : (lo, hi), degrees
-        Where a person out of view (Var sequences) stands or walks: 35-50 degrees to either side, outside the
-        camera's view but still in front of the microphones, whose ITDs (200-270 us) lie beyond those of the
-        people in view.
-    walk_speed_mps : (lo, hi), m/s
-        Walking speed of dynamic people, drawn per leg between waypoints: 0.3-0.6 m/s, a slow indoor pace
-        (0.12-0.24 m per interval; the paper's dynamic ALE is 0.10 m).
-    segment_s : (lo, hi), seconds
-        Var sequences: time between two changes of who is in view, uniform in 6-16 s (about 5 changes in a
-        136-interval sequence).
-    leave_prob : float
-        Var sequences: at a change with two people in view, the probability that one leaves rather than another
-        enters. 0.8 gives about 1.7 people in view on average, the paper's 229 / 136 = 1.68.
-
-    Visual features (HM3D, section 4.2)
-    -----------------------------------
-    points_per_person : float
-        Mean number (Poisson) of motion points of a visible person per interval: 590, so that three people and
-        the outliers give the paper's "approximately 2,000 HM3D observations" (3 x 590 + 230 = 2,000).
-    outlier_points : float
-        Mean number (Poisson) of outlier points per interval (wrong stereo matches, background motion): 230,
-        11.5 % of 2,000. It does not depend on the number of people, so a Var interval with one person has
-        fewer points and a larger outlier share.
-    body_sigma_m : (sx, sy, sz), metres
-        Standard deviations of a person's blob of moving points: 0.12 m across (shoulders and hands), 0.25 m
-        vertically (head to hips) and 0.08 m in depth (a body is thin seen from the front).
-    lateral_noise_m : float, metres
-        Standard deviation of the stereo reconstruction noise in x and y: 1 cm.
-    depth_noise_per_m : float, 1/m
-        Stereo depth noise grows with depth squared: sigma_z = depth_noise_per_m * z^2, applied along the viewing
-        ray. 0.005 / m gives 2 cm at 2 m and 6 cm at 3.5 m (a 0.1 m baseline, 500 px focal length and 0.25 px
-        disparity noise).
-    fov_deg : (horizontal, vertical), degrees
-        Full field of view of the cameras: 60 x 45 degrees, a typical webcam or robot head camera. Points outside
-        it are dropped.
-    outlier_depth_m : (lo, hi), metres
-        Depth range of the viewing frustum in which outlier points are uniform (by volume): 0.5-6 m, the range
-        of a short-baseline stereo pair in a room. It is also the nearest depth at which a point is kept.
-
-    Auditory features (ITDs, section 4.1)
-    -------------------------------------
-    speaking_share : float
-        Long-run fraction of intervals in which a person speaks: 0.5, so that the auditory evaluation (table 2)
-        sees as many speaking as silent object-intervals. Each person has its own chain, so with three people
-        two or more often speak at once.
-    mean_talk_s : float, seconds
-        Mean duration of a speech spurt (and, with ``speaking_share`` = 0.5, of a pause): 2 s.
-    itds_when_speaking : float
-        Mean number (Poisson) of ITDs in an interval in which someone speaks: 22. A 150 ms window with a 20 ms
-        hop (DESIGN.md) gives about 20 windows per 0.4 s; with the silent intervals this averages about 20 ITDs
-        per interval, the paper's figure. The ITDs are shared among the people speaking.
-    itds_when_silent : float
-        Mean number (Poisson) of noise ITDs, uniform over the ITD interval, when nobody speaks: 2 (noise bursts
-        that pass the energy gate).
-    itd_outlier_fraction : float
-        Fraction of the ITDs of a speaking interval that are reverberation outliers, uniform over
-        ``mics.itd_interval()``: 0.15.
-    itd_sigma_s : float, seconds
-        Standard deviation of a speaker's ITDs around ``mics.itd(S)``: 25 us (the paper's initial sigma^2 = 1e-9 s^2
-        is 32 us). ITDs are redrawn until they fall inside the ITD interval.
+    In full (every part, and why): docs/method.md ("The synthetic sequences' parameters").
     """
 
     n_intervals: int = 136

@@ -15,11 +15,11 @@ ROS4HRI (REP-155, "ROS for Human-Robot Interaction"):
 - section "Frames": each face and voice has a TF frame ``face_<id>`` / ``voice_<id>`` (tf2_msgs/TFMessage on
   ``/tf``).
 
-avhear's ids: a tracked person ``N`` (stable while tracked, :class:`avcore.tracking.NearestTracker`) has the face
-id ``fN`` (face-guided runs only) and the voice id ``vN``: the voice is the sound coming from that person's place,
-so a face and its voice are matched with confidence 1.0. Frames: ``face_fN`` and ``voice_vN`` are children of
-:data:`RIG_FRAME` (``avhear_rig``): the scene frame of DESIGN.md (origin midway between the two camera centres,
-x right, y down, z forward, metres: the optical-frame convention), with identity rotation. Headers carry the
+avhear's ids: a tracked person ``N`` (stable while tracked, :class:`avcore.tracking.NearestTracker`) has the face id
+``fN`` (face-guided runs only) and the voice id ``vN``: the voice is the sound coming from that person's place, so a
+face and its voice are matched with confidence 1.0. Frames: ``face_fN`` and ``voice_vN`` are children of
+:data:`RIG_FRAME` (``avhear_rig``): the scene frame of docs/architecture.md (origin midway between the two camera
+centres, x right, y down, z forward, metres: the optical-frame convention), with identity rotation. Headers carry the
 result's capture stamp on the source's clock (``time.monotonic()`` for live input, the recording's own clock for a
 replay), the same ``stamp_s`` as the JSON.
 

@@ -1,51 +1,14 @@
 """The Rerun operator console: the paper's visualisation tool (section 6, figure vtool) and more, as Rerun data.
 
-Every ``rr.*`` call of the application lives here (DESIGN.md); what is drawn is computed by the pure helpers of
-:mod:`app.console.geometry`. The default layout of these entities is :func:`layouts.blueprint.default_blueprint`.
+Every ``rr.*`` call of the application lives here (docs/architecture.md); what is drawn is computed by the pure helpers
+of :mod:`app.console.geometry`. The default layout of these entities is :func:`layouts.blueprint.default_blueprint`.
 
 Entity paths (static entities are logged once, when the console is created). The people of a frame are the
 instances of a few batched entities, one instance each, told apart by colour (:func:`~app.console.geometry.
 person_colors`, stable per person id) and label (``"<id>: <probability>"``); such an entity is cleared when its last
 person goes. ``<id>`` is a person id.
 
-======================================  ==========================================================  ========
-path                                    what                                                        when
-======================================  ==========================================================  ========
-``scene``                               3D scene frame, right-down-forward (ViewCoordinates RDF)     static
-``scene/robot``                         the robot's head: a box around its sensors (Boxes3D)         static
-``scene/robot/mics``                    the two microphones M_L, M_R (Points3D)                      static
-``scene/cameras/{left,right}``          rectified cameras: Transform3D + Pinhole (frusta)            static
-``scene/cameras/left/image``            the left image, JPEG (EncodedImage) or raw (Image)           frame
-``scene/cameras/left/faces``            pane 1: a box per face (Boxes2D) + speaking circles          frame
-                                        (Points2D)
-``scene/heads/{speaking,silent}``       the heads in 3D (Ellipsoids3D): solid for the speakers,      frame
-                                        wireframe for the others
-``scene/hm3d_points``                   HM3D points of the interval (Points3D), when given           frame
-``birdseye/robot``, ``birdseye/mics``   pane 2: the robot and its microphones, seen from above       static
-``birdseye/fov``, ``birdseye/rings``    the cameras' fields of view; range rings every metre         static
-``birdseye/heads/circles``              a circle per head (Ellipses2D) + speaking discs (Points2D)   frame
-``itd/axis``                            pane 3: the ITD axis (microseconds) and its ticks            static
-``itd/histogram``                       the interval's ITD histogram, one step outline (LineStrips2D)  frame
-``itd/outliers``                        the uniform outlier class' level (LineStrips2D)              frame
-``itd/faces/gaussians``                 each face's fitted Gaussian (LineStrips2D) and its mapped
-                                        ITD c1 A(S) + c0 on the axis (Points2D)                      frame
-``itd/bars``                            the same histogram as a BarChart (abscissa in microseconds,  frame
-                                        sent with the first frame only: it never changes)
-``people/<id>/speaking_probability``    speaking probability per person (Scalars)                   frame
-``counts``                              number of people, of speakers, of ITDs in the interval:      frame
-                                        three series of one Scalars entity
-``diagnostics/<key>``                   any diagnostics figure, e.g. ``fps/vision``, ``latency_ms/…``  frame
-``events``                              people appearing and leaving (TextLog)                       frame
-======================================  ==========================================================  ========
-
-The histogram (``itd/histogram``, ``itd/bars``) is logged only when it differs from the last one logged (silence
-gives the same empty histogram frame after frame); the latest logged one is what the viewer shows.
-
-Timelines: ``frame`` (sequence, the frame number) and ``capture_time`` (the capture stamp: a timestamp when the
-console knows the wall-clock time of the stamp clock's zero, else a duration since that zero).
-
-ITD-space units: the horizontal axis is in microseconds; heights are the fraction of the interval's ITDs per bin
-(see :mod:`app.console.geometry`), drawn upwards (negative y in the 2D view).
+In full (every part, and why): docs/architecture.md ("The console").
 """
 from __future__ import annotations
 
@@ -159,7 +122,7 @@ class ConsoleFrame:
     Parameters
     ----------
     stamp_s : float, seconds
-        Capture stamp of the vision frame on the application's clock (DESIGN.md).
+        Capture stamp of the vision frame on the application's clock (docs/architecture.md).
     frame : int
         Frame number (the ``frame`` timeline).
     image : (H, W) or (H, W, 3) uint8, or None
@@ -360,8 +323,8 @@ class Console:
         self.new_part()
 
     def new_part(self) -> None:
-        """Start afresh in a new .rrd part (:meth:`app.console.viewer.ViewerSession.next_part`): the static data again, and
-        whatever is logged only once or on change (people's styles, the bars' positions, the histogram) at the next
+        """Start afresh in a new .rrd part (:meth:`app.console.viewer.ViewerSession.next_part`): the static data again,
+        and whatever is logged only once or on change (people's styles, the bars' positions, the histogram) at the next
         frame."""
         self._present: set[int] = set()
         self._styled: set[int] = set()

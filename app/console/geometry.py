@@ -11,8 +11,8 @@ views of the console are drawn from these helpers:
   interval's ITDs per histogram bin* (counts / K for the histogram, ``pi_n N(x) * bin_s`` for a curve), so that a
   curve lies on top of the bars it explains. The horizontal axis is in microseconds.
 
-Conventions (DESIGN.md): metres, seconds; scene frame x right, y down, z forward; the scene origin midway between
-the two rectified camera centres.
+Conventions (docs/architecture.md): metres, seconds; scene frame x right, y down, z forward; the scene origin midway
+between the two rectified camera centres.
 """
 from __future__ import annotations
 

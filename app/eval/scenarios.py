@@ -1,61 +1,14 @@
 """The scenario evaluation of the paper's section 7.3 ("Results on NAO") on the simulated room.
 
-Each scenario S1-S5 (:mod:`sim.scenario`) is simulated and replayed as fast as possible (nothing lost) through
-the real :class:`~app.pipeline.Pipeline`: face detection and F3D on the rendered stereo frames (section 5.2), ITD
-extraction on the simulated microphone signals (section 4), and face-guided fusion (Algorithm 2, section 5.4) or,
-when asked, motion-guided fusion (Algorithm 1). The fused results are scored against the simulator's truth.
+Each scenario S1-S5 (:mod:`sim.scenario`) is simulated and replayed as fast as possible (nothing lost) through the
+real :class:`~app.pipeline.Pipeline` (face- or motion-guided), and the results are scored against the simulator's
+truth in two units: per spoken number (:class:`UtteranceCounts`, the paper's unit) and per visible person and 0.4 s
+interval (a stricter view, with a timing reference: the truth itself held 25 ms longer). Per scenario also: the
+share of frames with every visible face found, the F3D error and the ITD accuracy. With ``calibration`` the fusion
+uses the c1, c0 fitted on the ``calibration`` preset (section 5.3), as a user of the rig would.
 
-Speaking states, the table of section 7.3 (FP, FN, TP), per spoken number
-    The paper annotated its recordings by hand. Its caption calls the table's total "the total number of counts",
-    its people count "from one up to sixteen", and its totals are close to multiples of 16 (TP + FN = 172, 207,
-    177, 178 and 168: 10.75, 12.9, 11.1, 11.1 and 10.5 times 16). So one count is one number spoken by a visible
-    person (:class:`UtteranceCounts`): TP when the person was judged speaking in at least half of the results
-    during the number in which the face was found, FN otherwise; FP for each stretch of consecutive results
-    judging a found person speaking that overlaps none of that person's numbers (a hand clap, another person's
-    speech). The speaking state's lag behind the speech (the ITD window and the fusion's time frame) costs nothing
-    here, unlike per interval.
-
-Per interval of 0.4 s (a second, stricter view)
-    One count is one *visible person during one interval of 0.4 s* (the Delta t of section 7): interval ``k``
-    holds the fused frames stamped in ``[0.4 k, 0.4 (k + 1))`` (for the motion-guided variant, the one result of
-    that interval).
-
-    - Truth: a person is *visible* in the interval when ``FrameTruth.visible`` holds in most of its frames, and
-      *speaking* when ``FrameTruth.speaking`` holds in most of them (speech only: the hand claps of S5 are
-      ``sounding`` but not speaking). People outside the field of view are not counted (no face-guided system can
-      report them), but their speech reaches the microphones.
-    - Detection: in every frame, the detected faces are associated with the people by 3D position with the protocol
-      of section 7 (:func:`avcore.evaluation.match_clusters`, tau_loc = 0.35 m). The motion-guided variant's people
-      (each a cluster of HM3D points) are associated with the centre of each person's visible moving body over the
-      result's interval (:mod:`sim.body_truth`: where its points can be), not with the face; the face-guided
-      variant's with the faces. A person found in at least one frame
-      of the interval is *detected speaking* when the associated face was judged speaking in most of the frames
-      where it was found; a person found in none is *missed* (which counts as judged silent).
-    - TP: speaking, detected speaking. FN: speaking, detected silent (``fn_missed_face`` of them because the face
-      was not found at all). FP: silent, detected speaking, plus one per interval in which, in most frames, a
-      detection associated with nobody was judged speaking (``fp_false_face``). TN: silent, detected silent.
-      TP % = TP / (TP + FN), as in the paper's table. A speaking state that lasts into the pause after a number
-      (the ITD window and the +-0.2 s time frame) costs an FP here whenever the pause covers most of an interval.
-      So the FP of people are split: ``fp_partly_spoken`` in intervals where the person speaks in some of the
-      frames (fewer than half), ``fp_wholly_silent`` where they say nothing in any frame.
-    - Timing reference (``timing_reference``): the same counts for the truth itself, every face found and each
-      spoken number held ``TIMING_REFERENCE_S`` (25 ms) longer at both ends. Its false alarms show how much of
-      this view's FP measures timing, not detection: an interval in which speech fills a little under half of the
-      frames turns into a false alarm with the smallest lag.
-
-Per scenario also (per fused frame): the share of frames in which every visible face was found, the median F3D
-error of the found faces (metres), and the ITD accuracy: the share of the extracted ITDs within 40 us of the true
-ITD of the talker, over the windows (W = 150 ms) during which exactly one person makes a sound and that sound is
-speech, with the median bias (extracted minus true) and the median pull towards zero of the talkers off to the
-side (``-(extracted - true) * sign(true)`` over |true ITD| >= 50 us; reverberation makes it positive; the bias
-alone hides it, as talkers left and right cancel). The true ITD is eq. (itd) of the mouth, mapped with the same
-affine correction (eq. itd_up) as the fusion; the extraction is :func:`avcore.itd.extract_itds` with the
-pipeline's settings on the same samples.
-
-Audio-visual calibration (section 5.3): with ``calibration`` the fusion uses ``c1``, ``c0`` fitted on the
-``calibration`` preset (a loudspeaker of white-noise bursts carried over the field of view), exactly as a user of
-the rig would calibrate it (:func:`calibrate_on_preset`). The simulator's microphones are at their nominal positions, so
-the correction only absorbs what the room and the extractor do to the ITDs (reverberation pulls them towards zero).
+The protocol in full (what one count is and why, the matching, the split of false alarms): docs/architecture.md
+("Scoring the scenarios").
 """
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
 """The simulated room as a sensor stream: stereo frames and microphone blocks with timestamps, plus the truth.
 
-The embedded default source (DESIGN.md, "What users get"): a :class:`SimSource` delivers what a real rig delivers --
-640x480 left/right frames at ``fps`` (15-30) and 16 kHz two-channel audio in blocks of ``block_size`` samples, each
-stamped on one clock -- from a scenario of :mod:`sim.scenario` (the paper's section 7.3 presets S1-S5 and the
-section 5.3 calibration), with the ground truth of every frame.
+The embedded default source (`avhear demo`): a :class:`SimSource` delivers what a real rig
+delivers -- 640x480 left/right frames at ``fps`` (15-30) and 16 kHz two-channel audio in blocks of ``block_size``
+samples, each stamped on one clock -- from a scenario of :mod:`sim.scenario` (the paper's section 7.3 presets S1-S5 and
+the section 5.3 calibration), with the ground truth of every frame.
 
 Audio is computed once, when the source is made (the whole scenario: image-source room impulse responses from
 :mod:`sim.roomsim`, one per still sound source and one per ``max_step_m`` of a moving one, cross-faded; the

@@ -11,7 +11,7 @@ Methods, one module each, registered by name in ``METHODS``:
   frame by frame (``avcore.itd.robust``). Much better in reverberant, noisy rooms: see
   ``benchmarks/itd_accuracy.py``.
 
-Sign (DESIGN.md): ITD = t_left - t_right, positive for a source on the right, as ``MicPair.itd``.
+Sign (docs/architecture.md): ITD = t_left - t_right, positive for a source on the right, as ``MicPair.itd``.
 """
 from __future__ import annotations
 

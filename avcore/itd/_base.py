@@ -1,8 +1,8 @@
 """What every ITD method shares: the cross-spectrum of one window, the lag search and the sub-sample peak.
 
 A method is a weighting of the cross-spectrum ``C(f) = X_L(f) conj(X_R(f))`` of a window: the generalised
-cross-correlation ``r(tau) = IDFT(W(f) C(f))(tau)`` then peaks at ``tau = t_left - t_right`` (DESIGN.md sign: if the
-left signal is the right one delayed by ``D`` samples, ``C = |S|^2 exp(-2 pi i f D)`` and ``r`` peaks at ``+D``).
+cross-correlation ``r(tau) = IDFT(W(f) C(f))(tau)`` then peaks at ``tau = t_left - t_right`` (docs/architecture.md sign:
+if the left signal is the right one delayed by ``D`` samples, ``C = |S|^2 exp(-2 pi i f D)`` and ``r`` peaks at ``+D``).
 Subclasses give ``W`` (and a normaliser that makes the peak height a confidence in ``[-1, 1]``).
 
 The peak: the integer lag maximising ``r`` within ``+-max_lag``, then the band-limited correlation itself evaluated

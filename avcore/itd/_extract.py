@@ -42,7 +42,7 @@ class ItdTrack:
     """ITDs of the windows that passed the energy gate.
 
     times_s : (K,) float, seconds -- window centres, from the first sample of the signal (or stream).
-    itds_s : (K,) float, seconds -- t_left - t_right (positive: source on the right), DESIGN.md.
+    itds_s : (K,) float, seconds -- t_left - t_right (positive: source on the right), docs/architecture.md.
     confidence : (K,) float in [-1, 1] -- the method's normalised peak height.
     energy : (K,) float -- the window's mean power, ``mean((left^2 + right^2) / 2)`` (full scale 1).
     """

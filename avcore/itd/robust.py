@@ -1,81 +1,17 @@
-"""Reverberation- and noise-robust variants of the two methods: time-frequency weighting of short frames.
+"""Reverberation- and noise-robust variants of the two ITD methods: time-frequency weighting of short frames.
 
-In a room the microphones hear the direct sound, which carries the ITD of eq. (itd), its reflections, which pull
-the correlation peak towards zero lag (a diffuse field is coherent at low frequencies for a 12 cm pair) or towards
-strong reflections, background noise and the robot's own fan, which is a few centimetres from the microphones and
-so perfectly coherent. The plain methods give every frequency of the window a vote (the phase transform, or the
-per-channel normalisation of the correlogram), including bands where there is no speech at all. Here the window is
-cut into short Hann-windowed frames (32 ms, on a grid of ``hop / 2``), whose spectra ``gcc-phat-robust`` first
-dereverberates by linear prediction (below), and each frame and frequency bin is weighted by
-
-- **signal-to-noise**: ``clip(1 - over_subtraction * N(f) / P(t, f), 0, 1)`` with ``N(f)`` a running noise floor
-  (minimum tracking of the smoothed power, rising at most ``noise_rise_db_per_s``; Doblinger 1995, Martin 2001).
-  Bins that hold only the fan or the background noise no longer vote;
-- **precedence (onsets)**: the share of the frame's power that is new, ``clip(1 - P(t-1, f) / P(t, f), 0, 1)``,
-  with a floor: at a rise of energy the direct sound arrives before its reflections (Wilson and Darrell, 2006,
-  "Learning a precedence effect-like weighting function for the generalized cross-correlation framework");
-- **coherence**: the magnitude of the short-time coherence (recursive averages over about 30 ms) raised to
-  ``coherence_power``: where one plane wave dominates a bin the left and right spectra stay coherent
-  (a direct-path-dominance test, Nadiri and Rafaely, 2014);
-- **coherent-to-diffuse ratio**: a diffuse field (late reverberation, room noise) is itself coherent at low
-  frequencies for a 12 cm pair, with the known coherence ``sinc(2 f d / c)``, and pulls the peak to zero lag. The
-  DOA-independent estimator of Thiergart, Del Galdo and Habets (2012) gives each bin's coherent-to-diffuse ratio
-  CDR; the bin is weighted by ``(CDR / (1 + CDR))^diffuse_power`` and, with ``diffuse_subtract``, the diffuse part
-  ``sinc(2 f d / c) sqrt(P_L P_R) / (1 + CDR)`` is removed from its cross-spectrum.
-
-Two frame-level cues then weight whole frames: within a "speech" window the talker pauses between words and
-the background noise (clattering dishes in the benchmark) takes over some frames, whose bins the per-bin weights
-above only partly silence. They are on by default for ``gcc-phat-robust`` and off for ``correlogram-robust``
-(where they cost accuracy on sentences):
-
-- **frame signal-to-noise**: ``share^frame_snr_power`` with ``share = sum_f max(P(t, f) - N(f), 0) / sum_f P(t, f)``
-  over the band, the part of the frame's power above the noise floor (an a-posteriori SNR, as in statistical voice
-  activity detection, Sohn, Kim and Sung 1999; Valin, Michaud and Rouat 2007 weight their cross-spectra by a
-  speech-presence probability built the same way);
-- **spectral flatness**: ``(1 - flatness)^flatness_power``, flatness being the ratio of the geometric to the
-  arithmetic mean of the frame's power over the band (Gray and Markel 1974; a voice-activity feature, Moattar and
-  Homayounpour 2009). Voiced speech is peaky (flatness about 0.02), clattering dishes or water are flat (about
-  0.25).
-
-Two further stages are on by default for ``gcc-phat-robust`` (options of both methods, off for ``correlogram-robust``
-except where said):
-
-- **linear-prediction dereverberation** (``dereverb_taps`` 3, ``dereverb_delay`` 2, ``dereverb_step`` 0.2): in each
-  bin, the left and right spectra of frame ``t`` are replaced by the error of their prediction from both channels of
-  frames ``t - 4 .. t - 2`` (20 to 40 ms earlier): the delayed multichannel linear prediction of WPE (Nakatani,
-  Yoshioka, Kinoshita, Miyoshi and Juang 2010; Yoshioka and Nakatani 2012). What the past predicts is the
-  reverberation of earlier sound (and steady sound such as the fan's hum); what is left is what is new, the direct
-  sound of an onset and its first reflections. The filters adapt by normalised least mean squares (a step of 0.2 per
-  frame, normalised by the past frames' power), not by the recursive least squares of online WPE (Caroselli,
-  Shafran, Narayanan and Rose 2017), which did worse here at twice the cost. Where the error is louder than
-  the frame (both channels summed) the bin passes unchanged: dereverberation only removes energy, and a louder error
-  means the filter copied past sound into the present (a filter learnt on a steady voice, applied to a past burst of
-  noise from elsewhere). Only the cross-spectrum, the coherence and the CDR use the dereverberated spectra; the
-  level cues (noise floor, SNR, onsets, flatness, frame SNR) keep the microphones';
-- **frames' correlations** (``frame_corr_power`` 2, ``gcc-phat-robust`` only): each frame's weighted phase-transform
-  correlation, divided by the frame's total weight (so in ``[-1, 1]``), is clipped at 0 and squared before the
-  window sums the frames, each weighted by its total weight; a frame whose bins agree on one lag counts for more than
-  one whose bins spread over several. The sum is taken on a grid of 1/4 sample and its peak refined by a parabola.
-  With ``frame_corr_power=0`` the frames' weighted cross-spectra are summed instead and the window ends as the plain
-  method (power 1 gives the same up to the clipping).
-
-How each part was chosen, what it gains in the benchmark rooms and what was tried without a gain:
-docs/experiments.md ("The robust ITD extractors").
-
-``gcc-phat-robust`` sums the frames' correlations as above. Otherwise the weighted frame cross-spectra of a window
-are summed, then the window is finished as in the plain method: phase transform per bin (``gcc-phat-robust`` with
-``frame_corr_power=0``) or per-channel normalised gammatone cross-correlation summed over channels
-(``correlogram-robust``; each channel's correlation is normalised by its energy and weighted by the share of that
-energy the weighting kept: a per-channel confidence).
-
-The band stops at 4 kHz by default (5 kHz for the plain methods): speech carries little energy above it, and the
-spoken digits of the benchmark (recorded at 8 kHz) none at all, so above it the bins hold only fan and noise.
-The defaults were chosen on the simulated rooms of ``benchmarks/itd_accuracy.py`` (which also measures each cue
-switched off); they are not fitted to real recordings.
+The window is cut into short Hann-windowed frames (32 ms, on a grid of ``hop / 2``); each frame and frequency bin is
+weighted by its signal-to-noise ratio (a running noise floor), its onset share (precedence), the short-time
+coherence and the coherent-to-diffuse ratio; whole frames by their share above the noise floor and their spectral
+flatness. ``gcc-phat-robust`` also dereverberates each bin by delayed linear prediction (WPE-like, NLMS filters) and
+sums the frames' clipped, squared correlations; ``correlogram-robust`` sums the weighted cross-spectra through the
+gammatone correlogram. The band stops at 4 kHz. Every cue, its formula, its source in the literature and the
+options that set it: docs/method.md ("ITD extraction"); how each was chosen: docs/experiments.md ("The robust ITD
+extractors").
 
 The noise floor, the previous frame, the coherence averages and the dereverberation's past frames and filters are
-state carried from frame to frame: these methods run in streaming form
-(``ItdStream``), and ``extract_itds`` feeds the whole signal through a stream, so both forms agree by construction.
+state carried from frame to frame: these methods run in streaming form (``ItdStream``), and ``extract_itds`` feeds
+the whole signal through a stream, so both forms agree by construction.
 """
 from __future__ import annotations
 

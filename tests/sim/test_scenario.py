@@ -115,7 +115,7 @@ def test_calibration_sweeps_the_whole_field_of_view_with_white_noise():
     assert np.sum(np.diff(np.sign(np.diff(u))) != 0) >= 8  # zig-zag: the direction changes many times
     # the truth ITD is the loudspeaker's, held below the face
     itd = np.array([tr.itds_s[0] for tr in truths])
-    assert np.corrcoef(itd, u)[0, 1] > 0.9  # right of the image = positive ITD (DESIGN.md sign)
+    assert np.corrcoef(itd, u)[0, 1] > 0.9  # right of the image = positive ITD (docs/architecture.md sign)
 
 
 def test_boxes_are_the_projected_faces_and_itds_follow_the_mapping():
