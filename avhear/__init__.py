@@ -32,7 +32,7 @@ def results(source: str = "sim:S2", *, duration_s: float | None = None, realtime
         source then drops frames at its input, counted in the pipeline's statistics).
     """
     from app.pipeline import Pipeline, PipelineConfig
-    from app.sources import open_source
+    from app.sources.open import open_source
 
     src = open_source(source, realtime=realtime or source == "live", duration_s=duration_s, seed=seed,
                       rig_path=rig_path)

@@ -36,7 +36,7 @@ import numpy as np
 from app.console import Console, ConsoleFrame
 from app.pipeline import Pipeline, PipelineConfig
 from app.result import Result
-from app.sources import open_source
+from app.sources.open import open_source
 from app.console.viewer import ViewerSession, ViewerTarget
 
 

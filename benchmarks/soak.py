@@ -24,7 +24,7 @@ from pipeline import MemoryMonitor  # noqa: E402  (benchmarks/pipeline.py)
 from app.cli import main as avhear  # noqa: E402
 from app.pipeline import Pipeline, PipelineConfig
 from app.result import Result  # noqa: E402
-from app.sources import open_source  # noqa: E402
+from app.sources.open import open_source  # noqa: E402
 
 
 def replay(folder: Path, realtime: bool) -> tuple[dict[float, tuple], dict[str, object]]:

@@ -21,7 +21,7 @@ from app.paths import distinct_outputs, output_file
 from app.pipeline import Pipeline, PipelineConfig, PipelineStats
 from app.result import Result
 from app.results import ResultsWriter
-from app.sources import open_source
+from app.sources.open import open_source
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
 from sim.scenario import PRESETS
 

@@ -14,7 +14,7 @@ from app.errors import UserError
 from app.sources.live import add_device_arguments, live_config
 from app.options import add_mics_argument, count, duration
 from app.signals import stop_on_signals
-from app.sources import open_source
+from app.sources.open import open_source
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

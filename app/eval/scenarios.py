@@ -23,7 +23,7 @@ import numpy as np
 
 from app.pipeline import Pipeline, PipelineConfig
 from app.result import Result
-from app.sources import StreamAdapter, open_source
+from app.sources.open import StreamAdapter, open_source
 from avcore.calibration import fit_av_calibration_report
 from avcore.evaluation import TAU_LOC_M, match_clusters
 from avcore.geometry import MicPair

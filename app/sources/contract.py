@@ -5,11 +5,12 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Iterator
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
-from app.events import AudioBlock, StereoFrame
-from avcore.geometry import MicArray, MicPair
-from avcore.stereo import StereoRig
+if TYPE_CHECKING:  # the contract itself imports nothing heavy: a source's module brings what it needs
+    from app.events import AudioBlock, StereoFrame
+    from avcore.geometry import MicArray, MicPair
+    from avcore.stereo import StereoRig
 
 __all__ = ["Source", "SourceBase"]
 

@@ -371,7 +371,7 @@ def test_the_pipeline_fuses_every_pair_of_naos_microphones(monkeypatch: pytest.M
     """The simulated room heard by NAO's four microphones: the ITD worker extracts six pairs, each result holds one
     vector per window, each step gets the bins of the frames of its time frame on all six pairs (+-0.2 s: about 40
     frames at 10 ms), and the speaking person is found."""
-    from app.sources import open_source
+    from app.sources.open import open_source
     from avcore.inference import FaceGuidedHearing
 
     bins_seen: list = []

@@ -154,7 +154,7 @@ def test_a_folder_made_with_other_tools_opens(tmp_path):
 def test_a_simulated_array_recording_replays_with_every_pair(tmp_path: Path) -> None:
     """`avhear simulate --mics nao`: four channels, the array in the folder's rig.yaml, and a replay that uses its
     six pairs with the first pair's channels as left and right."""
-    from app.sources import StreamAdapter
+    from app.sources.open import StreamAdapter
 
     source = SimSource.from_preset("S1", duration_s=2.0, seed=0, mics="nao")
     write_recording(tmp_path / "nao", source)
@@ -172,7 +172,7 @@ def test_a_recording_joined_late_replays_as_the_live_run(tmp_path):
     results over the same seconds: the same frames, the same ITDs, the same people speaking."""
     from app.config import RigConfig
     from app.pipeline import Pipeline, PipelineConfig
-    from app.sources import StreamAdapter
+    from app.sources.open import StreamAdapter
     from app.sources.recording import RecordingWriter
 
     join_s = 3.0
