@@ -103,7 +103,7 @@ class Result:
         return replace(self, image=_NO_IMAGE)
 
     def as_dict(self) -> dict[str, Any]:
-        """The result as one line of the results file (schema: :mod:`app.results`)."""
-        from app.results import result_record
+        """The result as one line of the results file (schema: :mod:`app.sinks.results_file`)."""
+        from app.sinks.results_file import result_record
 
         return result_record(self)

@@ -2,7 +2,7 @@
 a constant, a comparison) one at a time and runs the tests that cover it; a change no test notices is a survivor.
 
     python benchmarks/mutation.py                     # every module of [tool.mutmut] only_mutate (hours)
-    python benchmarks/mutation.py app.results avcore.speaking   # some modules
+    python benchmarks/mutation.py app.sinks.results_file avcore.speaking   # some modules
     python benchmarks/mutation.py --report            # the table of the last run, without running
 
 Runs outside CI (it takes hours on two cores). Prints one row a module: mutants, killed, survived, the score

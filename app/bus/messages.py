@@ -45,7 +45,7 @@ __all__ = [
 ]
 
 RIG_FRAME = "avhear_rig"
-RESULTS_KEY = "avhear/results"  # the JSON of app.results, one message per result
+RESULTS_KEY = "avhear/results"  # the JSON of app.sinks.results_file, one message per result
 FACE, VOICE = 2, 4  # hri_msgs/IdsMatch id types
 
 IDS_LIST = "hri_msgs/msg/IdsList"
@@ -123,7 +123,7 @@ class Topics:
                 rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
 
     def messages(self, record: dict[str, Any]) -> list[tuple[str, bytes]]:
-        """(key, payload) of every message of one result, given as its :func:`app.results.result_record`."""
+        """(key, payload) of every message of one result, given as its :func:`app.sinks.results_file.result_record`."""
         t = self._t
         header = self._header(record["stamp_s"])
         people = record["people"]

@@ -10,17 +10,17 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from app.bus.publisher import ResultPublisher
 from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
-from app.console import Console, ConsoleFrame
+from app.console import Console
 from app.errors import UserError
 from app.sources.live import LiveConfig, add_device_arguments, live_config
 from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, MIN_SIMULATED_S, add_bodies_argument, add_method_arguments,
                          add_mics_argument, count, duration, pipeline_config, port, wants_bodies)
 from app.paths import distinct_outputs, output_file
 from app.pipeline import Pipeline, PipelineConfig, PipelineStats
-from app.result import Result
-from app.results import ResultsWriter
+from app.sinks import Sinks
+from app.sinks.bus import ResultPublisher
+from app.sinks.results_file import ResultsWriter
 from app.sources.open import open_source
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
 from sim.scenario import PRESETS
@@ -159,33 +159,8 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                             wall_time=live is not None or spec == "bus")
 
 
-class _Sinks:
-    """Hands every result, as it is, to the sinks the user asked for: the results file, the bus, the console."""
-
-    def __init__(self, session: ViewerSession, console: Console | None, results: ResultsWriter | None,
-                 publisher: ResultPublisher | None) -> None:
-        self.session, self.console, self.results, self.publisher = session, console, results, publisher
-        self.pipeline: Pipeline | None = None
-
-    def __call__(self, result: Result) -> None:
-        if self.results is not None:
-            self.results.write(result)
-        if self.publisher is not None:
-            self.publisher.publish(result)
-        if self.console is None:
-            return
-        assert self.pipeline is not None
-        diagnostics = {f"queue_depth/{name}": float(n) for name, n in self.pipeline.queue_depths().items()}
-        if result.latency_s == result.latency_s:
-            diagnostics["latency_ms/fusion"] = result.latency_s * 1e3
-        if self.session.part_due():
-            self.session.next_part()
-            self.console.new_part()
-        self.console.log(ConsoleFrame.from_result(result, diagnostics))
-
-
 def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: PipelineStats, source: Any,
-            sinks: _Sinks) -> None:
+            sinks: Sinks) -> None:
     """The run's summary and where its outputs are."""
     print(f"avhear: {stats.summary()}")
     if spec == "bus":
@@ -218,7 +193,7 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
     rec = session.recording
     console = (Console(source.rig, source.mics, recording=rec, array=getattr(source, "array", None))
                if rec is not None else None)
-    sinks = _Sinks(session, console, results, publisher)
+    sinks = Sinks(session, console, results, publisher)
     pipeline = sinks.pipeline = Pipeline(source, config, sinks)
     terminated = threading.Event()
 

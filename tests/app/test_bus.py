@@ -133,7 +133,7 @@ def test_bus_mistakes_are_one_line(tmp_path: Path, argv: list[str], message: str
 def test_a_slow_bus_never_stalls_the_pipeline(people_result: Callable[..., object]) -> None:
     """The publisher's session takes 50 ms per message: publish() hands over without waiting, so the oldest
     results are dropped and counted, and what is published is whole."""
-    from app.bus.publisher import ResultPublisher
+    from app.sinks.bus import ResultPublisher
 
     class SlowPublisher:
         def __init__(self, sent: list[str], key: str) -> None:

@@ -10,7 +10,7 @@ import pytest
 
 from app.cli import main
 from app.result import Result
-from app.results import result_record
+from app.sinks.results_file import result_record
 
 
 def _result(*, probability: list[float], speaking: list[bool], xyz: list[list[float]] | None = None,

@@ -12,7 +12,7 @@ from typing import Any
 
 from app.bus.messages import Topics
 from app.queues import DropOldestQueue
-from app.results import result_record
+from app.sinks.results_file import result_record
 
 log = logging.getLogger(__name__)
 
