@@ -19,7 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from app.options import add_method_arguments, pipeline_config
+from app.commands.options import add_method_arguments, pipeline_config
 from app.eval.scenarios import (
     PAPER_PERCENT,
     SCENARIOS,

@@ -58,3 +58,11 @@ def test_the_source_contract_imports_nothing_heavy() -> None:
     heavy = {"cv2", "yaml", "scipy", "numpy", "sim", "zenoh", "rerun", "sounddevice", "rosbags", "avcore",
              "app.sources.sim", "app.sources.live", "app.sources.recording", "app.sources.open"}
     assert not loaded & heavy, sorted(loaded & heavy)
+
+
+def test_argparse_stays_in_the_command_line() -> None:
+    """Flags and Namespaces end at the command line (app/cli.py, app/commands/): sources, the bus and the pipeline
+    take plain values. (layouts/blueprint.py is a script of its own, `python -m layouts.blueprint`.)"""
+    users = {module for package in ("app", "avhear", "sim", "avcore")
+             for module, names in _imports(package).items() if "argparse" in names}
+    assert users and all(m == "app/cli.py" or m.startswith("app/commands/") for m in users), sorted(users)

@@ -12,7 +12,6 @@ the endpoints the flags give).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import re
@@ -22,11 +21,11 @@ from typing import Any
 
 from app.errors import UserError
 
-__all__ = ["BusOptions", "add_bus_arguments", "bus_source", "open_session", "rendezvous"]
+__all__ = ["ENDPOINT", "RENDEZVOUS_PORT", "BusOptions", "open_session", "rendezvous"]
 
 RENDEZVOUS_PORT = 7448  # one above Zenoh's (and rmw_zenoh's router's) 7447, which avhear leaves to them
 _ANY_PORT = "tcp/127.0.0.1:0"
-_ENDPOINT = re.compile(r"^(tcp|udp|tls|quic|ws|unixsock-stream)/(\[[0-9a-fA-F:]+\]|[^/:\s\[\]]+):(\d{1,5})(#.*)?$")
+ENDPOINT = re.compile(r"^(tcp|udp|tls|quic|ws|unixsock-stream)/(\[[0-9a-fA-F:]+\]|[^/:\s\[\]]+):(\d{1,5})(#.*)?$")
 
 
 @dataclass(frozen=True)
@@ -38,30 +37,6 @@ class BusOptions:
     config: Path | None = None
     namespace: str = ""
 
-    @classmethod
-    def from_args(cls, args: argparse.Namespace) -> BusOptions:
-        return cls(tuple(args.bus_listen or ()), tuple(args.bus_connect or ()), args.bus_config,
-                   args.bus_namespace or "")
-
-
-def _endpoint(text: str) -> str:
-    m = _ENDPOINT.match(text)
-    if not m or not 0 <= int(m.group(3)) <= 65535:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a Zenoh endpoint: use PROTOCOL/HOST:PORT, e.g. "
-                                         "tcp/192.168.1.20:7448")
-    return text
-
-
-def add_bus_arguments(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("bus (Zenoh)")
-    g.add_argument("--bus-listen", type=_endpoint, action="append", metavar="ENDPOINT",
-                   help="listen on this Zenoh endpoint (repeatable; default: the loopback rendezvous "
-                        f"tcp/127.0.0.1:{RENDEZVOUS_PORT}, or a free loopback port when another avhear holds it)")
-    g.add_argument("--bus-connect", type=_endpoint, action="append", metavar="ENDPOINT",
-                   help="connect to this Zenoh endpoint: a robot, a router (repeatable)")
-    g.add_argument("--bus-config", type=Path, metavar="FILE",
-                   help="a Zenoh configuration file (JSON5) for everything else: TLS, access control, ...")
-    g.add_argument("--bus-namespace", default="", metavar="NS", help="prefix of every key (a ROS namespace)")
 
 
 def _one_line(exc: BaseException) -> str:
@@ -137,13 +112,3 @@ def _open(zenoh: Any, config: Any, options: BusOptions) -> Any:
         else:
             hint = "check the endpoints and the configuration file"
         raise UserError(f"cannot open the Zenoh session ({reason}); {hint}") from None
-
-
-def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:
-    """The robot's sensors as a pipeline source (``--source bus``), with ``--rig``, ``--left-key`` ... if given."""
-    from app.bus.source import BusSource
-    from app.config import require_live_rig
-
-    rig = require_live_rig(args.rig) if getattr(args, "rig", None) else None
-    return BusSource(session, namespace=options.namespace, rig=rig, left_key=getattr(args, "left_key", None),
-                     right_key=getattr(args, "right_key", None), audio_key=getattr(args, "audio_key", None))

@@ -22,8 +22,8 @@ import numpy as np
 
 from app.config import MICROPHONES_HINT, RigConfig, load_rig, save_rig
 from app.errors import UserError
-from app.options import count, duration
-from app.paths import distinct_outputs, output_file
+from app.commands.options import count, duration
+from app.commands.paths import distinct_outputs, output_file
 from app.pipeline import DEFAULT_ITD_METHOD
 from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
 from avcore.itd import METHODS as ITD_METHODS

@@ -12,11 +12,11 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.options import (MAX_SIMULATED_S, add_bodies_argument, add_method_arguments, add_mics_argument, count,
+from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_method_arguments, add_mics_argument, count,
                          duration, pipeline_config, wants_bodies)
 from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets, signed_us,
                              synthetic_json)
-from app.paths import output_dir
+from app.commands.paths import output_dir
 from app.eval.scenarios import (
     INTERVAL_S,
     ITD_TOLERANCE_S,

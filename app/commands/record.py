@@ -9,12 +9,13 @@ import sys
 import threading
 from pathlib import Path
 
-from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
+from app.bus.session import open_session
 from app.config import RigConfig, require_live_rig
 from app.errors import UserError
-from app.sources.live import LiveSource, add_device_arguments, live_config
-from app.options import count, duration, positive
-from app.paths import output_dir
+from app.sources.live import LiveSource
+from app.commands.options import (add_bus_arguments, add_device_arguments, bus_options, bus_source, count, duration,
+                                  live_config, positive)
+from app.commands.paths import output_dir
 from app.sources.recorder import RecordStats, record
 from app.sources.recording import RecordingWriter
 from app.signals import stop_on_signals
@@ -92,7 +93,7 @@ def _record_bus(args: argparse.Namespace) -> int:
     """The robot's sensors from the bus into the same raw recording format, as received (stamps included)."""
     if (args.output / "frames.csv").exists() and not args.force:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
-    options = BusOptions.from_args(args)
+    options = bus_options(args)
     with ExitStack() as stack:
         session = open_session(options)
         stack.callback(session.close)

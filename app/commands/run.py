@@ -10,13 +10,15 @@ import threading
 from pathlib import Path
 from typing import Any
 
-from app.bus.session import BusOptions, add_bus_arguments, bus_source, open_session
+from app.bus.session import open_session
 from app.console import Console
 from app.errors import UserError
-from app.sources.live import LiveConfig, add_device_arguments, live_config
-from app.options import (MAX_DURATION_S, MAX_SIMULATED_S, MIN_SIMULATED_S, add_bodies_argument, add_method_arguments,
-                         add_mics_argument, count, duration, pipeline_config, port, wants_bodies)
-from app.paths import distinct_outputs, output_file
+from app.sources.live import LiveConfig
+from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, MIN_SIMULATED_S, add_bodies_argument,
+                                  add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
+                                  bus_options, bus_source, count, duration, live_config, pipeline_config, port,
+                                  wants_bodies)
+from app.commands.paths import distinct_outputs, output_file
 from app.pipeline import Pipeline, PipelineConfig, PipelineStats
 from app.sinks import Sinks
 from app.sinks.bus import ResultPublisher
@@ -140,7 +142,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
     with ExitStack() as stack:
         results = stack.enter_context(ResultsWriter(args.results_jsonl)) if args.results_jsonl is not None else None
         publisher = session = None
-        options = BusOptions.from_args(args)
+        options = bus_options(args)
         if args.publish or spec == "bus":
             session = open_session(options)
             stack.callback(session.close)

@@ -9,10 +9,10 @@ import threading
 import time
 
 from app.bus.sensors import SensorPublisher
-from app.bus.session import BusOptions, add_bus_arguments, open_session
+from app.bus.session import open_session
 from app.errors import UserError
-from app.sources.live import add_device_arguments, live_config
-from app.options import add_mics_argument, count, duration
+from app.commands.options import (add_bus_arguments, add_device_arguments, add_mics_argument, bus_options, count,
+                                  duration, live_config)
 from app.signals import stop_on_signals
 from app.sources.open import open_source
 
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {args.source} brings its own "
                         "(the rig file's array or pair, or the recording's)")
     live = live_config(args) if args.source == "live" else None
-    options = BusOptions.from_args(args)
+    options = bus_options(args)
     session = open_session(options)
     try:
         source = open_source(args.source, realtime=True, duration_s=args.duration if live is None else None,

@@ -15,8 +15,8 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.options import MAX_SIMULATED_S, add_bodies_argument, add_mics_argument, count, duration, positive, wants_bodies
-from app.paths import output_dir
+from app.commands.options import MAX_SIMULATED_S, add_bodies_argument, add_mics_argument, count, duration, positive, wants_bodies
+from app.commands.paths import output_dir
 from app.sources.recording import write_recording
 from app.signals import stop_on_signals
 from app.sources.sim import SimSource

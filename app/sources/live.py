@@ -8,7 +8,6 @@ mapped onto the monotonic clock.
 """
 from __future__ import annotations
 
-import argparse
 import logging
 import threading
 import time
@@ -22,7 +21,6 @@ import numpy as np
 from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
-from app.options import count
 from app.queues import DropOldestQueue
 from app.sound import DeviceError, load_sounddevice
 from avcore.geometry import MicArray, MicPair
@@ -31,7 +29,7 @@ from avcore.sync import ApproximateTime
 
 log = logging.getLogger(__name__)
 
-__all__ = ["LiveConfig", "LiveSource", "add_device_arguments", "live_config"]
+__all__ = ["LiveConfig", "LiveSource"]
 
 
 @dataclass(frozen=True)
@@ -76,39 +74,6 @@ class LiveConfig:
         if not all(0 <= c < self.n_channels for c in self.channels) or self.channels[0] == self.channels[1]:
             raise ValueError(f"channels must be two different channel numbers below n_channels={self.n_channels}, "
                              f"got {self.channels}")
-
-
-def add_device_arguments(p: argparse.ArgumentParser, *, recording: bool = False) -> None:
-    """The live devices' options, the same for ``run``, ``record`` and ``sensors``."""
-    p.add_argument("--cameras", nargs="+", default=["0", "1"],
-                   help="live: two camera indices/paths, or one with --side-by-side")
-    p.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
-    p.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
-    p.add_argument("--audio-channels", type=count(1, 64), default=2,
-                   help="live: channels of the input stream" + (" (all are kept)" if recording else ""))
-    p.add_argument("--mic-channels", type=count(0, 63), nargs="+", default=[0, 1], metavar="CHANNEL",
-                   help="live: the left and right microphone channels (0-based); with an 'array' section in the rig "
-                        "file, one channel per microphone of the array (default: the rig file's)")
-
-
-def _device(text: str) -> int | str:
-    return int(text) if text.isdigit() else text
-
-
-def live_config(args: argparse.Namespace, **extra: Any) -> LiveConfig:
-    """The :class:`LiveConfig` of :func:`add_device_arguments`' options (``extra``: fps, samplerate_hz ...); a bad
-    combination is a :class:`UserError`."""
-    cams = [_device(c) for c in args.cameras]
-    channels = tuple(args.mic_channels)
-    pair = channels if len(channels) == 2 else (0, 1)
-    array_channels = channels if len(channels) != 2 else None  # several: one per microphone of the rig's array
-    try:
-        return LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
-                          side_by_side=args.side_by_side,
-                          audio_device=_device(args.audio_device) if args.audio_device else None,
-                          n_channels=args.audio_channels, channels=pair, array_channels=array_channels, **extra)
-    except ValueError as exc:
-        raise UserError(str(exc)) from None
 
 
 class LiveSource(SourceBase):

@@ -11,12 +11,11 @@ import numpy as np
 from app.config import require_live_rig
 from app.sources.contract import SourceBase
 from app.errors import UserError
-from app.options import MAX_SIMULATED_S, MIN_SIMULATED_S
 from app.events import AudioBlock, StereoFrame
 from app.sources.live import LiveConfig, LiveSource
 from app.sources.recording import open_recording
 from app.sources.replay import ReplayStream
-from app.sources.sim import SimSource
+from app.sources.sim import MAX_SIMULATED_S, MIN_SIMULATED_S, SimSource
 from avcore.geometry import MicPair
 from sim.scenario import PRESETS
 

@@ -56,6 +56,8 @@ NOD_HZ = 2.0
 GESTURE_M = 0.15  # how far a talker's hands swing (SimSource(bodies=True))
 LISTENING_GESTURE_M = 0.03  # and a listener's: people with bodies are never quite still
 GESTURE_RAMP_S = 0.25  # how long the hands take to go from one to the other
+MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
+MIN_SIMULATED_S = 1.0  # and one second at least (sim.scenario's bound)
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -88,7 +88,7 @@ def test_a_rig_array_uses_every_pair_on_the_channels_asked_for() -> None:
     import argparse
 
     from app.errors import UserError
-    from app.sources.live import live_config
+    from app.commands.options import live_config
     from avcore.geometry import MicArray
 
     array = MicArray.preset("respeaker4")

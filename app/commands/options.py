@@ -5,13 +5,19 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
+from pathlib import Path
+from typing import Any
 
-__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "MIN_SIMULATED_S", "add_method_arguments", "count", "duration",
-           "odd_count", "pipeline_config", "port", "positive", "wants_bodies"]
+from app.bus.session import ENDPOINT, RENDEZVOUS_PORT, BusOptions
+from app.errors import UserError
+from app.sources.live import LiveConfig
+from app.sources.sim import MAX_SIMULATED_S, MIN_SIMULATED_S
+
+__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "MIN_SIMULATED_S", "add_bus_arguments", "add_device_arguments",
+           "add_method_arguments", "bus_options", "bus_source", "count", "duration", "live_config", "odd_count",
+           "pipeline_config", "port", "positive", "wants_bodies"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
-MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
-MIN_SIMULATED_S = 1.0  # and one second at least (sim.scenario's bound)
 
 
 def positive(text: str, *, maximum: float = math.inf, what: str = "a positive number") -> float:
@@ -127,3 +133,78 @@ def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline im
                               vote_frames=args.vote_frames)
     except ValueError as exc:
         raise UserError(str(exc)) from None
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# live devices (run, record, sensors)
+
+def add_device_arguments(p: argparse.ArgumentParser, *, recording: bool = False) -> None:
+    """The live devices' options, the same for ``run``, ``record`` and ``sensors``."""
+    p.add_argument("--cameras", nargs="+", default=["0", "1"],
+                   help="live: two camera indices/paths, or one with --side-by-side")
+    p.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
+    p.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
+    p.add_argument("--audio-channels", type=count(1, 64), default=2,
+                   help="live: channels of the input stream" + (" (all are kept)" if recording else ""))
+    p.add_argument("--mic-channels", type=count(0, 63), nargs="+", default=[0, 1], metavar="CHANNEL",
+                   help="live: the left and right microphone channels (0-based); with an 'array' section in the rig "
+                        "file, one channel per microphone of the array (default: the rig file's)")
+
+
+def _device(text: str) -> int | str:
+    return int(text) if text.isdigit() else text
+
+
+def live_config(args: argparse.Namespace, **extra: Any) -> LiveConfig:
+    """The :class:`LiveConfig` of :func:`add_device_arguments`' options (``extra``: fps, samplerate_hz ...); a bad
+    combination is a :class:`UserError`."""
+    cams = [_device(c) for c in args.cameras]
+    channels = tuple(args.mic_channels)
+    pair = channels if len(channels) == 2 else (0, 1)
+    array_channels = channels if len(channels) != 2 else None  # several: one per microphone of the rig's array
+    try:
+        return LiveConfig(left=cams[0], right=None if args.side_by_side else (cams[1] if len(cams) > 1 else 1),
+                          side_by_side=args.side_by_side,
+                          audio_device=_device(args.audio_device) if args.audio_device else None,
+                          n_channels=args.audio_channels, channels=pair, array_channels=array_channels, **extra)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# the bus (run, record, sensors)
+
+def bus_options(args: argparse.Namespace) -> BusOptions:
+    """The :class:`app.bus.session.BusOptions` of :func:`add_bus_arguments`' flags."""
+    return BusOptions(tuple(args.bus_listen or ()), tuple(args.bus_connect or ()), args.bus_config,
+                      args.bus_namespace or "")
+
+
+def _endpoint(text: str) -> str:
+    m = ENDPOINT.match(text)
+    if not m or not 0 <= int(m.group(3)) <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a Zenoh endpoint: use PROTOCOL/HOST:PORT, e.g. "
+                                         "tcp/192.168.1.20:7448")
+    return text
+
+
+def add_bus_arguments(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("bus (Zenoh)")
+    g.add_argument("--bus-listen", type=_endpoint, action="append", metavar="ENDPOINT",
+                   help="listen on this Zenoh endpoint (repeatable; default: the loopback rendezvous "
+                        f"tcp/127.0.0.1:{RENDEZVOUS_PORT}, or a free loopback port when another avhear holds it)")
+    g.add_argument("--bus-connect", type=_endpoint, action="append", metavar="ENDPOINT",
+                   help="connect to this Zenoh endpoint: a robot, a router (repeatable)")
+    g.add_argument("--bus-config", type=Path, metavar="FILE",
+                   help="a Zenoh configuration file (JSON5) for everything else: TLS, access control, ...")
+    g.add_argument("--bus-namespace", default="", metavar="NS", help="prefix of every key (a ROS namespace)")
+
+
+def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:
+    """The robot's sensors as a pipeline source (``--source bus``), with ``--rig``, ``--left-key`` ... if given."""
+    from app.bus.source import BusSource
+    from app.config import require_live_rig
+
+    rig = require_live_rig(args.rig) if getattr(args, "rig", None) else None
+    return BusSource(session, namespace=options.namespace, rig=rig, left_key=getattr(args, "left_key", None),
+                     right_key=getattr(args, "right_key", None), audio_key=getattr(args, "audio_key", None))
