@@ -78,6 +78,8 @@ class PipelineConfig:
     max_audio_lead_s : a replay as fast as possible: the ITD worker waits while the audio it extracts is more than
         this far ahead of the last frame vision took, so that no buffer downstream has to drop what vision has not
         used yet (ITDs run far faster than vision). Must exceed the time frame, a window and the vote's wait.
+    face_detector : "haar" (OpenCV's cascade, tracked, the default) or "blazeface" (MediaPipe's BlazeFace full-range,
+        :mod:`avcore.blazeface`); face_model : the BlazeFace model file (default: the installed package's).
     """
 
     inference: Literal["face", "motion"] = "face"
@@ -89,6 +91,8 @@ class PipelineConfig:
     decision_window_s: float | None = None
     frame_itds: bool = True
     vote_frames: int = 9
+    face_detector: Literal["haar", "blazeface"] = "haar"
+    face_model: str | None = None
     interval_s: float = 0.4
     frame_queue: int = 4
     audio_queue: int = 256
@@ -97,6 +101,8 @@ class PipelineConfig:
     join_timeout_s: float = 2.0
 
     def __post_init__(self) -> None:
+        if self.face_detector not in ("haar", "blazeface"):
+            raise ValueError(f"face_detector must be 'haar' or 'blazeface', got {self.face_detector!r}")
         if self.inference not in ("face", "motion"):
             raise ValueError(f"inference must be 'face' or 'motion', got {self.inference!r}")
         for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):
@@ -246,7 +252,7 @@ class Pipeline:
         self.config = config if config is not None else PipelineConfig()
         self.on_result = on_result
         self.clock = clock if clock is not None else getattr(source, "clock", time.monotonic)
-        self.detector = detector if detector is not None else TrackingFaceDetector()
+        self.detector = detector if detector is not None else _face_detector(self.config)
         self.stats = PipelineStats()
         self._stop = threading.Event()
         self._errors: list[tuple[str, BaseException]] = []
@@ -568,6 +574,16 @@ class Pipeline:
         if self.on_result is not None:
             self.on_result(result)
         self.stats.results += 1
+
+
+def _face_detector(config: PipelineConfig) -> FaceDetector:
+    """The detector ``config.face_detector`` names; BlazeFace's model must be installed (a UserError says how)."""
+    if config.face_detector == "blazeface":
+        from app.models import blazeface_model
+        from avcore.blazeface import BlazeFaceDetector
+
+        return BlazeFaceDetector(blazeface_model(config.face_model), tiles=1)
+    return TrackingFaceDetector()
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:

