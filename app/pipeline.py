@@ -580,9 +580,9 @@ def _face_detector(config: PipelineConfig) -> FaceDetector:
     """The detector ``config.face_detector`` names; BlazeFace's model must be installed (a UserError says how)."""
     if config.face_detector == "blazeface":
         from app.models import blazeface_model
-        from avcore.blazeface import BlazeFaceDetector
+        from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace
 
-        return BlazeFaceDetector(blazeface_model(config.face_model), tiles=1)
+        return TrackingBlazeFace(BlazeFaceDetector(blazeface_model(config.face_model), tiles=2))
     return TrackingFaceDetector()
 
 

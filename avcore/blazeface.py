@@ -19,7 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["BlazeFaceDetector", "FaceDetections", "decode", "weighted_nms"]
+__all__ = ["BlazeFaceDetector", "FaceDetections", "TrackingBlazeFace", "decode", "weighted_nms"]
 
 INPUT_PX = 192
 GRID = 48  # anchors per side: INPUT_PX / stride 4
@@ -41,6 +41,13 @@ class FaceDetections:
 
     def __len__(self) -> int:
         return int(self.scores.size)
+
+    @classmethod
+    def concat(cls, parts: list[FaceDetections]) -> FaceDetections:
+        if not parts:
+            return cls.empty()
+        return cls(np.concatenate([p.boxes for p in parts]), np.concatenate([p.keypoints for p in parts]),
+                   np.concatenate([p.scores for p in parts]))
 
 
 def _anchors() -> np.ndarray:
@@ -102,6 +109,12 @@ def weighted_nms(found: FaceDetections, *, iou: float = 0.3) -> FaceDetections:
     return FaceDetections(np.array(out_b), np.array(out_k), np.array(out_s))
 
 
+def _bgr(image: np.ndarray) -> np.ndarray:
+    if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim not in (2, 3):
+        raise ValueError(f"image must be a (h, w) or (h, w, 3) uint8 array, got {getattr(image, 'shape', image)}")
+    return image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+
+
 @dataclass(eq=False)
 class BlazeFaceDetector:
     """Faces with their six keypoints, by BlazeFace full-range on the whole image and on ``tiles`` x ``tiles``
@@ -134,41 +147,89 @@ class BlazeFaceDetector:
             self._net = reader(str(self.model))
         self._outputs = self._net.getUnconnectedOutLayersNames()
 
-    def _square(self, bgr: np.ndarray, x0: int, y0: int, side: int) -> FaceDetections:
-        """Faces in the square of ``side`` px at (x0, y0) (letterboxed with black where it leaves the image), in
-        image pixels."""
-        h, w = bgr.shape[:2]
-        crop = np.zeros((side, side, 3), np.uint8)
-        xs, ys = max(x0, 0), max(y0, 0)
-        xe, ye = min(x0 + side, w), min(y0 + side, h)
-        crop[ys - y0:ye - y0, xs - x0:xe - x0] = bgr[ys:ye, xs:xe]
-        blob = cv2.dnn.blobFromImage(crop, 1.0 / 127.5, (INPUT_PX, INPUT_PX), (127.5, 127.5, 127.5), swapRB=True)
-        self._net.setInput(blob)
-        outs = dict(zip(self._outputs, self._net.forward(self._outputs)))
-        scores = next(v for v in outs.values() if v.shape[-1] == 1)
-        raw = next(v for v in outs.values() if v.shape[-1] == 16)
-        found = decode(scores, raw, threshold=self.score_threshold)
-        return FaceDetections(found.boxes * side + [x0, y0, 0, 0], found.keypoints * side + [x0, y0],
-                              found.scores)
-
-    def detect_faces(self, image: np.ndarray) -> FaceDetections:
-        """image : (h, w, 3) BGR or (h, w) grey uint8  ->  its faces (boxes, keypoints, scores) in its pixels."""
-        if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim not in (2, 3):
-            raise ValueError(f"image must be a (h, w) or (h, w, 3) uint8 array, got {getattr(image, 'shape', image)}")
-        bgr = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
-        h, w = bgr.shape[:2]
-        side = max(h, w)
-        parts = [self._square(bgr, (w - side) // 2, (h - side) // 2, side)]
+    def squares(self, width: int, height: int) -> list[tuple[int, int, int]]:
+        """The full scan's squares (x0, y0, side): the whole image (letterboxed), then the tiles."""
+        side = max(width, height)
+        out = [((width - side) // 2, (height - side) // 2, side)]
         if self.tiles > 1:
             tile = int(np.ceil(side / (self.tiles - (self.tiles - 1) * self.overlap)))
             step = max(1, int(tile * (1 - self.overlap)))
-            for y0 in range(0, max(h - tile, 0) + step, step):
-                for x0 in range(0, max(w - tile, 0) + step, step):
-                    parts.append(self._square(bgr, min(x0, max(w - tile, 0)), min(y0, max(h - tile, 0)), tile))
-        merged = FaceDetections(np.concatenate([p.boxes for p in parts]),
-                                np.concatenate([p.keypoints for p in parts]),
-                                np.concatenate([p.scores for p in parts]))
-        return weighted_nms(merged, iou=self.nms_iou) if len(merged) else merged
+            for y0 in range(0, max(height - tile, 0) + step, step):
+                for x0 in range(0, max(width - tile, 0) + step, step):
+                    out.append((min(x0, max(width - tile, 0)), min(y0, max(height - tile, 0)), tile))
+        return out
+
+    def run(self, bgr: np.ndarray, squares: list[tuple[int, int, int]]) -> FaceDetections:
+        """Faces in each square (x0, y0, side) of ``bgr`` (letterboxed with black where a square leaves the image),
+        in image pixels, before suppression; all the squares in one batch of the network."""
+        if not squares:
+            return FaceDetections.empty()
+        h, w = bgr.shape[:2]
+        crops = []
+        for x0, y0, side in squares:
+            crop = np.zeros((side, side, 3), np.uint8)
+            xs, ys, xe, ye = max(x0, 0), max(y0, 0), min(x0 + side, w), min(y0 + side, h)
+            if xe > xs and ye > ys:
+                crop[ys - y0:ye - y0, xs - x0:xe - x0] = bgr[ys:ye, xs:xe]
+            crops.append(cv2.resize(crop, (INPUT_PX, INPUT_PX), interpolation=cv2.INTER_AREA))
+        blob = cv2.dnn.blobFromImages(crops, 1.0 / 127.5, (INPUT_PX, INPUT_PX), (127.5, 127.5, 127.5), swapRB=True)
+        self._net.setInput(blob)
+        outs = self._net.forward(self._outputs)
+        scores = next(v for v in outs if v.shape[-1] == 1).reshape(len(squares), -1)
+        raw = next(v for v in outs if v.shape[-1] == 16).reshape(len(squares), -1, 16)
+        parts = []
+        for (x0, y0, side), s, r in zip(squares, scores, raw):
+            found = decode(s, r, threshold=self.score_threshold)
+            parts.append(FaceDetections(found.boxes * side + [x0, y0, 0, 0], found.keypoints * side + [x0, y0],
+                                        found.scores))
+        return FaceDetections.concat(parts)
+
+    def detect_faces(self, image: np.ndarray) -> FaceDetections:
+        """image : (h, w, 3) BGR or (h, w) grey uint8  ->  its faces (boxes, keypoints, scores) in its pixels."""
+        bgr = _bgr(image)
+        return weighted_nms(self.run(bgr, self.squares(bgr.shape[1], bgr.shape[0])), iou=self.nms_iou)
+
+    def detect(self, image: np.ndarray) -> np.ndarray:
+        """The :class:`avcore.faces.FaceDetector` protocol: (n, 4) float boxes x, y, w, h in pixels."""
+        return self.detect_faces(image).boxes
+
+
+@dataclass(eq=False)
+class TrackingBlazeFace:
+    """BlazeFace on a video: each frame, a square around each previous face (``context`` face widths a side: the face
+    then spans 192 / ``context`` px of the model's input, where it is found best) plus one square of the full scan
+    (the whole image, then each tile of ``base``, one a frame), so that a frame costs one inference per face and
+    one more; a newcomer is found within ``len(base.squares(...))`` frames. The first frame gets the whole scan.
+    Stateful: one instance per video stream."""
+
+    base: BlazeFaceDetector
+    context: float = 4.0
+    _previous: np.ndarray = field(init=False, repr=False, default_factory=lambda: np.zeros((0, 4)))
+    _next: int = field(init=False, repr=False, default=-1)
+    _size: tuple[int, int] = field(init=False, repr=False, default=(0, 0))
+
+    def reset(self) -> None:
+        """Forget the previous faces: the next frame gets the whole scan."""
+        self._previous, self._next = np.zeros((0, 4)), -1
+
+    def detect_faces(self, image: np.ndarray) -> FaceDetections:
+        bgr = _bgr(image)
+        h, w = bgr.shape[:2]
+        scan = self.base.squares(w, h)
+        if (w, h) != self._size:
+            self._size = (w, h)
+            self.reset()
+        if self._next < 0:
+            squares, self._next = scan, 0
+        else:
+            squares = [scan[self._next]]
+            self._next = (self._next + 1) % len(scan)
+            for x, y, bw, bh in self._previous:
+                side = int(round(self.context * max(bw, bh)))
+                squares.append((int(round(x + bw / 2 - side / 2)), int(round(y + bh / 2 - side / 2)), side))
+        found = weighted_nms(self.base.run(bgr, squares), iou=self.base.nms_iou)
+        self._previous = found.boxes
+        return found
 
     def detect(self, image: np.ndarray) -> np.ndarray:
         """The :class:`avcore.faces.FaceDetector` protocol: (n, 4) float boxes x, y, w, h in pixels."""

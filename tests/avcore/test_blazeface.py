@@ -94,3 +94,33 @@ def test_the_detector_refuses_a_missing_model(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="not found"):
         BlazeFaceDetector(tmp_path / "none.tflite")
     assert INPUT_PX == 192 and GRID == 48
+
+
+@pytest.mark.shared_data
+def test_tracked_blazeface_finds_every_rendered_face_with_a_square_per_face(model: Path, shared_data: Path,
+                                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """The simulated room's three faces (photographs, about 40 px) over 45 frames: every visible face found in
+    every frame and nothing else; after the first frame's whole scan, one square per face and one of the scan."""
+    from app.sources.sim import SimSource
+    from avcore.blazeface import TrackingBlazeFace
+
+    room = SimSource.from_preset("S2", duration_s=2.0, seed=2, data_dir=shared_data)
+    tracker = TrackingBlazeFace(BlazeFaceDetector(model, tiles=2))
+    batches: list[int] = []
+    run = BlazeFaceDetector.run
+
+    def count(self, bgr, squares):  # noqa: ANN001, ANN202
+        batches.append(len(squares))
+        return run(self, bgr, squares)
+
+    monkeypatch.setattr(BlazeFaceDetector, "run", count)
+    for k in range(45):
+        left, _ = room._images(k)
+        truth = room.truth(k)
+        boxes = tracker.detect(left)
+        centres = boxes[:, :2] + boxes[:, 2:] / 2
+        faces = truth.boxes_left[truth.visible]
+        assert len(boxes) == len(faces) == 3, k
+        for face in faces:
+            assert (np.abs(centres - (face[:2] + face[2:] / 2)) < face[2:] / 2).all(axis=1).any(), k
+    assert batches[0] == 5 and set(batches[1:]) == {4}  # the whole scan, then three faces and one square
