@@ -577,7 +577,13 @@ class Pipeline:
 
 
 def _face_detector(config: PipelineConfig) -> FaceDetector:
-    """The detector ``config.face_detector`` names; BlazeFace's model must be installed (a UserError says how)."""
+    """The detector ``config.face_detector`` names; BlazeFace's model must be installed (a UserError says how). An
+    OpenCV without Haar cascades (OpenCV 5) gives BlazeFace, with a one-line notice."""
+    import cv2
+
+    if config.face_detector == "haar" and not hasattr(cv2, "CascadeClassifier"):
+        log.warning("OpenCV %s has no Haar cascades: the faces are found by BlazeFace", cv2.__version__)
+        config = replace(config, face_detector="blazeface")
     if config.face_detector == "blazeface":
         from app.models import blazeface_model
         from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace

@@ -1,0 +1,43 @@
+"""Which face detector a run gets: the one asked for, and BlazeFace where OpenCV has no Haar cascades (OpenCV 5)."""
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from app.errors import UserError
+from app.pipeline import PipelineConfig, _face_detector
+from avcore.blazeface import TrackingBlazeFace
+from avcore.faces import TrackingFaceDetector
+
+
+def _installed() -> None:
+    from app.models import blazeface_model
+
+    try:
+        blazeface_model()
+    except UserError as exc:
+        pytest.skip(str(exc))
+
+
+def test_each_detector_as_asked() -> None:
+    _installed()
+    assert isinstance(_face_detector(PipelineConfig()), TrackingFaceDetector)
+    assert isinstance(_face_detector(PipelineConfig(face_detector="blazeface")), TrackingBlazeFace)
+    with pytest.raises(ValueError, match="face_detector"):
+        PipelineConfig(face_detector="yolo")  # type: ignore[arg-type]
+
+
+def test_an_opencv_without_haar_cascades_gets_blazeface(monkeypatch: pytest.MonkeyPatch,
+                                                         caplog: pytest.LogCaptureFixture) -> None:
+    """OpenCV 5 ships no CascadeClassifier: a run that asks for Haar (the default) is told so in one line and gets
+    BlazeFace."""
+    import cv2
+
+    _installed()
+    monkeypatch.delattr(cv2, "CascadeClassifier")
+    with caplog.at_level(logging.WARNING):
+        detector = _face_detector(PipelineConfig())
+    assert isinstance(detector, TrackingBlazeFace)
+    assert [r.getMessage() for r in caplog.records] == [
+        f"OpenCV {cv2.__version__} has no Haar cascades: the faces are found by BlazeFace"]
