@@ -39,3 +39,38 @@ def test_motion_guided_people_are_the_clusters() -> None:
     assert result.mode == "motion" and a.box_px is None and b.box_px is None
     np.testing.assert_array_equal(b.position_m, [0.9, 0, 3])
     assert a.itd_s.shape == (1,) and a.itd_s[0] == -1e-4
+
+
+def test_one_results_line_holds_the_results_values(tmp_path) -> None:  # noqa: ANN001
+    """The line of app.sinks.results_file for one result, value by value (the stamp to the microsecond, positions to
+    0.1 mm, probabilities to 1e-4), written compactly, counted, and refused once the file is closed."""
+    import json
+
+    from app.sinks.results_file import ResultsWriter, result_record
+
+    out = SimpleNamespace(speaking=np.array([True, False]), probability=np.array([0.83337, 0.2]),
+                          itd_means=np.array([-1.2e-4, 2.5e-4]), pair_itd_means=None)
+    result = Result(stamp_s=12.3456789, index=370, image=np.zeros((2, 2, 3), np.uint8),
+                    boxes=np.array([[10.4, 20.0, 30.0, 30.0], [50, 60, 20, 20]]),
+                    xyz=np.array([[-0.51234, 0.0, 2.0], [0.6, -0.1, 2.4]]), itds_s=np.zeros(7), output=out,
+                    latency_s=float("nan"), person_ids=np.array([7, 3]))
+    record = result_record(result)
+    assert record["stamp_s"] == 12.345679 and record["index"] == 370 and record["mode"] == "face"
+    assert record["n_itds"] == 7 and record["latency_s"] is None
+    first = record["people"][0]
+    assert first == {"id": 7, "position_m": [-0.5123, 0.0, 2.0], "speaking": True, "probability": 0.8334,
+                     "itd_mean_s": -1.2e-4, "box_px": [10, 20, 30, 30]}
+    path = tmp_path / "a" / "b" / "r.jsonl"  # folders created, however deep
+    writer = ResultsWriter(path)
+    writer.write(result)
+    writer.write(result)
+    assert writer.written == 2
+    writer.close()
+    lines = path.read_text(encoding="utf-8").splitlines()
+    assert len(lines) == 2 and json.loads(lines[0]) == record and ", " not in lines[0]  # compact: one short line
+    try:
+        writer.write(result)
+    except ValueError as exc:
+        assert str(exc) == f"the results file {path} is closed"
+    else:
+        raise AssertionError("a closed results file took a line")

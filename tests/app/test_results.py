@@ -62,7 +62,8 @@ def test_an_unwritable_results_path_fails_before_the_run(tmp_path: Path, capsys:
     blocker.write_text("")
     assert main(["demo", "--duration", "2", "--fast", "--headless", "--results-jsonl", str(blocker / "r.jsonl")]) == 2
     captured = capsys.readouterr()
-    assert "results file" in captured.err and "Traceback" not in captured.err
+    assert (f"cannot write the results file {blocker / 'r.jsonl'}: File exists; choose another --results-jsonl "
+            "path") in captured.err and "Traceback" not in captured.err
     assert "results in" not in captured.out  # refused before the work, not after it
 
 
