@@ -357,8 +357,7 @@ class Console:
         self._log(ROBOT, rr.Boxes3D(centers=[0.5 * (lo + hi)], half_sizes=[0.5 * (hi - lo)], colors=[(90, 90, 90)],
                                     labels=["robot"]), static=True)
         mic_xyz = np.array([mics.left, mics.right])
-        self._log(MICS_3D, rr.Points3D(mic_xyz, radii=0.015, colors=[(220, 40, 40)], labels=["M_L", "M_R"]),
-                  static=True)
+        self._log(MICS_3D, rr.Points3D(mic_xyz, radii=0.015, colors=[(220, 40, 40)]), static=True)
         cameras = zip((CAMERA_LEFT, CAMERA_RIGHT), geo.camera_centres(rig), (rig.proj_left, rig.proj_right),
                       strict=True)
         for path, centre, proj in cameras:
@@ -372,11 +371,11 @@ class Console:
         self._log(f"{BIRDSEYE}/robot", rr.LineStrips2D([[(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)]],
                                                        radii=0.01, colors=[(90, 90, 90)], labels=["robot"]),
                   static=True)
-        self._log(f"{BIRDSEYE}/mics", rr.Points2D(geo.birdseye(mic_xyz), radii=0.02, colors=[(220, 40, 40)],
-                                                  labels=["M_L", "M_R"]), static=True)
+        self._log(f"{BIRDSEYE}/mics", rr.Points2D(geo.birdseye(mic_xyz), radii=0.02, colors=[(220, 40, 40)]),
+                  static=True)
         self._log(f"{BIRDSEYE}/fov", rr.LineStrips2D(list(geo.fov_strips_birdseye(rig, self.fov_depth_m)),
-                                                     radii=0.008, colors=[(30, 90, 200), (30, 150, 220)],
-                                                     labels=["left camera", "right camera"]), static=True)
+                                                     radii=0.008, colors=[(30, 90, 200), (30, 150, 220)]),
+                  static=True)
         radii_m = np.arange(1.0, np.floor(self.fov_depth_m) + 0.5)
         rings = geo.range_rings_birdseye(radii_m)
         self._log(f"{BIRDSEYE}/rings", rr.LineStrips2D(list(rings), radii=0.004, colors=[(170, 170, 170)],
@@ -427,7 +426,7 @@ class Console:
         self._log_events(set(ids))
         if frame.image is not None and self.frames_logged % self.image_every == 0:
             self._log_image(frame.image)
-        self._log_faces(frame, colors, labels, discs)
+        self._log_faces(frame, colors, labels)
         self._log_heads(frame, colors, labels, discs)
         self._log_itd_space(frame, ids, colors)
         self._log_pairs(frame, colors)
@@ -463,18 +462,22 @@ class Console:
             return
         self._log(IMAGE, rr.EncodedImage(contents=buf.reshape(-1), media_type="image/jpeg"))
 
-    def _log_faces(self, frame: ConsoleFrame, colors: np.ndarray, labels: list[str], discs: np.ndarray) -> None:
-        """Pane 1: a box on each face and a solid circle whose darkness codes the speaking probability."""
+    def _log_faces(self, frame: ConsoleFrame, colors: np.ndarray, labels: list[str]) -> None:
+        """Pane 1: a box on each face (a ring around each head when motion-guided), thick when speaking, and above
+        it a bar as long as the speaking probability; nothing covers the face (its mouth shows who speaks)."""
         if frame.boxes is not None:
-            centres, radii = geo.face_circles_px(frame.boxes)
+            boxes = frame.boxes
+            parts: list[Any] = [rr.Boxes2D(mins=boxes[:, :2], sizes=boxes[:, 2:], colors=colors, labels=labels,
+                                           radii=np.where(frame.speaking, 3.0, 1.5), draw_order=15.0)]
         else:
             centres, radii = geo.head_circles_px(self.rig, frame.faces_xyz, self.head_radius_m)
-        parts: list[Any] = [rr.Points2D(centres, radii=radii, colors=discs, draw_order=20.0)]
-        if frame.boxes is not None:
-            parts.append(rr.Boxes2D(mins=frame.boxes[:, :2], sizes=frame.boxes[:, 2:], colors=colors, labels=labels,
-                                    radii=np.where(frame.speaking, 3.0, 1.5), draw_order=15.0))
-        elif self._had_boxes:  # heads without boxes after faces with boxes: no stale box stays
-            parts.append(rr.Boxes2D.cleared())
+            boxes = np.concatenate([centres - radii[:, None], 2 * np.repeat(radii[:, None], 2, axis=1)], axis=1)
+            parts = [rr.Ellipses2D(centers=centres, half_sizes=np.repeat(radii[:, None], 2, axis=1), colors=colors,
+                                   labels=labels, line_radii=np.where(frame.speaking, 3.0, 1.5), draw_order=15.0)]
+            if self._had_boxes:  # heads without boxes after faces with boxes: no stale box stays
+                parts.append(rr.Boxes2D.cleared())
+        parts.append(rr.LineStrips2D(geo.speaking_bars_px(boxes, frame.probability), colors=colors,
+                                     radii=np.where(frame.speaking, 3.0, 2.0), draw_order=20.0))
         self._had_boxes = frame.boxes is not None
         self._log_people(FACES, frame.n_people, *parts)
 

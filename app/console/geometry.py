@@ -29,7 +29,7 @@ __all__ = [
     "ItdPane",
     "birdseye",
     "camera_centres",
-    "face_circles_px",
+    "speaking_bars_px",
     "fov_strips_birdseye",
     "gaussian_curves",
     "head_circles_px",
@@ -82,16 +82,17 @@ def speaking_rgba(probability: np.ndarray) -> np.ndarray:
     return np.stack([grey, grey, grey, alpha], axis=1).astype(np.uint8)
 
 
-def face_circles_px(boxes: np.ndarray, fraction: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
-    """Where the speaking circle sits on each face box.
+def speaking_bars_px(boxes: np.ndarray, probability: np.ndarray, gap_px: float = 5.0) -> np.ndarray:
+    """The speaking probability as a bar above each face, leaving the face itself uncovered (the mouth is what
+    shows who speaks): from the box's top-left corner, ``gap_px`` above it, as long as ``probability`` of the box's
+    width (a bar across the whole box is certain speech).
 
-    boxes : (N, 4) float, pixels (x, y, w, h)  ->  centres (N, 2) pixels (the box centres), radii (N,) pixels
-    (``fraction`` of the box's smaller side).
+    boxes : (N, 4) float, pixels (x, y, w, h); probability : (N,) in [0, 1]  ->  (N, 2, 2) pixel segments.
     """
     b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-    centres = b[:, :2] + 0.5 * b[:, 2:]
-    radii = fraction * np.minimum(b[:, 2], b[:, 3])
-    return centres, radii
+    p = np.clip(np.asarray(probability, dtype=np.float64).reshape(-1), 0.0, 1.0)
+    y = b[:, 1] - gap_px
+    return np.stack([np.stack([b[:, 0], y], 1), np.stack([b[:, 0] + p * b[:, 2], y], 1)], axis=1)
 
 
 def head_circles_px(rig: StereoRig, points_xyz: np.ndarray, head_radius_m: float) -> tuple[np.ndarray, np.ndarray]:

@@ -90,10 +90,11 @@ def test_colours_pack_as_rrggbbaa() -> None:
         geo.pack_rgba(np.zeros((2, 5), np.uint8))
 
 
-def test_face_circle_sits_at_the_box_centre() -> None:
-    centres, radii = geo.face_circles_px(np.array([[10.0, 20.0, 40.0, 60.0]]))
-    np.testing.assert_allclose(centres, [[30.0, 50.0]])
-    np.testing.assert_allclose(radii, [8.0])
+def test_the_speaking_bar_sits_above_the_face() -> None:
+    """A bar 5 px above each box, from its left edge, as long as the probability of its width: the face uncovered."""
+    bars = geo.speaking_bars_px(np.array([[10.0, 20.0, 40.0, 60.0], [100.0, 50.0, 20.0, 20.0]]), np.array([0.25, 1.0]))
+    np.testing.assert_allclose(bars, [[[10.0, 15.0], [20.0, 15.0]], [[100.0, 45.0], [120.0, 45.0]]])
+    assert geo.speaking_bars_px(np.zeros((0, 4)), np.zeros(0)).shape == (0, 2, 2)
 
 
 def test_head_circles_project_onto_the_left_image() -> None:
@@ -355,7 +356,7 @@ def test_left_image_is_logged_as_jpeg_close_to_the_original(recorded: dict, scen
     assert jpeg.size < scene["image"].nbytes / 5
 
 
-def test_face_boxes_and_speaking_circles(recorded: dict, scene: dict) -> None:
+def test_face_boxes_and_speaking_bars(recorded: dict, scene: dict) -> None:
     rrd = recorded["rrd"]
     _, out = recorded["logged"][0]
     assert out.speaking.tolist() == [False, True, False]
@@ -364,13 +365,16 @@ def test_face_boxes_and_speaking_circles(recorded: dict, scene: dict) -> None:
     centres = np.stack([x + w / 2, y + h / 2], 1)
     np.testing.assert_allclose(rrd.values(path, "Boxes2D:centers")[0], centres, rtol=1e-6)
     np.testing.assert_allclose(rrd.values(path, "Boxes2D:half_sizes")[0], np.stack([w / 2, h / 2], 1), rtol=1e-6)
-    np.testing.assert_allclose(rrd.values(path, "Points2D:positions")[0], centres, rtol=1e-6)
+    assert "Points2D:positions" not in rrd.rows[path][0][1]  # nothing is drawn over the faces
     assert rrd.values(path, "Boxes2D:labels")[0] == [f"{pid}: {p:.2f}" for pid, p in zip((7, 8, 9), out.probability)]
     assert rrd.values(path, "Boxes2D:radii")[0] == [1.5, 3.0, 1.5]  # the speaker's box is the thick one
     colours = rrd.values(path, "Boxes2D:colors")[0]
     assert colours == geo.pack_rgba(geo.person_colors(np.array([7, 8, 9]))).tolist()
-    greys = [c >> 24 for c in rrd.values(path, "Points2D:colors")[0]]  # 0xRRGGBBAA: the red (= grey) level
-    assert greys[1] < 0.5 * 255 < greys[0] and greys[1] < greys[2]  # the speaker's circle is the dark one
+    bars = np.array(rrd.values(path, "LineStrips2D:strips")[0])  # above each box, as long as its probability
+    np.testing.assert_allclose(bars, geo.speaking_bars_px(scene["boxes"], out.probability), rtol=1e-6)
+    lengths = bars[:, 1, 0] - bars[:, 0, 0]
+    assert lengths[1] > 0.5 * w[1] > max(lengths[0], lengths[2])  # the speaker's bar is the long one
+    assert (bars[:, 0, 1] < y).all()
     assert len(rrd.values(path, "Boxes2D:centers")[-1]) == 2  # person 9 gone at the last frame: two boxes left
 
 
@@ -472,8 +476,10 @@ def test_motion_guided_frame_without_boxes_with_points(scene: dict, tmp_path: Pa
     buffer = rrd.values("/scene/cameras/left/image", "Image:buffer")
     assert len(buffer) == 1 and bytes(buffer[0][0]) == scene["image"].tobytes()  # raw, exact
     assert "Boxes2D:centers" not in rrd.rows["/scene/cameras/left/faces"][0][1]
-    centre, _ = geo.head_circles_px(scene["rig"], scene["xyz"][1:2], 0.09)
-    np.testing.assert_allclose(rrd.values("/scene/cameras/left/faces", "Points2D:positions")[0], centre, rtol=1e-6)
+    centre, radius = geo.head_circles_px(scene["rig"], scene["xyz"][1:2], 0.09)
+    np.testing.assert_allclose(rrd.values("/scene/cameras/left/faces", "Ellipses2D:centers")[0], centre, rtol=1e-6)
+    np.testing.assert_allclose(rrd.values("/scene/cameras/left/faces", "Ellipses2D:half_sizes")[0],
+                               [[radius[0], radius[0]]], rtol=1e-6)  # a ring around the head, not a disc on it
     np.testing.assert_allclose(rrd.values("/scene/hm3d_points", "Points3D:positions")[0], points, rtol=1e-6)
     assert rrd.frames("/scene/hm3d_points", "Clear:is_recursive") == [1]
     stamps = [row["capture_time_ns"] for f, row in rrd.rows["/counts"] if f is not None]
@@ -651,3 +657,14 @@ def test_a_long_recording_goes_into_parts_that_each_open_alone(tmp_path: Path) -
     assert Rrd(merged).frames("/counts", "Scalars:scalars") == list(range(6))
     with pytest.raises(ValueError, match="part_s"):
         ViewerSession(ViewerTarget(save=path, part_s=0.0))
+
+
+def test_labels_that_collided_are_gone(recorded: dict) -> None:
+    """The cameras' and microphones' labels sat on top of each other at the robot (bird's-eye and 3D): they are
+    drawn without labels; the robot keeps its own."""
+    rrd = recorded["rrd"]
+    for path, labels in (("/birdseye/fov", "LineStrips2D:labels"), ("/birdseye/mics", "Points2D:labels"),
+                         ("/scene/robot/mics", "Points3D:labels")):
+        assert path in rrd.rows, path
+        assert all(labels not in row for _, row in rrd.rows[path]), path
+    assert rrd.values("/birdseye/robot", "LineStrips2D:labels")[0] == ["robot"]
