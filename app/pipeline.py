@@ -18,7 +18,6 @@ Ctrl-C (or :meth:`Pipeline.stop`, e.g. from a SIGTERM handler) stops every threa
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable
@@ -30,12 +29,11 @@ import numpy as np
 from app.sources.contract import Source
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
+from app.hearing import Vision, hearing_mode
 from app.queues import DropOldestQueue
 from app.result import Result
-from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
-from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
-from avcore.itd import FrameBins, ItdStream, ItdTrack, PairsItdStream, geometry_options, gives_frame_itds
-from avcore.motion import harris_motion_points
+from avcore.faces import FaceDetector, TrackingFaceDetector
+from avcore.itd import FrameBins, ItdStream, ItdTrack, PairsItdStream, geometry_options
 from avcore.speaking import SpeakingVote
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
@@ -119,17 +117,6 @@ class PipelineConfig:
                              f"{self.vote_frames!r}")
 
 
-@dataclass(frozen=True, eq=False)
-class VisionMessage:
-    """A vision result for the fusion thread: faces (boxes (N, 4) px and xyz (N, 3) m) of one frame, or the HM3D
-    points (xyz (M, 3) m, no boxes) of one interval, ``frame`` its (middle) stereo frame."""
-
-    stamp_s: float
-    frame: StereoFrame
-    boxes: np.ndarray | None
-    xyz: np.ndarray
-
-
 @dataclass(frozen=True)
 class ItdMessage:
     """One window's ITD, stamped at the window's centre: a float, or with several pairs a (P,) vector (NaN where a
@@ -157,7 +144,7 @@ class ClockMessage:
     stamp_s: float
 
 
-FusionMessage = VisionMessage | ItdMessage | FrameItdsMessage | ClockMessage
+FusionMessage = Vision | ItdMessage | FrameItdsMessage | ClockMessage
 
 
 def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
@@ -230,14 +217,6 @@ class _Stop(Exception):
     """Raised inside a worker when the pipeline stops."""
 
 
-def _frame_capacity(config: PipelineConfig) -> int:
-    """The frames' queue length: ``frame_queue``, or one interval at 60 FPS when motion-guided (see
-    :class:`PipelineConfig`)."""
-    if config.inference != "motion":
-        return config.frame_queue
-    return max(config.frame_queue, math.ceil(config.interval_s * 60.0))
-
-
 class Pipeline:
     """Runs a :class:`Source` through vision, ITD extraction and fusion in threads; calls ``on_result`` from the
     fusion thread for every fused result (so that all Rerun logging happens in one thread).
@@ -257,13 +236,14 @@ class Pipeline:
         self._stop = threading.Event()
         self._errors: list[tuple[str, BaseException]] = []
         c = self.config
-        self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(_frame_capacity(c), "frames")
+        self.mode = hearing_mode(c)
+        self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(self.mode.frame_capacity, "frames")
         self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
         self._q_fusion: DropOldestQueue[FusionMessage] = DropOldestQueue(c.fusion_queue, "fusion")
         self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
         self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
-        self._vote = SpeakingVote(c.vote_frames if c.inference == "face" else 1)
+        self._vote = SpeakingVote(self.mode.vote_frames)
         self._fused = 0  # vision frames fused (results emitted lag them by the vote)
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
         self._backpressure = not source.realtime
@@ -376,8 +356,6 @@ class Pipeline:
 
     def _vision_loop(self) -> None:
         rig = self.source.rig
-        motion = self.config.inference == "motion"
-        interval: list[StereoFrame] = []
         n = 0
         while True:
             frame = self._take(self._q_frames, "grabber")
@@ -386,23 +364,15 @@ class Pipeline:
             if not _good_frame(frame, rig):
                 self.stats.bad_frames += 1
                 continue
-            if not motion:
-                try:
-                    faces = locate_faces(frame.left, frame.right, rig, detector=self.detector)
-                except ValueError as exc:
-                    log.debug("bad frame %d: %s", frame.index, exc)
-                    self.stats.bad_frames += 1
-                    continue
-                self._offer(self._q_fusion, VisionMessage(frame.stamp_s, frame, faces.boxes, faces.points))
-            else:
-                interval.append(frame)
-                if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
-                    continue
-                points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
-                mid = interval[len(interval) // 2]
-                stamp = 0.5 * (interval[0].stamp_s + interval[-1].stamp_s)
-                self._offer(self._q_fusion, VisionMessage(stamp, mid, None, points))
-                interval = []
+            try:
+                vision = self.mode.vision(frame, rig, self.detector)
+            except ValueError as exc:
+                log.debug("bad frame %d: %s", frame.index, exc)
+                self.stats.bad_frames += 1
+                continue
+            if vision is None:  # motion-guided: the interval is not complete yet
+                continue
+            self._offer(self._q_fusion, vision)
             n += 1
             self.stats.vision_results = n
             self._timed("vision", t0, n)
@@ -414,7 +384,7 @@ class Pipeline:
         array = getattr(src, "array", None)
         extra = geometry_options(c.itd_method, src.mics.distance_m, src.mics.speed_of_sound)
         stream: ItdStream | PairsItdStream | None = None
-        frame_itds = c.frame_itds and c.inference == "face" and gives_frame_itds(c.itd_method)
+        frame_itds = self.mode.frame_itds
         start_s = expected_s = 0.0
         n = 0
         while True:
@@ -490,13 +460,10 @@ class Pipeline:
             time.sleep(0.005)
 
     def _fusion_loop(self) -> None:
-        c = self.config
         mics = self.source.mics
-        sync = self._sync = TimeFrame(c.frame_window_s if c.inference == "face" else c.interval_s / 2)
+        sync = self._sync = TimeFrame(self.mode.time_frame_s)
         array = getattr(self.source, "array", None)
-        mics_or_array = array if array is not None else mics
-        hearing = (FaceGuidedHearing(mics_or_array, FaceGuidedParams(decision_window_s=c.decision_window_s))
-                   if c.inference == "face" else MotionGuidedHearing(mics_or_array))
+        hearing = self.mode.hearing(array if array is not None else mics)
         tracker = NearestTracker()
         while True:
             if self._stop.is_set():
@@ -516,7 +483,7 @@ class Pipeline:
 
     def _handle(self, message: FusionMessage, sync: TimeFrame) -> list:
         """One message of the fusion queue into the synchroniser; returns the vision frames it completes."""
-        if isinstance(message, VisionMessage):
+        if isinstance(message, Vision):
             return sync.push_primary(message.stamp_s, message)
         if isinstance(message, ItdMessage):
             return sync.push_secondary(message.stamp_s, (message.stamp_s, message.itd_s))
@@ -529,8 +496,7 @@ class Pipeline:
         # the audio clock moved on without ITDs (silence): frames before it are complete
         return sync.advance(message.stamp_s)
 
-    def _finish(self, sync: TimeFrame, hearing: FaceGuidedHearing | MotionGuidedHearing,
-                tracker: NearestTracker) -> None:
+    def _finish(self, sync: TimeFrame, hearing: Any, tracker: NearestTracker) -> None:
         """The source is over or the user stopped: the messages still queued, then the frames still waiting for
         ITDs (with the ITDs there are), then the results still waiting for their vote."""
         while (message := self._q_fusion.get(timeout=0)) is not None:
@@ -541,20 +507,16 @@ class Pipeline:
         for voted in self._vote.flush():
             self._emit_voted(*voted)
 
-    def _fuse(self, hearing: FaceGuidedHearing | MotionGuidedHearing, tracker: NearestTracker,
-              vision: VisionMessage, itds: list[tuple[float, float]]) -> None:
+    def _fuse(self, hearing: Any, tracker: NearestTracker, vision: Vision, itds: list[tuple[float, float]]) -> None:
         t0 = time.perf_counter()
-        stamp, frame, boxes, xyz = vision.stamp_s, vision.frame, vision.boxes, vision.xyz
+        stamp, frame = vision.stamp_s, vision.frame
         times = np.array([t for t, _ in itds], dtype=np.float64)
         a = np.array([v for _, v in itds], dtype=np.float64)  # (K,), or (K, P) with several pairs
         if hearing.array is not None:
             a = a.reshape(times.size, hearing.array.n_pairs)
-        if isinstance(hearing, FaceGuidedHearing):
-            output = hearing.step(xyz, a, times - stamp, *self._frame_itds.near(stamp))
-        else:
-            output = hearing.step(xyz, a)
-        ids = tracker.update(xyz if boxes is not None else output.positions)
-        result = Result(stamp, frame.index, frame.left, boxes, xyz, a, output, float("nan"), ids)
+        output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
+        ids = tracker.update(self.mode.people_xyz(vision, output))
+        result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids)
         for voted in self._vote.push(result, ids, output.speaking, output.probability):
             self._emit_voted(*voted)  # the result whose vote this one completed (itself without a vote)
         self._fused += 1

@@ -1,0 +1,132 @@
+"""The two ways of hearing as one object each, so that the pipeline holds no "if face": what vision yields from the
+frames, which ITDs a result collects, the hearing that fits them, and where the people are for the tracker.
+
+- :class:`FaceGuided` (Algorithm 2): the faces of every frame in 3D (F3D); a result per frame collects the ITDs of
+  +- ``frame_window_s`` and the single frames' ITDs; its speaking states are voted over ``vote_frames`` results.
+- :class:`MotionGuided` (Algorithm 1): the HM3D points of an interval of ``interval_s``; a result per interval
+  collects the ITDs of the interval; no vote.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from avcore.faces import locate_faces
+from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
+from avcore.itd import gives_frame_itds
+from avcore.motion import harris_motion_points
+
+if TYPE_CHECKING:
+    from app.events import StereoFrame
+    from app.pipeline import PipelineConfig
+    from avcore.faces import FaceDetector
+    from avcore.geometry import MicArray, MicPair
+    from avcore.stereo import StereoRig
+
+__all__ = ["FaceGuided", "MotionGuided", "Vision", "hearing_mode"]
+
+
+@dataclass(frozen=True, eq=False)
+class Vision:
+    """What vision yields for one result: its stamp, the frame it is shown on, the face boxes (None when
+    motion-guided) and the 3D points (the faces, or the HM3D points)."""
+
+    stamp_s: float
+    frame: StereoFrame
+    boxes: np.ndarray | None
+    xyz: np.ndarray
+
+
+@dataclass(eq=False)
+class FaceGuided:
+    """Algorithm 2 (module docstring)."""
+
+    config: PipelineConfig
+
+    @property
+    def frame_capacity(self) -> int:
+        return self.config.frame_queue
+
+    @property
+    def vote_frames(self) -> int:
+        return self.config.vote_frames
+
+    @property
+    def time_frame_s(self) -> float:
+        return self.config.frame_window_s
+
+    @property
+    def frame_itds(self) -> bool:
+        return self.config.frame_itds and gives_frame_itds(self.config.itd_method)
+
+    def hearing(self, mics: MicPair | MicArray) -> FaceGuidedHearing:
+        return FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
+
+    def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
+        """The faces of this frame (ValueError: a frame F3D cannot use)."""
+        faces = locate_faces(frame.left, frame.right, rig, detector=detector)
+        return Vision(frame.stamp_s, frame, faces.boxes, faces.points)
+
+    def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
+             near: Callable[[], tuple]) -> Any:
+        """The hearing's step on this result's faces and ITDs, with the single frames' ITDs near it (``near()``)."""
+        return hearing.step(vision.xyz, itds, times_s - vision.stamp_s, *near())
+
+    def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
+        return vision.xyz
+
+
+@dataclass(eq=False)
+class MotionGuided:
+    """Algorithm 1 (module docstring). Stateful: the frames of the interval being gathered."""
+
+    config: PipelineConfig
+    _interval: list = field(default_factory=list, init=False, repr=False)
+
+    @property
+    def frame_capacity(self) -> int:
+        """One interval at 60 FPS at least: the vision thread takes a whole interval at once."""
+        return max(self.config.frame_queue, math.ceil(self.config.interval_s * 60.0))
+
+    @property
+    def vote_frames(self) -> int:
+        return 1
+
+    @property
+    def time_frame_s(self) -> float:
+        return self.config.interval_s / 2
+
+    @property
+    def frame_itds(self) -> bool:
+        return False
+
+    def hearing(self, mics: MicPair | MicArray) -> MotionGuidedHearing:
+        return MotionGuidedHearing(mics)
+
+    def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
+        """The HM3D points once an interval is gathered (stamped at its centre, shown on its middle frame)."""
+        interval = self._interval
+        interval.append(frame)
+        if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
+            return None
+        points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
+        self._interval = []
+        return Vision(0.5 * (interval[0].stamp_s + interval[-1].stamp_s), interval[len(interval) // 2], None,
+                      points)
+
+    def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
+             near: Callable[[], tuple]) -> Any:
+        """The hearing's step on the interval's points and ITDs."""
+        return hearing.step(vision.xyz, itds)
+
+    def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
+        return output.positions
+
+
+def hearing_mode(config: PipelineConfig) -> FaceGuided | MotionGuided:
+    """The mode ``config.inference`` names."""
+    return MotionGuided(config) if config.inference == "motion" else FaceGuided(config)
