@@ -9,7 +9,7 @@ The section-7.1 sequences (:mod:`sim.synthetic`) draw each person as a Gaussian 
 and mouth, a collar, clothing folds, sleeves, cuffs, fingers) and the motion filter keeps it only where the image
 changes during the interval, so a seated talker yields points on the head and on the gesturing hands, few on a
 plain shirt, none below the table. This module builds such sequences from geometry, with the same
-:class:`sim.synthetic.Interval` objects, so that :func:`sim.synthetic_eval` scoring applies unchanged.
+:class:`sim.synthetic.Interval` objects, so that :func:`app.eval.synthetic` scoring applies unchanged.
 
 Body
 ----

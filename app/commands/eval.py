@@ -28,7 +28,7 @@ from app.eval.scenarios import (
     evaluate_scenario,
 )
 from sim.synthetic import SEQUENCES
-from sim.synthetic_eval import (
+from app.eval.synthetic import (
     FACE_VARIANTS,
     VARIANTS,
     SequenceScore,

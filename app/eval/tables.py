@@ -13,7 +13,7 @@ from app.eval.scenarios import (
     CalibrationFit,
     ScenarioScore,
 )
-from sim.synthetic_eval import PAPER_AUDIO, PAPER_VISUAL, SequenceScore
+from app.eval.synthetic import PAPER_AUDIO, PAPER_VISUAL, SequenceScore
 
 __all__ = ["format_face_table", "format_scenario_table", "format_tables", "scenario_targets", "signed_us",
            "synthetic_json"]

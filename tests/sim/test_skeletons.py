@@ -8,7 +8,7 @@ import pytest
 
 from avcore.inference import MotionGuidedParams
 from sim.skeletons import FAMILIES, BodyConfig, generate_family
-from sim.synthetic_eval import score_intervals
+from app.eval.synthetic import score_intervals
 
 SHORT = BodyConfig(n_intervals=4)
 

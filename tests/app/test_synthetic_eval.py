@@ -5,7 +5,7 @@ import pytest
 
 from avcore.inference import MotionGuidedParams
 from sim.synthetic import SEQUENCES, SyntheticConfig
-from sim.synthetic_eval import PAPER_AUDIO, PAPER_VISUAL, evaluate_sequence
+from app.eval.synthetic import PAPER_AUDIO, PAPER_VISUAL, evaluate_sequence
 
 VISUAL_TP = {"StaCon": 0.97, "DynCon": 0.90, "StaVar": 0.90, "DynVar": 0.90}
 ALE_M = {"StaCon": 0.03, "DynCon": 0.05, "StaVar": 0.03, "DynVar": 0.05}
@@ -50,7 +50,7 @@ def test_unknown_sequence() -> None:
 def test_face_guided_choices_measured() -> None:
     """Anchored means and the outlier-aware test: fewer false speakers than Algorithm 2 as written."""
     from avcore.inference import FaceGuidedParams
-    from sim.synthetic_eval import evaluate_face_guided
+    from app.eval.synthetic import evaluate_face_guided
 
     cfg = SyntheticConfig(n_intervals=60)
     ours = evaluate_face_guided("StaCon", [0], FaceGuidedParams(), config=cfg).totals
