@@ -19,6 +19,8 @@ from avcore.faces import locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import gives_frame_itds
 from avcore.motion import harris_motion_points
+from avcore.speaking import SpeakingVote
+from avcore.sync import TimeFrame
 
 if TYPE_CHECKING:
     from app.events import StereoFrame
@@ -51,13 +53,14 @@ class FaceGuided:
     def frame_capacity(self) -> int:
         return self.config.frame_queue
 
-    @property
-    def vote_frames(self) -> int:
-        return self.config.vote_frames
+    def time_frame(self) -> TimeFrame:
+        """The ITDs of +- ``frame_window_s`` around each frame; with ``latency="low"`` as wide a frame that ends at
+        the frame's stamp (the past only: a result waits for no later ITD)."""
+        return _time_frame(self.config, self.config.frame_window_s)
 
-    @property
-    def time_frame_s(self) -> float:
-        return self.config.frame_window_s
+    def vote(self) -> SpeakingVote:
+        """The vote over ``vote_frames`` results centred on each one; trailing (at once) with ``latency="low"``."""
+        return SpeakingVote(self.config.vote_frames, trailing=self.config.latency == "low")
 
     @property
     def frame_itds(self) -> bool:
@@ -92,13 +95,13 @@ class MotionGuided:
         """One interval at 60 FPS at least: the vision thread takes a whole interval at once."""
         return max(self.config.frame_queue, math.ceil(self.config.interval_s * 60.0))
 
-    @property
-    def vote_frames(self) -> int:
-        return 1
+    def time_frame(self) -> TimeFrame:
+        """The ITDs of the interval (+- half of it around its centre); with ``latency="low"`` the past only."""
+        return _time_frame(self.config, self.config.interval_s / 2)
 
-    @property
-    def time_frame_s(self) -> float:
-        return self.config.interval_s / 2
+    def vote(self) -> SpeakingVote:
+        """No vote: each interval decides alone."""
+        return SpeakingVote(1)
 
     @property
     def frame_itds(self) -> bool:
@@ -125,6 +128,12 @@ class MotionGuided:
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return output.positions
+
+
+def _time_frame(config: PipelineConfig, half_s: float) -> TimeFrame:
+    if config.latency == "low":
+        return TimeFrame(2 * half_s, after_s=0.0)
+    return TimeFrame(half_s)
 
 
 def hearing_mode(config: PipelineConfig) -> FaceGuided | MotionGuided:

@@ -34,7 +34,6 @@ from app.queues import DropOldestQueue
 from app.result import Result
 from avcore.faces import FaceDetector, TrackingFaceDetector
 from avcore.itd import FrameBins, ItdStream, ItdTrack, PairsItdStream, geometry_options
-from avcore.speaking import SpeakingVote
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
 from avcore.tracking import NearestTracker
@@ -76,6 +75,9 @@ class PipelineConfig:
     max_audio_lead_s : a replay as fast as possible: the ITD worker waits while the audio it extracts is more than
         this far ahead of the last frame vision took, so that no buffer downstream has to drop what vision has not
         used yet (ITDs run far faster than vision). Must exceed the time frame, a window and the vote's wait.
+    latency : "default" (each result collects the ITDs of +- its time frame and its vote is centred on it: the
+        method's own wait, about 0.43 s) or "low" (the past only: the time frame ends at the stamp and the vote
+        trails, so a result leaves once its last ITD is extracted).
     face_detector : "haar" (OpenCV's cascade, tracked, the default) or "blazeface" (MediaPipe's BlazeFace full-range,
         :mod:`avcore.blazeface`); face_model : the BlazeFace model file (default: the installed package's).
     """
@@ -90,6 +92,7 @@ class PipelineConfig:
     frame_itds: bool = True
     vote_frames: int = 9
     face_detector: Literal["haar", "blazeface"] = "haar"
+    latency: Literal["default", "low"] = "default"
     face_model: str | None = None
     interval_s: float = 0.4
     frame_queue: int = 4
@@ -99,6 +102,8 @@ class PipelineConfig:
     join_timeout_s: float = 2.0
 
     def __post_init__(self) -> None:
+        if self.latency not in ("default", "low"):
+            raise ValueError(f"latency must be 'default' or 'low', got {self.latency!r}")
         if self.face_detector not in ("haar", "blazeface"):
             raise ValueError(f"face_detector must be 'haar' or 'blazeface', got {self.face_detector!r}")
         if self.inference not in ("face", "motion"):
@@ -243,7 +248,7 @@ class Pipeline:
         self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
         self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
-        self._vote = SpeakingVote(self.mode.vote_frames)
+        self._vote = self.mode.vote()
         self._fused = 0  # vision frames fused (results emitted lag them by the vote)
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
         self._backpressure = not source.realtime
@@ -461,7 +466,7 @@ class Pipeline:
 
     def _fusion_loop(self) -> None:
         mics = self.source.mics
-        sync = self._sync = TimeFrame(self.mode.time_frame_s)
+        sync = self._sync = self.mode.time_frame()
         array = getattr(self.source, "array", None)
         hearing = self.mode.hearing(array if array is not None else mics)
         tracker = NearestTracker()

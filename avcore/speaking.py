@@ -368,17 +368,19 @@ def vote_speaking(ids: np.ndarray, speaking: np.ndarray, probability: np.ndarray
 
 class SpeakingVote:
     """:func:`vote_speaking` over a stream: each result is held until the ``frames // 2`` results after it are in,
-    then leaves with its states voted over the ``frames`` results centred on it (fewer at the stream's ends).
+    then leaves with its states voted over the ``frames`` results centred on it (fewer at the stream's ends); with
+    ``trailing`` each result leaves at once, voted over itself and the ``frames - 1`` results before it (low latency).
 
     ``push(item, ids, speaking, probability)`` returns the results whose vote is complete, as ``(item, speaking,
     probability)``, oldest first (none while the first ``frames // 2`` wait); ``flush()`` returns the rest at the end
     of the stream. ``frames`` is odd; 1 passes every result through at once.
     """
 
-    def __init__(self, frames: int) -> None:
+    def __init__(self, frames: int, *, trailing: bool = False) -> None:
         if not (isinstance(frames, int) and frames >= 1 and frames % 2 == 1):
             raise ValueError(f"frames must be an odd number of results >= 1, got {frames!r}")
         self.half = frames // 2
+        self.trailing = trailing
         self._window: deque[tuple[object, np.ndarray, np.ndarray, np.ndarray]] = deque()
         self._waiting = 0  # results of the window not yet returned
 
@@ -391,6 +393,13 @@ class SpeakingVote:
              ) -> list[tuple[object, np.ndarray, np.ndarray]]:
         if self.half == 0:
             return [(item, np.asarray(speaking, dtype=bool), np.asarray(probability, dtype=float))]
+        if self.trailing:
+            self._window.append((item, np.asarray(ids), np.asarray(speaking, dtype=bool), np.asarray(probability)))
+            while len(self._window) > 2 * self.half + 1:
+                self._window.popleft()
+            voted, prob = vote_speaking(np.asarray(ids), np.asarray(speaking, dtype=bool), np.asarray(probability),
+                                        [(w[1], w[2]) for w in self._window])
+            return [(item, voted, prob)]
         self._window.append((item, np.asarray(ids), np.asarray(speaking, dtype=bool), np.asarray(probability)))
         self._waiting += 1
         out = [self._release()] if self._waiting > self.half else []

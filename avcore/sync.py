@@ -344,12 +344,17 @@ class TimeFrame:
     ----------
     window_s : float, seconds, >= 0
         Half width of the time frame around each primary stamp.
+    after_s : float, seconds, >= 0, or None
+        How far the frame reaches after the stamp when it is not ``window_s``: 0 collects ``[t - window_s, t]``, the
+        past only, and completes a primary as soon as the secondaries pass its stamp (low latency).
     max_secondaries, max_pending : int
         Buffer caps.
     """
 
-    def __init__(self, window_s: float, *, max_secondaries: int = 4096, max_pending: int = 256) -> None:
+    def __init__(self, window_s: float, *, after_s: float | None = None, max_secondaries: int = 4096,
+                 max_pending: int = 256) -> None:
         self.window_s = _check_duration(window_s, "window_s")
+        self.after_s = self.window_s if after_s is None else _check_duration(after_s, "after_s")
         self.max_secondaries = _check_count(max_secondaries, "max_secondaries", 1)
         self.max_pending = _check_count(max_pending, "max_pending", 1)
         self.reset()
@@ -450,14 +455,14 @@ class TimeFrame:
 
     def _result(self, primary: _Pending) -> tuple[Any, list[Any]]:
         lo = bisect_left(self._sec_stamps, primary.stamp - self.window_s)
-        hi = bisect_right(self._sec_stamps, primary.stamp + self.window_s)
+        hi = bisect_right(self._sec_stamps, primary.stamp + self.after_s)
         return primary.item, self._sec_items[lo:hi]
 
     def _complete(self) -> list[tuple[Any, list[Any]]]:
         out = []
         if self._horizon is None:
             return out
-        while self._pending and self._pending[0].stamp + self.window_s < self._horizon:
+        while self._pending and self._pending[0].stamp + self.after_s < self._horizon:
             out.append(self._result(self._pending.popleft()))
         return out
 

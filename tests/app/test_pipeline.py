@@ -399,3 +399,17 @@ def test_the_pipeline_fuses_every_pair_of_naos_microphones(monkeypatch: pytest.M
     near_speech = scenario.speaking_at(stamps, hold_s=0.4).any(axis=1)  # the time frame holds a state 0.2 s on
     assert judged[speaking].mean() > 0.9
     assert judged[~near_speech].mean() < 0.2
+
+
+def test_low_latency_decides_from_the_past_only() -> None:
+    """The talker starts at 1.0 s. The default result at 0.9 s waits for the ITDs of its +-0.2 s time frame and
+    holds the talker's first ones; with latency="low" it holds only ITDs up to 0.9 s: none, nothing was said."""
+    itds_at = {}
+    for latency in ("default", "low"):
+        source = FakeSource()
+        source.audio_data[: int(1.0 * FS), [1, 3]] = 0.0
+        results, _ = _run(source, latency=latency)
+        at = {round(r.stamp_s - source.t0, 1): r for r in results}
+        itds_at[latency] = (at[0.9].itds_s.shape[0], at[1.4].itds_s.shape[0])
+    assert itds_at["default"][0] > 0 and itds_at["low"][0] == 0
+    assert itds_at["low"][1] > 0  # later on, the talker is heard

@@ -219,3 +219,15 @@ def test_the_outlier_aware_threshold_either_side(n_itds: int) -> None:
         speaking, probability, _ = test.decide(beta, itds, model)
         assert bool(speaking[0]) is speaks, (count, threshold)
         assert bool(probability[0] > 0.5) is speaks
+
+
+def test_a_trailing_vote_releases_each_result_at_once_over_the_past() -> None:
+    """trailing: each result leaves when pushed, voted over itself and the frames - 1 before it."""
+    vote = SpeakingVote(3, trailing=True)
+    ids = np.array([4])
+    states = [True, False, True, True, False, False]
+    out = [vote.push(k, ids, np.array([s]), np.array([0.9 if s else 0.1])) for k, s in enumerate(states)]
+    assert [len(o) for o in out] == [1] * 6 and [o[0][0] for o in out] == list(range(6))
+    # majority of the results pushed so far, at most three: T | T,F | T,F,T | F,T,T | T,T,F | T,F,F
+    assert [bool(o[0][1][0]) for o in out] == [True, False, True, True, True, False]
+    assert vote.waiting == 0 and vote.flush() == []

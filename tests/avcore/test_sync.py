@@ -451,3 +451,15 @@ def test_frame_itd_window_gives_the_bins_of_the_frames_near_a_stamp() -> None:
     w.push(times[:0], times[:0], times[:0], times[:0], FrameBins(times, np.ones((16, 3, 2), np.complex64), freqs))
     frames, bands, near = w.near(2.2)
     assert frames is None and bands is None and near is not None and len(near) == np.sum(np.abs(times - 2.2) <= 0.2)
+
+
+def test_a_past_only_time_frame_completes_at_its_stamp() -> None:
+    """after_s = 0 (low latency): a primary at t collects the secondaries of [t - window, t] and is complete as soon
+    as a secondary later than t arrives, not t + window."""
+    tf = TimeFrame(window_s=0.4, after_s=0.0)
+    for s in (0.55, 0.7, 0.95):
+        assert tf.push_secondary(s, s) == []
+    assert tf.push_primary(1.0, "frame") == []  # nothing after 1.0 yet: it might still come
+    assert tf.push_secondary(1.02, 1.02) == [("frame", [0.7, 0.95])]  # 0.55 is before 1.0 - 0.4; 1.02 after
+    with pytest.raises(ValueError, match="after_s"):
+        TimeFrame(window_s=0.2, after_s=-0.1)
