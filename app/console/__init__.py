@@ -363,7 +363,7 @@ class Console:
         for path, centre, proj in cameras:
             self._log(path, rr.Transform3D(translation=centre), static=True)
             self._log(path, rr.Pinhole(image_from_camera=proj[:, :3], resolution=list(rig.image_size),
-                                       camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.5), static=True)
+                                       camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=0.15), static=True)
 
         outline_lo, outline_hi = geo.birdseye(lo), geo.birdseye(hi)
         x0, x1 = sorted((outline_lo[0], outline_hi[0]))
