@@ -50,6 +50,8 @@ BIRDSEYE = "birdseye"
 BIRDSEYE_HEADS = "birdseye/heads/circles"
 ITD = "itd"
 ITD_GAUSSIANS = "itd/faces/gaussians"
+ITD_TOP = 0.2  # the ITD pane's vertical scale: fraction of the interval's ITDs per bin at its top
+ITD_CLIP = 1.25 * ITD_TOP  # what rises higher is drawn to here, so that one full bin cannot squash the pane
 ITD_BARS = "itd/bars"
 ITD_PAIRS_HIST = "itd_pairs/histograms"
 ITD_PAIRS_PEOPLE = "itd_pairs/people"
@@ -389,14 +391,15 @@ class Console:
         strips = [pane.xy(np.array([lo_s, hi_s]), np.zeros(2))]
         strips += [np.array([[t, 0.0], [t, tick_len]]) for t in ticks_us]
         support_s = np.array(mics.itd_interval())
-        top = 0.4  # the vertical scale's top, fraction of the ITDs per bin
+        top = ITD_TOP  # the vertical scale's top, fraction of the ITDs per bin (ItdPane.for_mics)
         strips += [pane.xy(np.full(2, s), np.array([0.0, top])) for s in support_s]  # the reachable interval
         colors = [(60, 60, 60)] * (1 + ticks_us.size) + [(200, 200, 200)] * 2
         self._log(f"{ITD}/axis", rr.LineStrips2D(strips, radii=0.6, colors=colors), static=True)
-        labels = [f"{t:+.0f} us" if t else "0" for t in ticks_us]
-        self._log(f"{ITD}/axis/ticks", rr.Points2D(np.stack([ticks_us, np.full(ticks_us.size, 2.5 * tick_len)], 1),
+        named = ticks_us[np.round(ticks_us / 100.0) % 2 == 0]  # a label every 200 us: closer, they overlap
+        labels = [f"{t:+.0f} us" if t else "0" for t in named]
+        self._log(f"{ITD}/axis/ticks", rr.Points2D(np.stack([named, np.full(named.size, 2.5 * tick_len)], 1),
                                                    radii=0.1, colors=[(60, 60, 60)], labels=labels), static=True)
-        fractions = np.linspace(0.1, top, 4)
+        fractions = np.linspace(0.05, top, 4)
         self._log(f"{ITD}/axis/fraction", rr.Points2D(pane.xy(np.full(4, lo_s), fractions), radii=1.0,
                                                       colors=[(120, 120, 120)],
                                                       labels=[f"{f:g} of ITDs/bin" for f in fractions]),
@@ -506,7 +509,7 @@ class Console:
         # the same ITDs give the same histogram (silence: none, frame after frame): the logged one still holds
         if self._last_counts is None or outside != self._last_outside or not np.array_equal(counts, self._last_counts):
             fractions = counts / k if k else np.zeros(counts.shape)
-            xs, ys = geo.histogram_outline(edges, fractions)
+            xs, ys = geo.histogram_outline(edges, np.minimum(fractions, ITD_CLIP))
             label = f"{k} ITDs" + (f" ({outside} outside the axis)" if outside else "")
             self._log(f"{ITD}/histogram", rr.LineStrips2D(_strips_2d([pane.xy(xs, ys)]), radii=0.8,
                                                           colors=[(40, 40, 40)], labels=[label]))
@@ -525,12 +528,17 @@ class Console:
         curves = geo.gaussian_curves(frame.model, pane.bin_s, clip_s=pane.range_s)
         mapped_s = self.mics.itd(frame.faces_xyz) if n else np.zeros(0)
         means_us = (frame.model.means * 1e6).tolist()
+        peaks = [pane.xy(x[[int(np.argmax(y))]], np.minimum(y[[int(np.argmax(y))]], ITD_CLIP))[0] if y.size
+                 else pane.xy(mu, 0.0)[0]
+                 for (x, y), mu in zip(curves, frame.model.means, strict=True)]
         self._log_people(ITD_GAUSSIANS, n,
-                         rr.LineStrips2D(_strips_2d([pane.xy(x, y) for x, y in curves]),
-                                         radii=np.where(frame.speaking, 1.5, 0.8), colors=colors,
-                                         labels=[f"{pid}: mu {mu:+.0f} us" for pid, mu in zip(ids, means_us,
-                                                                                              strict=True)]),
+                         rr.LineStrips2D(_strips_2d([pane.xy(x, np.minimum(y, ITD_CLIP)) for x, y in curves]),
+                                         radii=np.where(frame.speaking, 1.5, 0.8), colors=colors),
                          rr.Points2D(pane.xy(mapped_s, np.zeros(n)), radii=4.0, colors=colors))
+        # each person's label at the top of their Gaussian, clear of the axis' tick labels
+        self._log_people(f"{ITD_GAUSSIANS}/labels", n,
+                         rr.Points2D(np.array(peaks).reshape(-1, 2), radii=0.1, colors=colors,
+                                     labels=[f"{pid}: mu {mu:+.0f} us" for pid, mu in zip(ids, means_us, strict=True)]))
 
     def _log_pairs(self, frame: ConsoleFrame, colors: np.ndarray) -> None:
         """The "ITDs per pair" pane: each pair's histogram, one row per pair (the first at the top), and each

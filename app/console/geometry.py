@@ -183,13 +183,17 @@ class ItdPane:
         object.__setattr__(self, "range_s", (lo, hi))
 
     @classmethod
-    def for_mics(cls, mics: MicPair, *, bin_s: float = 10e-6, widen: float = 0.25) -> ItdPane:
+    def for_mics(cls, mics: MicPair, *, bin_s: float = 10e-6, widen: float = 0.25, top: float = 0.2,
+                 aspect: float = 2.0) -> ItdPane:
         """The reachable ITD interval of ``mics`` widened by ``widen`` of its length on each side (a head and the
-        extractor's wider lag search give ITDs beyond the free-field interval). A bin holding 40% of the ITDs rises
-        0.4 of the pane's width: a speaker's Gaussian (sigma ~ 32 us) peaks near 0.12 per 10 us bin."""
+        extractor's wider lag search give ITDs beyond the free-field interval), and a vertical scale on which a bin
+        holding ``top`` of the interval's ITDs rises to the top of a pane ``aspect`` times as wide as high: a
+        speaker's Gaussian (sigma ~ 32 us) peaks near 0.12 per 10 us bin, so it fills most of the pane's height, as
+        in the paper's figure 5."""
         lo, hi = mics.itd_interval()
         pad = widen * (hi - lo)
-        return cls((lo - pad, hi + pad), bin_s, (hi - lo + 2 * pad) * 1e6)
+        width_us = (hi - lo + 2 * pad) * 1e6
+        return cls((lo - pad, hi + pad), bin_s, width_us / (aspect * top))
 
     @property
     def edges_s(self) -> np.ndarray:

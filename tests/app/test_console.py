@@ -418,7 +418,14 @@ def test_itd_histogram_and_fitted_gaussians(recorded: dict, scene: dict) -> None
     step_us = 8 * np.sqrt(out.model.variances[1]) * 1e6 / 63  # 64 points over mu +- 4 sigma
     assert peak_x_us == pytest.approx(out.model.means[1] * 1e6, abs=0.5 * step_us + 1e-3)
     np.testing.assert_allclose(rrd.values(gaussians, "Points2D:positions")[0][1], [mapped_us, 0.0], atol=1e-3)
-    assert rrd.values(gaussians, "LineStrips2D:labels")[0][1] == f"8: mu {out.model.means[1] * 1e6:+.0f} us"
+    # each person's label sits at the top of their Gaussian, clear of the axis' tick labels
+    label_at = np.array(rrd.values(f"{gaussians}/labels", "Points2D:positions")[0][1])
+    np.testing.assert_allclose(label_at, curve[np.argmin(curve[:, 1])], atol=1e-6)
+    assert rrd.values(f"{gaussians}/labels", "Points2D:labels")[0][1] == f"8: mu {out.model.means[1] * 1e6:+.0f} us"
+    # the vertical scale: 0.2 of the ITDs per bin rises half the pane's width (a 2:1 pane), so the speaker's
+    # Gaussian (about 0.12 per bin) fills most of its height
+    lo_s, hi_s = geo.ItdPane.for_mics(MICS).range_s
+    assert geo.ItdPane.for_mics(MICS).height_per_fraction * 0.2 == pytest.approx((hi_s - lo_s) * 1e6 / 2)
     # the speaker's curve is the tall one
     tallest = [-np.array(strip)[:, 1].min() for strip in rrd.values(gaussians, "LineStrips2D:strips")[0]]
     assert tallest[1] > 5 * max(tallest[0], tallest[2])
@@ -444,7 +451,7 @@ def test_departed_person_is_gone_everywhere(recorded: dict) -> None:
     rrd = recorded["rrd"]
     # a frame replaces the people of the last one: person 9 (third) is in none of the last frame's instances
     last = {"/scene/cameras/left/faces": "Boxes2D:labels", "/birdseye/heads/circles": "Ellipses2D:labels",
-            "/itd/faces/gaussians": "LineStrips2D:labels"}
+            "/itd/faces/gaussians/labels": "Points2D:labels"}
     for path, column in last.items():
         ids = [[lb.split(":")[0] for lb in labels] for labels in rrd.values(path, column)]
         assert ids == [["7", "8", "9"]] * 4 + [["7", "8"]], path
@@ -681,3 +688,24 @@ def test_the_3d_view_opens_on_the_people(recorded: dict) -> None:
     rrd = recorded["rrd"]
     for camera in ("/scene/cameras/left", "/scene/cameras/right"):
         assert rrd.values(camera, "Pinhole:image_plane_distance")[0] == pytest.approx([0.15])
+
+
+def test_the_itd_pane_keeps_its_scale(recorded: dict, scene: dict, tmp_path: Path) -> None:
+    """A bin holding a fifth of the ITDs reaches the top of the scale; what rises higher (one ITD in the interval:
+    a whole bin) is drawn at 1.25 times the top, so one full bin cannot squash the pane; the axis is labelled every
+    200 us so that its labels do not overlap."""
+    from app.console import ITD_CLIP, ITD_TOP
+
+    path = tmp_path / "one_itd.rrd"
+    rec = rr.RecordingStream("avhear-test")
+    rec.save(path)
+    console = Console(scene["rig"], MICS, recording=rec, jpeg_quality=None)
+    console.log(ConsoleFrame(0.5, 0, None, None, np.zeros((0, 3)), np.zeros(0, bool), np.zeros(0), np.array([1e-5])))
+    rec.disconnect()
+    pane = geo.ItdPane.for_mics(MICS)
+    (strip,) = Rrd(path).values("/itd/histogram", "LineStrips2D:strips")[-1]
+    assert -np.array(strip)[:, 1].min() / pane.height_per_fraction == pytest.approx(ITD_CLIP)  # not 1.0
+    assert ITD_CLIP == pytest.approx(1.25 * ITD_TOP)
+    labels = recorded["rrd"].values("/itd/axis/ticks", "Points2D:labels")[0]
+    values = [0.0 if lb == "0" else float(lb.split()[0]) for lb in labels]
+    assert values and all(v % 200 == 0 for v in values) and 0.0 in values
