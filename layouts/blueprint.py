@@ -20,15 +20,12 @@ from pathlib import Path
 
 import rerun.blueprint as rrb
 
-__all__ = ["APPLICATION_ID", "DEFAULT_RBL", "HISTORY_S", "default_blueprint", "main", "save_default_blueprint",
-           "scene_eye"]
+__all__ = ["APPLICATION_ID", "DEFAULT_RBL", "HISTORY_S", "default_blueprint", "main", "save_default_blueprint"]
 
 APPLICATION_ID = "avhear"  # a saved blueprint applies to recordings of this application id
 DEFAULT_RBL = Path(__file__).resolve().parent / "default.rbl"
 HISTORY_S = 30.0  # seconds of history the time series show behind the time cursor
 _HISTORY_FRAMES = 900  # the same at 30 frames per second, on the frame timeline
-EYE_POSITION_M = (0.0, -0.5, -0.9)  # the 3D view's eye (scene_eye)
-EYE_TARGET_M = (0.0, 0.1, 2.0)
 
 
 def _recent() -> list[rrb.VisibleTimeRange]:
@@ -56,7 +53,7 @@ def default_blueprint() -> rrb.Blueprint:
     speaking = rrb.TimeSeriesView(origin="people", name="Speaking probability",
                                   axis_y=rrb.ScalarAxis(range=(0.0, 1.0), zoom_lock=True),
                                   plot_legend=rrb.PlotLegend(rrb.Corner2D.LeftTop), time_ranges=_recent())
-    scene = rrb.Spatial3DView(origin="scene", name="Scene 3D", eye_controls=scene_eye())
+    scene = rrb.Spatial3DView(origin="scene", name="Scene 3D")
     counts = rrb.TimeSeriesView(origin="counts", name="People and ITDs", time_ranges=_recent())
     fps = rrb.TimeSeriesView(origin="diagnostics/fps", name="FPS per stage", time_ranges=_recent())
     latency = rrb.TimeSeriesView(origin="diagnostics/latency_ms", name="Latency (ms)", time_ranges=_recent())
@@ -96,14 +93,6 @@ def save_default_blueprint(path: str | Path = DEFAULT_RBL) -> Path:
     out.parent.mkdir(parents=True, exist_ok=True)
     default_blueprint().save(APPLICATION_ID, out)
     return out
-
-
-def scene_eye() -> rrb.EyeControls3D:
-    """The 3D view opens on the robot and the people in front of it: from 0.5 m above and 0.9 m behind the robot,
-    looking at a point 2 m ahead (where people stand, 1.2-3.2 m away), up being -y (the scene frame: x right, y
-    down, z forward)."""
-    return rrb.EyeControls3D(kind=rrb.Eye3DKind.Orbital, position=EYE_POSITION_M, look_target=EYE_TARGET_M,
-                             eye_up=(0.0, -1.0, 0.0))
 
 
 def main(argv: list[str] | None = None) -> int:
