@@ -159,8 +159,6 @@ def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
 
-
-
 @dataclass
 class PipelineStats:
     """Counters of a run (thread-safe enough: each counter has one writer)."""

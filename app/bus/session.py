@@ -38,7 +38,6 @@ class BusOptions:
     namespace: str = ""
 
 
-
 def _one_line(exc: BaseException) -> str:
     """Zenoh's message on one line, without the Rust source locations it appends."""
     return re.sub(r"\s*at /\S+\.rs:\d+\.?", "", " ".join(str(exc).split())).strip()

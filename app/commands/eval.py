@@ -37,7 +37,6 @@ from app.eval.synthetic import (
 )
 
 
-
 def add_parser(sub: argparse._SubParsersAction) -> None:
     parser = sub.add_parser("eval", help="accuracy evaluations (the paper's section 7)")
     kinds = parser.add_subparsers(dest="kind", metavar="KIND")

@@ -14,8 +14,6 @@ from avcore.stereo import StereoRig
 RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
 
 
-
-
 def _one_line_error(err: str, *needles: str) -> None:
     assert "Traceback" not in err
     errors = [line for line in err.splitlines() if line.startswith("avhear: error:")]

@@ -15,8 +15,6 @@ from avcore.stereo import StereoRig
 RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
 
 
-
-
 def test_record_then_replay(tmp_path: Path, rig_file: Path, make_video, fake_sounddevice,  # noqa: ANN001
                             capsys: pytest.CaptureFixture[str]) -> None:
     left = make_video(tmp_path / "l.avi", 12, 64, 40)
