@@ -152,3 +152,63 @@ def test_bad_arrays() -> None:
         MicArray(((0, 0, 0), (0.1, 0, 0)), c1=(1.0, 1.0))
     with pytest.raises(ValueError, match="unknown microphone array"):
         MicArray.preset("nope")
+
+
+@pytest.mark.parametrize(("name", "radius_m", "n_ring", "centre"), [
+    ("respeaker4", 0.0405, 4, False), ("respeaker-usb", 0.032, 4, False), ("respeaker6", 0.0463, 6, False),
+    ("uma8", 0.043, 6, True)])
+def test_the_ring_presets_have_the_makers_geometry(name: str, radius_m: float, n_ring: int, centre: bool) -> None:
+    """The makers' figures (radius, count, a centre microphone), written here: every ring microphone at the radius in
+    the horizontal plane (y = 0), neighbours 360 / n degrees apart (so at 2 r sin(180 / n) from each other)."""
+    pos = np.asarray(MicArray.preset(name).positions)
+    ring = pos[1:] if centre else pos
+    if centre:
+        np.testing.assert_allclose(pos[0], [0.0, 0.0, 0.0], atol=1e-12)
+    assert ring.shape == (n_ring, 3)
+    np.testing.assert_allclose(ring[:, 1], 0.0, atol=1e-12)
+    np.testing.assert_allclose(np.hypot(ring[:, 0], ring[:, 2]), radius_m, rtol=1e-9)
+    angles = np.sort(np.degrees(np.arctan2(ring[:, 2], ring[:, 0])) % 360)
+    np.testing.assert_allclose(np.diff(np.append(angles, angles[0] + 360)), 360 / n_ring, atol=1e-6)
+    chord = 2 * radius_m * np.sin(np.pi / n_ring)
+    nearest = [np.sort(np.linalg.norm(ring - p, axis=1))[1] for p in ring]
+    np.testing.assert_allclose(nearest, chord, rtol=1e-9)
+
+
+def test_the_line_presets_and_the_square_s_orientation() -> None:
+    """The PS3 Eye: four microphones on x at -30, -10, 10, 30 mm; the ReSpeaker 4-Mic HAT's square sits at 45
+    degrees (its microphones on the diagonals: x = +-28.6 mm); the paper's pair 12 cm apart on x."""
+    np.testing.assert_allclose(np.asarray(MicArray.preset("ps3eye").positions),
+                               [[-0.03, 0, 0], [-0.01, 0, 0], [0.01, 0, 0], [0.03, 0, 0]], atol=1e-12)
+    square = np.asarray(MicArray.preset("respeaker4").positions)
+    np.testing.assert_allclose(np.abs(square[:, [0, 2]]), 0.0405 / np.sqrt(2), rtol=1e-9)
+    np.testing.assert_allclose(np.asarray(MicArray.preset("pair").positions), [[-0.06, 0, 0], [0.06, 0, 0]])
+
+
+def test_pairs_are_left_to_right_and_widest_first() -> None:
+    """Each pair (i, j) has i the more-left microphone (a tie: the one further back), so that a source on the right
+    gives a positive ITD; the widest left-right pair comes first."""
+    for name in ARRAY_PRESETS:
+        array = MicArray.preset(name)
+        pos = np.asarray(array.positions)
+        spreads = [pos[j, 0] - pos[i, 0] for i, j in array.pairs]
+        assert all(s >= -1e-12 for s in spreads), name
+        for (i, j), s in zip(array.pairs, spreads):
+            if abs(s) < 1e-12:
+                assert pos[i, 2] <= pos[j, 2], name  # a tie in x: the one further back is "left"
+        assert spreads[0] == pytest.approx(max(spreads)), name
+        assert np.all(np.diff(np.round(spreads, 9)) <= 0), name  # by decreasing left-right spread
+        right = np.array([1.0, 0.0, 2.0])
+        assert array.itd(right)[0] > 0, name
+
+
+def test_a_placed_array_moves_every_microphone_and_keeps_its_pairs() -> None:
+    turn = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])  # 90 degrees about y
+    array = MicArray.preset("respeaker6")
+    moved = array.placed(turn, [0.1, -0.2, 0.3])
+    np.testing.assert_allclose(np.asarray(moved.positions), np.asarray(array.positions) @ turn.T + [0.1, -0.2, 0.3],
+                               atol=1e-12)
+    assert moved.pairs == array.pairs and moved.channels == array.channels and moved.c1 == array.c1
+    same = MicArray.preset("respeaker6", rotation=turn, translation_m=[0.1, -0.2, 0.3])
+    np.testing.assert_allclose(np.asarray(same.positions), np.asarray(moved.positions), atol=1e-12)
+    with pytest.raises(ValueError, match="translation_m"):
+        array.placed(np.eye(3), [0.0, np.inf, 0.0])
