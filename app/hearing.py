@@ -8,19 +8,23 @@ frames, which ITDs a result collects, the hearing that fits them, and where the 
 """
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
+import cv2
 import numpy as np
 
-from avcore.faces import locate_faces
+from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import gives_frame_itds
 from avcore.motion import harris_motion_points
 from avcore.speaking import SpeakingVote
 from avcore.sync import TimeFrame
+
+log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
     from app.events import StereoFrame
@@ -29,7 +33,7 @@ if TYPE_CHECKING:
     from avcore.geometry import MicArray, MicPair
     from avcore.stereo import StereoRig
 
-__all__ = ["FaceGuided", "MotionGuided", "Vision", "hearing_mode"]
+__all__ = ["FaceGuided", "MotionGuided", "Vision", "face_detector", "hearing_mode"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +69,10 @@ class FaceGuided:
     @property
     def frame_itds(self) -> bool:
         return self.config.frame_itds and gives_frame_itds(self.config.itd_method)
+
+    def detector(self) -> FaceDetector:
+        """The detector ``face_detector`` names (:func:`face_detector`)."""
+        return face_detector(self.config)
 
     def hearing(self, mics: MicPair | MicArray) -> FaceGuidedHearing:
         return FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
@@ -107,10 +115,14 @@ class MotionGuided:
     def frame_itds(self) -> bool:
         return False
 
+    def detector(self) -> None:
+        """No faces are looked for."""
+        return None
+
     def hearing(self, mics: MicPair | MicArray) -> MotionGuidedHearing:
         return MotionGuidedHearing(mics)
 
-    def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
+    def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector | None) -> Vision | None:
         """The HM3D points once an interval is gathered (stamped at its centre, shown on its middle frame)."""
         interval = self._interval
         interval.append(frame)
@@ -128,6 +140,27 @@ class MotionGuided:
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return output.positions
+
+
+def face_detector(config: PipelineConfig) -> FaceDetector:
+    """The detector ``config.face_detector`` names; BlazeFace's model must be installed (a UserError says how). An
+    OpenCV without Haar cascades (OpenCV 5) gives BlazeFace, with a one-line notice."""
+    from app.errors import UserError
+    from app.models import INSTALL_HINT, blazeface_model
+
+    if config.face_detector == "haar" and not hasattr(cv2, "CascadeClassifier"):
+        try:
+            model = blazeface_model(config.face_model)
+        except UserError:
+            raise UserError(f"OpenCV {cv2.__version__} has no Haar cascades and BlazeFace's model is not installed: "
+                            f"{INSTALL_HINT}") from None
+        log.warning("OpenCV %s has no Haar cascades: the faces are found by BlazeFace", cv2.__version__)
+        config = replace(config, face_detector="blazeface", face_model=str(model))
+    if config.face_detector == "blazeface":
+        from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace
+
+        return TrackingBlazeFace(BlazeFaceDetector(blazeface_model(config.face_model), tiles=2))
+    return TrackingFaceDetector()
 
 
 def _time_frame(config: PipelineConfig, half_s: float) -> TimeFrame:

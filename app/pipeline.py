@@ -32,7 +32,7 @@ from app.events import AudioBlock, StereoFrame
 from app.hearing import Vision, hearing_mode
 from app.queues import DropOldestQueue
 from app.result import Result
-from avcore.faces import FaceDetector, TrackingFaceDetector
+from avcore.faces import FaceDetector
 from avcore.itd import FrameBins, ItdStream, ItdTrack, PairsItdStream, geometry_options
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
@@ -234,12 +234,13 @@ class Pipeline:
         self.config = config if config is not None else PipelineConfig()
         self.on_result = on_result
         self.clock = clock if clock is not None else getattr(source, "clock", time.monotonic)
-        self.detector = detector if detector is not None else _face_detector(self.config)
         self.stats = PipelineStats()
         self._stop = threading.Event()
         self._errors: list[tuple[str, BaseException]] = []
         c = self.config
         self.mode = hearing_mode(c)
+        # the faces' detector, when the mode looks for faces (None: motion-guided)
+        self.detector = detector if detector is not None else self.mode.detector()
         self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(self.mode.frame_capacity, "frames")
         self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
         self._q_fusion: DropOldestQueue[FusionMessage] = DropOldestQueue(c.fusion_queue, "fusion")
@@ -539,22 +540,6 @@ class Pipeline:
         if self.on_result is not None:
             self.on_result(result)
         self.stats.results += 1
-
-
-def _face_detector(config: PipelineConfig) -> FaceDetector:
-    """The detector ``config.face_detector`` names; BlazeFace's model must be installed (a UserError says how). An
-    OpenCV without Haar cascades (OpenCV 5) gives BlazeFace, with a one-line notice."""
-    import cv2
-
-    if config.face_detector == "haar" and not hasattr(cv2, "CascadeClassifier"):
-        log.warning("OpenCV %s has no Haar cascades: the faces are found by BlazeFace", cv2.__version__)
-        config = replace(config, face_detector="blazeface")
-    if config.face_detector == "blazeface":
-        from app.models import blazeface_model
-        from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace
-
-        return TrackingBlazeFace(BlazeFaceDetector(blazeface_model(config.face_model), tiles=2))
-    return TrackingFaceDetector()
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:

