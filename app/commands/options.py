@@ -11,11 +11,11 @@ from typing import Any
 from app.bus.session import ENDPOINT, RENDEZVOUS_PORT, BusOptions
 from app.errors import UserError
 from app.sources.live import LiveConfig
-from app.sources.sim import MAX_SIMULATED_S, MIN_SIMULATED_S
+from app.sources.sim import MAX_SIMULATED_S
 
-__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "MIN_SIMULATED_S", "add_bus_arguments", "add_device_arguments",
-           "add_method_arguments", "bus_options", "bus_source", "count", "duration", "live_config", "odd_count",
-           "pipeline_config", "port", "positive", "wants_bodies"]
+__all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_bus_arguments", "add_device_arguments", "add_method_arguments",
+           "bus_options", "bus_source", "count", "duration", "live_config", "odd_count", "pipeline_config", "port",
+           "positive", "wants_bodies"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 

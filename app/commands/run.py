@@ -14,7 +14,7 @@ from app.bus.session import open_session
 from app.console import Console
 from app.errors import UserError
 from app.sources.live import LiveConfig
-from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, MIN_SIMULATED_S, add_bodies_argument,
+from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument,
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
                                   wants_bodies)
@@ -24,6 +24,7 @@ from app.sinks import Sinks
 from app.sinks.bus import ResultPublisher
 from app.sinks.results_file import ResultsWriter
 from app.sources.open import open_source
+from app.sources.sim import check_simulated_duration
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
 from sim.scenario import PRESETS
 
@@ -115,11 +116,8 @@ def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
 
 def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) -> None:
     """Everything the run will write or reach, checked before the (possibly long) preparation and run."""
-    if spec.startswith("sim:") and args.duration is not None and not (
-            MIN_SIMULATED_S <= args.duration <= MAX_SIMULATED_S):
-        raise UserError(f"--duration {args.duration:g}: the simulated room runs between {MIN_SIMULATED_S:g} and "
-                        f"{MAX_SIMULATED_S:g} s (it renders the whole scenario's audio in memory); for longer runs, "
-                        "repeat or use a recording")
+    if spec.startswith("sim:"):
+        check_simulated_duration(args.duration)
     if args.bodies is not None and not spec.startswith("sim:"):
         flag = "--bodies" if args.bodies else "--no-bodies"
         raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")

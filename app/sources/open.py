@@ -15,7 +15,7 @@ from app.events import AudioBlock, StereoFrame
 from app.sources.live import LiveConfig, LiveSource
 from app.sources.recording import open_recording
 from app.sources.replay import ReplayStream
-from app.sources.sim import MAX_SIMULATED_S, MIN_SIMULATED_S, SimSource
+from app.sources.sim import SimSource, check_simulated_duration
 from avcore.geometry import MicPair
 from sim.scenario import PRESETS
 
@@ -107,9 +107,7 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
         preset = arg or "S2"
         if preset not in PRESETS:
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
-        if duration_s is not None and not MIN_SIMULATED_S <= duration_s <= MAX_SIMULATED_S:
-            raise UserError(f"--duration {duration_s:g}: the simulated room runs between {MIN_SIMULATED_S:g} and "
-                            f"{MAX_SIMULATED_S:g} s")
+        check_simulated_duration(duration_s)
         return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, mics=mics,
                                                    bodies=bodies, progress=progress), realtime=realtime)
     if kind == "replay":

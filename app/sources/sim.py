@@ -32,6 +32,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from app.errors import UserError
 from app.sources.replay import ReplayStream
 from sim.render import (
     FaceTexture,
@@ -58,6 +59,14 @@ LISTENING_GESTURE_M = 0.03  # and a listener's: people with bodies are never qui
 GESTURE_RAMP_S = 0.25  # how long the hands take to go from one to the other
 MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
 MIN_SIMULATED_S = 1.0  # and one second at least (sim.scenario's bound)
+
+
+def check_simulated_duration(duration_s: float | None) -> None:
+    """A :class:`UserError` naming ``--duration`` when the simulated room cannot run that long (or that short)."""
+    if duration_s is not None and not MIN_SIMULATED_S <= duration_s <= MAX_SIMULATED_S:
+        raise UserError(f"--duration {duration_s:g}: the simulated room runs between {MIN_SIMULATED_S:g} and "
+                        f"{MAX_SIMULATED_S:g} s (it renders the whole scenario's audio in memory); for longer runs, "
+                        "repeat or use a recording")
 
 
 # ---------------------------------------------------------------------------------------------------------------
