@@ -135,7 +135,7 @@ def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline im
     from app.errors import UserError
     from app.pipeline import PipelineConfig
 
-    if args.face_detector == "blazeface":
+    if args.face_detector == "blazeface" and not args.motion:  # motion-guided runs look for no face
         from app.models import blazeface_model
 
         blazeface_model(args.face_model)  # before any preparation: a missing model is one line at once
