@@ -159,7 +159,10 @@ def face_detector(config: PipelineConfig) -> FaceDetector:
     if config.face_detector == "blazeface":
         from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace
 
-        return TrackingBlazeFace(BlazeFaceDetector(blazeface_model(config.face_model), tiles=2))
+        try:
+            return TrackingBlazeFace(BlazeFaceDetector(blazeface_model(config.face_model), tiles=2))
+        except ValueError as exc:  # a file that is not the model
+            raise UserError(f"--face-model: {exc}") from None
     return TrackingFaceDetector()
 
 

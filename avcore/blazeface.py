@@ -141,10 +141,14 @@ class BlazeFaceDetector:
         if not 0 <= self.overlap < 1:
             raise ValueError(f"overlap must be in [0, 1), got {self.overlap!r}")
         reader = cv2.dnn.readNetFromTFLite
-        try:  # OpenCV 5 reads TFLite with its classic engine; OpenCV 4 has only that one
-            self._net = reader(str(self.model), engine=cv2.dnn.ENGINE_CLASSIC)  # type: ignore[attr-defined]
-        except (AttributeError, TypeError):
-            self._net = reader(str(self.model))
+        try:
+            try:  # OpenCV 5 reads TFLite with its classic engine; OpenCV 4 has only that one
+                self._net = reader(str(self.model), engine=cv2.dnn.ENGINE_CLASSIC)  # type: ignore[attr-defined]
+            except (AttributeError, TypeError):
+                self._net = reader(str(self.model))
+        except cv2.error as exc:
+            raise ValueError(f"{self.model}: OpenCV cannot read it as a TFLite model ({str(exc).strip()[-80:]}); "
+                             "give face_detection_full_range.tflite") from None
         self._outputs = self._net.getUnconnectedOutLayersNames()
 
     def squares(self, width: int, height: int) -> list[tuple[int, int, int]]:

@@ -135,17 +135,18 @@ def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline im
     from app.errors import UserError
     from app.pipeline import PipelineConfig
 
-    if args.face_detector == "blazeface" and not args.motion:  # motion-guided runs look for no face
-        from app.models import blazeface_model
-
-        blazeface_model(args.face_model)  # before any preparation: a missing model is one line at once
     try:
-        return PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method,
-                              decision_window_s=args.decision_window, frame_itds=args.frame_itds,
-                              vote_frames=args.vote_frames, face_detector=args.face_detector, latency=args.latency,
-                              face_model=args.face_model)
+        config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method,
+                                decision_window_s=args.decision_window, frame_itds=args.frame_itds,
+                                vote_frames=args.vote_frames, face_detector=args.face_detector,
+                                latency=args.latency, face_model=args.face_model)
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if config.face_detector == "blazeface" and config.inference == "face":
+        from app.hearing import face_detector
+
+        face_detector(config)  # before any preparation: a missing or unreadable model is one line at once
+    return config
 
 
 # ---------------------------------------------------------------------------------------------------------------

