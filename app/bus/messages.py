@@ -1,8 +1,9 @@
 """The contract with robot software: topic names, frames and message types of what avhear publishes, in one place.
 
-Keys are ROS 2 topic names without the leading slash, as zenoh-bridge-ros2dds and rmw_zenoh map them, optionally
-under a namespace (``NS/humans/voices/tracked``); payloads are CDR exactly as ROS 2 serialises them (little-endian,
-4-byte encapsulation header), built and read by rosbags' typestore (no ROS installation needed).
+Topics are ROS 2 topic names relative to the namespace (``humans/voices/tracked``); :mod:`app.bus.ros2` makes them
+Zenoh keys in either convention (rmw_zenoh's or zenoh-bridge-ros2dds's). Payloads are CDR exactly as ROS 2
+serialises them (little-endian, 4-byte encapsulation header), built and read by rosbags' typestore (ROS 2 Jazzy's
+definitions, no ROS installation needed), which also gives each type's REP-2011 hash.
 
 ROS4HRI (REP-155, "ROS for Human-Robot Interaction"):
 
@@ -23,7 +24,7 @@ centres, x right, y down, z forward, metres: the optical-frame convention), with
 result's capture stamp on the source's clock (``time.monotonic()`` for live input, the recording's own clock for a
 replay), the same ``stamp_s`` as the JSON.
 
-Message definitions not in rosbags' ROS 2 Humble store are declared here from their sources:
+Message definitions not in rosbags' ROS 2 Jazzy store are declared here from their sources:
 
 - ``hri_msgs/msg/IdsList`` and ``hri_msgs/msg/IdsMatch``: github.com/ros4hri/hri_msgs, commit dd03e79c0670
   (2023-12-18), ``msg/IdsList.msg`` and ``msg/IdsMatch.msg`` (comments left out; ``Header`` written as
@@ -40,8 +41,8 @@ import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 __all__ = [
-    "AUDIO_BLOCK", "FACE", "RESULTS_KEY", "RIG_FRAME", "VOICE", "Topics", "decode", "encode", "face_id", "typestore",
-    "voice_id",
+    "AUDIO_BLOCK", "COMPRESSED_IMAGE", "FACE", "RESULTS_KEY", "RIG_FRAME", "VOICE", "Topics", "decode", "encode",
+    "face_id", "make_header", "typestore", "voice_id",
 ]
 
 RIG_FRAME = "avhear_rig"
@@ -51,6 +52,10 @@ FACE, VOICE = 2, 4  # hri_msgs/IdsMatch id types
 IDS_LIST = "hri_msgs/msg/IdsList"
 IDS_MATCH = "hri_msgs/msg/IdsMatch"
 AUDIO_BLOCK = "avhear_msgs/msg/AudioBlock"
+BOOL = "std_msgs/msg/Bool"
+ROI = "sensor_msgs/msg/RegionOfInterest"
+TF = "tf2_msgs/msg/TFMessage"
+COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 
 _DEFINITIONS = {
     IDS_LIST: "std_msgs/Header header\nstring[] ids\n",
@@ -67,8 +72,8 @@ _DEFINITIONS = {
 
 @lru_cache(maxsize=1)
 def typestore() -> Any:
-    """ROS 2 Humble's message types plus the definitions above."""
-    store = get_typestore(Stores.ROS2_HUMBLE)
+    """ROS 2 Jazzy's message types plus the definitions above."""
+    store = get_typestore(Stores.ROS2_JAZZY)
     for name, text in _DEFINITIONS.items():
         store.register(get_types_from_msg(text, name))
     return store
@@ -87,6 +92,15 @@ def decode(payload: bytes, typename: str) -> Any:
         raise ValueError(f"a {typename} payload of {len(payload)} bytes does not decode: {exc}") from exc
 
 
+def make_header(stamp_s: float, frame_id: str = RIG_FRAME) -> Any:
+    """A std_msgs/Header stamped ``stamp_s`` (seconds on the source's clock)."""
+    t = typestore().types
+    sec = int(np.floor(stamp_s))
+    nanosec = min(int(round((stamp_s - sec) * 1e9)), 999_999_999)
+    return t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
+                                    frame_id=frame_id)
+
+
 def face_id(person: int) -> str:
     return f"f{int(person)}"
 
@@ -96,23 +110,11 @@ def voice_id(person: int) -> str:
 
 
 class Topics:
-    """Builds the messages of one result, with their keys under ``namespace``."""
+    """Builds the messages of one result: (topic relative to the namespace, ROS type, payload); the JSON line of the
+    results file goes on :data:`RESULTS_KEY` with the type None (it is not a ROS message)."""
 
-    def __init__(self, namespace: str = "") -> None:
-        ns = namespace.strip("/")
-        self.prefix = f"{ns}/" if ns else ""
-        t = typestore().types
-        self._t = t
-
-    def key(self, topic: str) -> str:
-        return self.prefix + topic
-
-    def _header(self, stamp_s: float, frame_id: str = RIG_FRAME) -> Any:
-        t = self._t
-        sec = int(np.floor(stamp_s))
-        nanosec = min(int(round((stamp_s - sec) * 1e9)), 999_999_999)
-        return t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
-                                        frame_id=frame_id)
+    def __init__(self) -> None:
+        self._t = typestore().types
 
     def _transform(self, header: Any, child: str, xyz: list[float]) -> Any:
         t = self._t
@@ -122,31 +124,32 @@ class Topics:
                 translation=t["geometry_msgs/msg/Vector3"](x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])),
                 rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
 
-    def messages(self, record: dict[str, Any]) -> list[tuple[str, bytes]]:
-        """(key, payload) of every message of one result, given as its :func:`app.sinks.results_file.result_record`."""
+    def messages(self, record: dict[str, Any]) -> list[tuple[str, str | None, bytes]]:
+        """Every message of one result, given as its :func:`app.sinks.results_file.result_record`."""
         t = self._t
-        header = self._header(record["stamp_s"])
+        header = make_header(record["stamp_s"])
         people = record["people"]
         face = record["mode"] == "face"
-        out: list[tuple[str, bytes]] = []
+        out: list[tuple[str, str | None, bytes]] = []
+
+        def add(topic: str, typename: str, message: Any) -> None:
+            out.append((topic, typename, encode(message, typename)))
+
         voices = [voice_id(p["id"]) for p in people]
-        out.append((self.key("humans/voices/tracked"), encode(t[IDS_LIST](header=header, ids=voices), IDS_LIST)))
+        add("humans/voices/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=voices))
         for p, vid in zip(people, voices):
-            out.append((self.key(f"humans/voices/{vid}/is_speaking"),
-                        encode(t["std_msgs/msg/Bool"](data=bool(p["speaking"])), "std_msgs/msg/Bool")))
+            add(f"humans/voices/{vid}/is_speaking", BOOL, t[BOOL](data=bool(p["speaking"])))
         transforms = [self._transform(header, f"voice_{vid}", p["position_m"]) for p, vid in zip(people, voices)]
         if face:
             faces = [face_id(p["id"]) for p in people]
-            out.append((self.key("humans/faces/tracked"), encode(t[IDS_LIST](header=header, ids=faces), IDS_LIST)))
+            add("humans/faces/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=faces))
             for p, fid, vid in zip(people, faces, voices):
                 x, y, w, h = (max(int(v), 0) for v in p["box_px"])
-                roi = t["sensor_msgs/msg/RegionOfInterest"](x_offset=x, y_offset=y, height=h, width=w,
-                                                            do_rectify=False)  # a box in the rectified image
-                out.append((self.key(f"humans/faces/{fid}/roi"), encode(roi, "sensor_msgs/msg/RegionOfInterest")))
-                match = t[IDS_MATCH](id1=fid, id1_type=FACE, id2=vid, id2_type=VOICE, confidence=1.0)
-                out.append((self.key("humans/candidate_matches"), encode(match, IDS_MATCH)))
+                add(f"humans/faces/{fid}/roi", ROI,  # a box in the rectified image
+                    t[ROI](x_offset=x, y_offset=y, height=h, width=w, do_rectify=False))
+                add("humans/candidate_matches", IDS_MATCH,
+                    t[IDS_MATCH](id1=fid, id1_type=FACE, id2=vid, id2_type=VOICE, confidence=1.0))
                 transforms.append(self._transform(header, f"face_{fid}", p["position_m"]))
-        out.append((self.key("tf"), encode(t["tf2_msgs/msg/TFMessage"](transforms=transforms),
-                                           "tf2_msgs/msg/TFMessage")))
-        out.append((self.key(RESULTS_KEY), json.dumps(record, separators=(",", ":")).encode()))
+        add("tf", TF, t[TF](transforms=transforms))
+        out.append((RESULTS_KEY, None, json.dumps(record, separators=(",", ":")).encode()))
         return out

@@ -1,8 +1,9 @@
 """The robot side (``avhear sensors``): a source's two cameras and its microphones on the bus, and its rig.
 
 Each stereo frame goes out as two sensor_msgs/CompressedImage (JPEG of the rectified image, the capture stamp in
-the header) on :data:`LEFT_KEY` and :data:`RIGHT_KEY`; each audio block as an ``avhear_msgs/AudioBlock``
-(:mod:`app.bus.messages`) on :data:`AUDIO_KEY`, all channels. A queryable on :data:`RIG_KEY` answers with the rig
+the header) on the topics :data:`LEFT_KEY` and :data:`RIGHT_KEY`; each audio block as an ``avhear_msgs/AudioBlock``
+(:mod:`app.bus.messages`) on :data:`AUDIO_KEY`, all channels; in either key convention (:mod:`app.bus.ros2`: under
+rmw_zenoh the robot is a ROS 2 node ``avhear_sensors``). A queryable on :data:`RIG_KEY` answers with the rig
 calibration (the stereo rig, the microphone pair, and the microphone array when the source has several
 microphones) and the audio format as JSON, so that the laptop side needs nothing but the robot's address.
 
@@ -21,13 +22,14 @@ from typing import Any
 import cv2
 import numpy as np
 
-from app.bus.messages import AUDIO_BLOCK, encode, typestore
+from app.bus.messages import AUDIO_BLOCK, COMPRESSED_IMAGE, encode, make_header, typestore
+from app.bus.ros2 import Convention, RosNode
 from app.config import RigConfig, rig_to_dict
 from app.events import AudioBlock, StereoFrame
 
 log = logging.getLogger(__name__)
 
-__all__ = ["AUDIO_KEY", "LEFT_KEY", "RIGHT_KEY", "RIG_KEY", "SensorPublisher", "header", "image_message"]
+__all__ = ["AUDIO_KEY", "LEFT_KEY", "RIGHT_KEY", "RIG_KEY", "SensorPublisher", "image_message"]
 
 LEFT_KEY = "stereo/left/image_rect_color/compressed"
 RIGHT_KEY = "stereo/right/image_rect_color/compressed"
@@ -35,26 +37,17 @@ AUDIO_KEY = "audio/blocks"
 RIG_KEY = "avhear/rig"
 
 
-def header(stamp_s: float, frame_id: str) -> Any:
-    t = typestore().types
-    sec = int(np.floor(stamp_s))
-    nanosec = min(int(round((stamp_s - sec) * 1e9)), 999_999_999)
-    return t["std_msgs/msg/Header"](stamp=t["builtin_interfaces/msg/Time"](sec=sec, nanosec=nanosec),
-                                    frame_id=frame_id)
-
-
 def image_message(image: np.ndarray, stamp_s: float, frame_id: str, quality: int = 90) -> bytes:
     ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, quality])
     if not ok:
         raise ValueError(f"cannot JPEG-encode an image of shape {image.shape}")
-    msg = typestore().types["sensor_msgs/msg/CompressedImage"](header=header(stamp_s, frame_id), format="jpeg",
-                                                               data=jpeg.ravel())
-    return encode(msg, "sensor_msgs/msg/CompressedImage")
+    msg = typestore().types[COMPRESSED_IMAGE](header=make_header(stamp_s, frame_id), format="jpeg", data=jpeg.ravel())
+    return encode(msg, COMPRESSED_IMAGE)
 
 
 def audio_message(block: AudioBlock) -> bytes:
     samples = np.asarray(block.samples, dtype=np.float32)
-    msg = typestore().types[AUDIO_BLOCK](header=header(block.stamp_s, "avhear_mics"),
+    msg = typestore().types[AUDIO_BLOCK](header=make_header(block.stamp_s, "avhear_mics"),
                                         samplerate_hz=int(block.samplerate_hz), n_channels=int(samples.shape[1]),
                                         first_sample=int(block.first_sample), samples=samples.ravel())
     return encode(msg, AUDIO_BLOCK)
@@ -62,18 +55,18 @@ def audio_message(block: AudioBlock) -> bytes:
 
 class SensorPublisher:
     """Publishes ``source`` (the pipeline's Source contract: ``frames(stop)``, ``audio(stop)``, ``rig``, ``mics``,
-    ``samplerate_hz``, ``channels``) on ``session`` under ``namespace`` until the source ends or ``stop``."""
+    ``samplerate_hz``, ``channels``) on ``session`` in ``convention`` until the source ends or ``stop``."""
 
-    def __init__(self, session: Any, source: Any, *, namespace: str = "", jpeg_quality: int = 90) -> None:
-        ns = namespace.strip("/")
-        self.prefix = f"{ns}/" if ns else ""
+    def __init__(self, session: Any, source: Any, *, convention: Convention | None = None,
+                 jpeg_quality: int = 90) -> None:
+        self.node = RosNode(session, convention or Convention(), name="avhear_sensors")
         self.session, self.source, self.jpeg_quality = session, source, jpeg_quality
         self.frames = self.audio_blocks = self.bytes = 0
         self.errors: list[str] = []
         rig = RigConfig(stereo=source.rig, microphones=source.mics, array=getattr(source, "array", None))
         self.info = json.dumps({"rig": rig_to_dict(rig), "samplerate_hz": float(source.samplerate_hz),
                                 "channels": list(source.channels)})
-        self._queryable = session.declare_queryable(self.prefix + RIG_KEY, self._answer)
+        self._queryable = session.declare_queryable(self.node.convention.plain(RIG_KEY), self._answer)
 
     def _answer(self, query: Any) -> None:
         query.reply(query.key_expr, self.info.encode())
@@ -81,9 +74,9 @@ class SensorPublisher:
     def run(self, stop: threading.Event, duration_s: float | None = None) -> None:
         """Publish until the source ends, ``duration_s`` of wall time, or ``stop``; device errors are collected in
         :attr:`errors` and end the run."""
-        pub_l = self.session.declare_publisher(self.prefix + LEFT_KEY)
-        pub_r = self.session.declare_publisher(self.prefix + RIGHT_KEY)
-        pub_a = self.session.declare_publisher(self.prefix + AUDIO_KEY)
+        pub_l = self.node.publisher(LEFT_KEY, COMPRESSED_IMAGE)
+        pub_r = self.node.publisher(RIGHT_KEY, COMPRESSED_IMAGE)
+        pub_a = self.node.publisher(AUDIO_KEY, AUDIO_BLOCK)
         # a robot stamps at capture on its monotonic clock: the simulator's or a recording's own stamps are moved there
         offset = time.monotonic() - self.source.clock()
 
@@ -124,6 +117,7 @@ class SensorPublisher:
 
     def close(self) -> None:
         self._queryable.undeclare()
+        self.node.close()
 
 
 def frame_from_messages(index: int, left: Any, right: Any) -> StereoFrame:

@@ -9,6 +9,10 @@ scouting, which would announce a session on the LAN, is off. Reaching another ma
 ``--bus-listen``/``--bus-connect`` with Zenoh endpoints (``tcp/192.168.1.20:7448``), or ``--bus-config FILE`` (a
 Zenoh JSON5 configuration file, for TLS, access control and everything else; then avhear changes nothing in it but
 the endpoints the flags give).
+
+Under rmw_zenoh's key convention (the default, :mod:`app.bus.ros2`) the session also connects to rmw_zenoh's router
+on ``tcp/127.0.0.1:7447`` when the user gave no endpoint, retrying, as every rmw_zenoh node does: that is how ROS 2
+processes on this machine see avhear's node and topics. Connecting is not listening: the router keeps its port.
 """
 from __future__ import annotations
 
@@ -19,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from app.bus.ros2 import DEFAULT_CONVENTION, ROUTER, Convention
 from app.errors import UserError
 
 __all__ = ["ENDPOINT", "RENDEZVOUS_PORT", "BusOptions", "open_session", "rendezvous"]
@@ -30,12 +35,19 @@ ENDPOINT = re.compile(r"^(tcp|udp|tls|quic|ws|unixsock-stream)/(\[[0-9a-fA-F:]+\
 
 @dataclass(frozen=True)
 class BusOptions:
-    """listen, connect : Zenoh endpoints; config : a Zenoh configuration file; namespace : key prefix."""
+    """listen, connect : Zenoh endpoints; config : a Zenoh configuration file; namespace : the ROS namespace of every
+    topic; keys : the key convention (``rmw_zenoh`` or ``bridge``); domain : the ROS domain id (rmw_zenoh's keys)."""
 
     listen: tuple[str, ...] = ()
     connect: tuple[str, ...] = ()
     config: Path | None = None
     namespace: str = ""
+    keys: str = DEFAULT_CONVENTION
+    domain: int = 0
+
+    @property
+    def convention(self) -> Convention:
+        return Convention(self.keys, self.domain, self.namespace)
 
 
 def _one_line(exc: BaseException) -> str:
@@ -89,10 +101,11 @@ def open_session(options: BusOptions) -> Any:
 
     if options.config is None and not options.listen and not options.connect:
         meet = rendezvous()
+        router = [ROUTER] if options.convention.native else []
         try:
-            return zenoh.open(_config(options, listen=[meet]))
+            return zenoh.open(_config(options, listen=[meet], connect=router or None))
         except Exception:  # noqa: BLE001 - ZError: the rendezvous is taken (by another avhear): join it instead
-            return _open(zenoh, _config(options, listen=[_ANY_PORT], connect=[meet]), options)
+            return _open(zenoh, _config(options, listen=[_ANY_PORT], connect=[meet, *router]), options)
     listen = [_ANY_PORT] if options.config is None and not options.listen else None
     return _open(zenoh, _config(options, listen=listen), options)
 

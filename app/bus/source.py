@@ -17,7 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from app.bus.messages import AUDIO_BLOCK, decode
+from app.bus.messages import AUDIO_BLOCK, COMPRESSED_IMAGE, decode
+from app.bus.ros2 import Convention, RosNode
 from app.bus.sensors import AUDIO_KEY, LEFT_KEY, RIG_KEY, RIGHT_KEY, _stamp, frame_from_messages
 from app.config import RigConfig, rig_from_dict
 from app.sources.contract import SourceBase
@@ -34,8 +35,10 @@ __all__ = ["BusSource"]
 class BusSource(SourceBase):
     """A pipeline source fed by the bus (see module docstring).
 
-    left_key, right_key, audio_key : keys of the two rectified camera streams (sensor_msgs/CompressedImage) and the
-        audio (avhear_msgs/AudioBlock); default: those of ``avhear sensors`` under ``namespace``.
+    convention : the key convention, ROS domain and namespace (:mod:`app.bus.ros2`).
+    left_key, right_key, audio_key : topics of the two rectified camera streams (sensor_msgs/CompressedImage) and
+        the audio (avhear_msgs/AudioBlock), relative to the namespace unless they start with ``/``; default: those of
+        ``avhear sensors``.
     rig : the rig calibration; None asks the robot's queryable (``avhear sensors`` answers), waiting
         ``rig_timeout_s``.
     gap_s : seconds without a camera frame after which the robot counts as gone (until frames come again).
@@ -43,13 +46,15 @@ class BusSource(SourceBase):
 
     realtime = True
 
-    def __init__(self, session: Any, *, namespace: str = "", rig: RigConfig | None = None,
+    def __init__(self, session: Any, *, convention: Convention | None = None, rig: RigConfig | None = None,
                  left_key: str | None = None, right_key: str | None = None, audio_key: str | None = None,
                  rig_timeout_s: float = 10.0, gap_s: float = 1.0, queue_size: int = 64) -> None:
-        ns = namespace.strip("/")
-        prefix = f"{ns}/" if ns else ""
+        convention = convention or Convention()
+        ns = convention.namespace.strip("/")
         self.session = session
-        self.keys = (left_key or prefix + LEFT_KEY, right_key or prefix + RIGHT_KEY, audio_key or prefix + AUDIO_KEY)
+        self.node = RosNode(session, convention, name="avhear")
+        topics = (left_key or LEFT_KEY, right_key or RIGHT_KEY, audio_key or AUDIO_KEY)
+        self.keys = tuple(convention.topic(t) for t in topics)  # ROS topic names, for messages
         self.gap_s = gap_s
         self.bad_payloads = 0
         self.gaps = 0
@@ -58,7 +63,7 @@ class BusSource(SourceBase):
         self._n_channels: int | None = None
         self.channels: tuple[int, int] = (0, 1)
         if rig is None:
-            rig, self._samplerate, self.channels = self._ask_rig(prefix + RIG_KEY, rig_timeout_s, ns)
+            rig, self._samplerate, self.channels = self._ask_rig(convention.plain(RIG_KEY), rig_timeout_s, ns)
         if rig.stereo is None or (rig.microphones is None and rig.array is None):
             raise UserError("the rig needs a 'stereo' section and a 'microphones' or 'array' section (give --rig "
                             "with both)")
@@ -74,9 +79,9 @@ class BusSource(SourceBase):
         self._blocks = 0
         self._last_stamp = [-np.inf, -np.inf]
         self._subscribers = [
-            session.declare_subscriber(self.keys[0], lambda s: self._on_image(0, s)),
-            session.declare_subscriber(self.keys[1], lambda s: self._on_image(1, s)),
-            session.declare_subscriber(self.keys[2], self._on_audio),
+            self.node.subscriber(topics[0], COMPRESSED_IMAGE, lambda s: self._on_image(0, s)),
+            self.node.subscriber(topics[1], COMPRESSED_IMAGE, lambda s: self._on_image(1, s)),
+            self.node.subscriber(topics[2], AUDIO_BLOCK, self._on_audio),
         ]
 
     def _ask_rig(self, key: str, timeout_s: float, namespace: str) -> tuple[RigConfig, float, tuple[int, int]]:
@@ -190,3 +195,4 @@ class BusSource(SourceBase):
         for sub in self._subscribers:
             sub.undeclare()
         self._subscribers = []
+        self.node.close()

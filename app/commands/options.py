@@ -8,6 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from app.bus.ros2 import CONVENTIONS, DEFAULT_CONVENTION
 from app.bus.session import ENDPOINT, RENDEZVOUS_PORT, BusOptions
 from app.errors import UserError
 from app.sources.live import LiveConfig
@@ -190,8 +191,11 @@ def live_config(args: argparse.Namespace, **extra: Any) -> LiveConfig:
 
 def bus_options(args: argparse.Namespace) -> BusOptions:
     """The :class:`app.bus.session.BusOptions` of :func:`add_bus_arguments`' flags."""
+    from app.bus.ros2 import domain_from_env
+
+    domain = args.ros_domain if args.ros_domain is not None else domain_from_env()
     return BusOptions(tuple(args.bus_listen or ()), tuple(args.bus_connect or ()), args.bus_config,
-                      args.bus_namespace or "")
+                      args.bus_namespace or "", args.ros_keys, domain)
 
 
 def _endpoint(text: str) -> str:
@@ -200,6 +204,12 @@ def _endpoint(text: str) -> str:
         raise argparse.ArgumentTypeError(f"{text!r} is not a Zenoh endpoint: use PROTOCOL/HOST:PORT, e.g. "
                                          "tcp/192.168.1.20:7448")
     return text
+
+
+def _domain(text: str) -> int:
+    if not text.isdigit() or int(text) > 232:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a ROS 2 domain id (0-232)")
+    return int(text)
 
 
 def add_bus_arguments(p: argparse.ArgumentParser) -> None:
@@ -211,7 +221,12 @@ def add_bus_arguments(p: argparse.ArgumentParser) -> None:
                    help="connect to this Zenoh endpoint: a robot, a router (repeatable)")
     g.add_argument("--bus-config", type=Path, metavar="FILE",
                    help="a Zenoh configuration file (JSON5) for everything else: TLS, access control, ...")
-    g.add_argument("--bus-namespace", default="", metavar="NS", help="prefix of every key (a ROS namespace)")
+    g.add_argument("--bus-namespace", default="", metavar="NS", help="the ROS namespace of every topic")
+    g.add_argument("--ros-keys", choices=CONVENTIONS, default=DEFAULT_CONVENTION,
+                   help="ROS 2 key convention: rmw_zenoh (native ROS 2 on Zenoh, with the graph's liveliness tokens; "
+                        "default) or bridge (zenoh-bridge-ros2dds's)")
+    g.add_argument("--ros-domain", type=_domain, metavar="ID",
+                   help="ROS domain id of rmw_zenoh's keys (default: ROS_DOMAIN_ID, or 0)")
 
 
 def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:
@@ -220,5 +235,5 @@ def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> A
     from app.config import require_live_rig
 
     rig = require_live_rig(args.rig) if getattr(args, "rig", None) else None
-    return BusSource(session, namespace=options.namespace, rig=rig, left_key=getattr(args, "left_key", None),
+    return BusSource(session, convention=options.convention, rig=rig, left_key=getattr(args, "left_key", None),
                      right_key=getattr(args, "right_key", None), audio_key=getattr(args, "audio_key", None))

@@ -75,11 +75,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          "everything.")
     run.add_argument("--source", default="sim:S2",
                      help="sim:S1..S5|calibration, replay:FOLDER, live, or bus (a robot's `avhear sensors`)")
-    run.add_argument("--left-key", default=None, metavar="KEY",
-                     help="bus: key of the left camera (sensor_msgs/CompressedImage, rectified; default: avhear "
-                          "sensors')")
-    run.add_argument("--right-key", default=None, metavar="KEY", help="bus: key of the right camera")
-    run.add_argument("--audio-key", default=None, metavar="KEY", help="bus: key of the audio (avhear_msgs/AudioBlock)")
+    run.add_argument("--left-key", default=None, metavar="TOPIC",
+                     help="bus: ROS topic of the left camera (sensor_msgs/CompressedImage, rectified; relative to "
+                          "--bus-namespace unless it starts with /; default: avhear sensors')")
+    run.add_argument("--right-key", default=None, metavar="TOPIC", help="bus: ROS topic of the right camera")
+    run.add_argument("--audio-key", default=None, metavar="TOPIC",
+                     help="bus: ROS topic of the audio (avhear_msgs/AudioBlock)")
     run.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
     run.add_argument("--rig", default=None,
                      help="rig YAML of a live source (stereo + microphones); with --source bus it overrides the "
@@ -145,7 +146,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
             session = open_session(options)
             stack.callback(session.close)
         if args.publish:
-            publisher = ResultPublisher(session, namespace=options.namespace)
+            publisher = ResultPublisher(session, convention=options.convention)
             stack.callback(publisher.close)
         print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
         if spec == "bus":
@@ -221,7 +222,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
     if spec == "bus" and not source.images_received and not stats.interrupted:
         session.close(keep_serving=False)
         raise UserError(f"no robot published on {', '.join(source.keys[:2])} during the run: start `avhear sensors` "
-                        "there (the same --bus-namespace), or name its camera keys with --left-key/--right-key")
+                        "there (the same --bus-namespace and --ros-keys), or name its camera topics with "
+                        "--left-key/--right-key")
     if stats.interrupted:
         print("avhear: interrupted", file=sys.stderr)
         session.close(keep_serving=False)

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         source = open_source(args.source, realtime=True, duration_s=args.duration if live is None else None,
                              seed=args.seed, rig_path=args.rig, live=live, mics=args.mics,
                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-        publisher = SensorPublisher(session, source, namespace=options.namespace, jpeg_quality=args.jpeg_quality)
+        publisher = SensorPublisher(session, source, convention=options.convention, jpeg_quality=args.jpeg_quality)
         print(f"avhear: publishing {args.source} on the bus ... Ctrl-C stops", file=sys.stderr, flush=True)
         start = time.monotonic()
         with stop_on_signals(threading.Event()) as stop:

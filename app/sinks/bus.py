@@ -1,4 +1,5 @@
-"""The results publisher: a sink that puts every fused result on the bus (keys and types: :mod:`app.bus.messages`).
+"""The results publisher: a sink that puts every fused result on the bus (topics and types: :mod:`app.bus.messages`;
+keys and, under rmw_zenoh, the node's and its publishers' liveliness tokens: :mod:`app.bus.ros2`).
 
 The fusion thread only hands the result over (a bounded queue that drops the oldest when the bus is slower than the
 results, counted in ``dropped``): serialising and sending happen in the publisher's own thread, so that a slow bus
@@ -11,6 +12,7 @@ import threading
 from typing import Any
 
 from app.bus.messages import Topics
+from app.bus.ros2 import Convention, Endpoint, RosNode
 from app.queues import DropOldestQueue
 from app.sinks.results_file import result_record
 
@@ -22,12 +24,13 @@ __all__ = ["ResultPublisher"]
 class ResultPublisher:
     """Publishes on ``session`` (a zenoh.Session); :meth:`publish` from any thread, :meth:`close` at the end."""
 
-    def __init__(self, session: Any, *, namespace: str = "", queue_size: int = 64) -> None:
+    def __init__(self, session: Any, *, convention: Convention | None = None, queue_size: int = 64) -> None:
         self.session = session
-        self.topics = Topics(namespace)
+        self.node = RosNode(session, convention or Convention())
+        self.topics = Topics()
         self.published = 0
         self._queue: DropOldestQueue[dict[str, Any]] = DropOldestQueue(queue_size, "bus")
-        self._publishers: dict[str, Any] = {}
+        self._publishers: dict[str, Endpoint] = {}
         self._stop = threading.Event()
         self._error: BaseException | None = None
         self._thread = threading.Thread(target=self._run, name="avhear-bus-publisher", daemon=True)
@@ -49,23 +52,26 @@ class ResultPublisher:
                 record = self._queue.get(timeout=0.05)
                 if record is None:
                     continue
-                for key, payload in self.topics.messages(record):
-                    pub = self._publishers.get(key)
+                for topic, typename, payload in self.topics.messages(record):
+                    pub = self._publishers.get(topic)
                     if pub is None:
-                        pub = self._publishers[key] = self.session.declare_publisher(key)
+                        pub = self._publishers[topic] = self._declare(topic, typename)
                     pub.put(payload)
                 self.published += 1
         except BaseException as exc:  # reported by the next publish() and by close()
             log.exception("the bus publisher failed")
             self._error = exc
 
+    def _declare(self, topic: str, typename: str | None) -> Endpoint:
+        if typename is None:  # the JSON: not a ROS message, the same key in both conventions
+            return Endpoint(self.session.declare_publisher(self.node.convention.plain(topic)))
+        return self.node.publisher(topic, typename)
+
     def close(self, timeout_s: float = 2.0) -> None:
-        """Send what is queued (at most ``timeout_s``), then undeclare the publishers."""
+        """Send what is queued (at most ``timeout_s``), then undeclare the publishers and the node."""
         self._stop.set()
         self._thread.join(timeout_s)
         for pub in self._publishers.values():
-            try:
-                pub.undeclare()
-            except Exception:  # noqa: BLE001 - the session may be closing already
-                pass
+            pub.undeclare()
         self._publishers.clear()
+        self.node.close()

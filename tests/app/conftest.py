@@ -1,9 +1,10 @@
 """Devices for the app's tests: video files as cameras, and a stand-in for sounddevice's PortAudio stream."""
 from __future__ import annotations
 
+import socket
 import threading
 import types
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import cv2
@@ -16,6 +17,24 @@ from avcore.geometry import MicPair
 from avcore.stereo import StereoRig
 
 SMALL_RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)  # the video-file cameras' size
+
+
+@pytest.fixture
+def rmw_router() -> Iterator[object]:
+    """A router-mode Zenoh session on tcp/127.0.0.1:7447, as rmw_zenoh's `ros2 run rmw_zenoh_cpp rmw_zenohd`;
+    None when something listens there already (a router of the developer's: what is under test holds then too)."""
+    import zenoh
+
+    with socket.socket() as probe:
+        if probe.connect_ex(("127.0.0.1", 7447)) == 0:
+            yield None
+            return
+    config = zenoh.Config()
+    config.insert_json5("mode", '"router"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", '["tcp/127.0.0.1:7447"]')
+    with zenoh.open(config) as router:
+        yield router
 
 
 @pytest.fixture

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import signal
 import socket
 import subprocess
 import sys
@@ -25,23 +27,26 @@ RECORD = {"stamp_s": 12.25, "index": 367, "mode": "face", "n_itds": 9, "latency_
 
 
 def test_every_message_round_trips_through_rosbags() -> None:
-    got = dict(Topics("robot1").messages(RECORD))
-    voices = decode(got["robot1/humans/voices/tracked"], "hri_msgs/msg/IdsList")
+    messages = Topics().messages(RECORD)
+    got = {topic: payload for topic, _, payload in messages}
+    types = {topic: typename for topic, typename, _ in messages}
+    assert types["tf"] == "tf2_msgs/msg/TFMessage" and types["avhear/results"] is None
+    voices = decode(got["humans/voices/tracked"], "hri_msgs/msg/IdsList")
     assert voices.ids == ["v0", "v3"] and voices.header.frame_id == "avhear_rig"
     assert (voices.header.stamp.sec, voices.header.stamp.nanosec) == (12, 250_000_000)
-    assert decode(got["robot1/humans/voices/v0/is_speaking"], "std_msgs/msg/Bool").data is False
-    assert decode(got["robot1/humans/voices/v3/is_speaking"], "std_msgs/msg/Bool").data is True
-    assert decode(got["robot1/humans/faces/tracked"], "hri_msgs/msg/IdsList").ids == ["f0", "f3"]
-    roi = decode(got["robot1/humans/faces/f3/roi"], "sensor_msgs/msg/RegionOfInterest")
+    assert decode(got["humans/voices/v0/is_speaking"], "std_msgs/msg/Bool").data is False
+    assert decode(got["humans/voices/v3/is_speaking"], "std_msgs/msg/Bool").data is True
+    assert decode(got["humans/faces/tracked"], "hri_msgs/msg/IdsList").ids == ["f0", "f3"]
+    roi = decode(got["humans/faces/f3/roi"], "sensor_msgs/msg/RegionOfInterest")
     assert (roi.x_offset, roi.y_offset, roi.width, roi.height) == (410, 100, 30, 33)
-    match = decode(got["robot1/humans/candidate_matches"], "hri_msgs/msg/IdsMatch")  # the last person's
+    match = decode(got["humans/candidate_matches"], "hri_msgs/msg/IdsMatch")  # the last person's
     assert (match.id1, match.id1_type, match.id2, match.id2_type) == ("f3", FACE, "v3", VOICE) == ("f3", 2, "v3", 4)
-    tf = decode(got["robot1/tf"], "tf2_msgs/msg/TFMessage")
+    tf = decode(got["tf"], "tf2_msgs/msg/TFMessage")
     frames = {t.child_frame_id: t for t in tf.transforms}
     assert set(frames) == {"voice_v0", "voice_v3", "face_f0", "face_f3"}
     v = frames["voice_v3"].transform.translation
     assert (v.x, v.y, v.z) == (0.7, -0.1, 2.9) and frames["voice_v3"].header.frame_id == "avhear_rig"
-    assert json.loads(got["robot1/avhear/results"]) == RECORD
+    assert json.loads(got["avhear/results"]) == RECORD
     # CDR as ROS 2 sends it: the 4-byte encapsulation header, little-endian (CDR_LE = 0x0001)
     assert all(payload[:4] == b"\x00\x01\x00\x00" for key, payload in got.items() if not key.endswith("results"))
 
@@ -49,7 +54,7 @@ def test_every_message_round_trips_through_rosbags() -> None:
 def test_motion_guided_results_have_voices_only() -> None:
     record = dict(RECORD, mode="motion", people=[{k: v for k, v in p.items() if k != "box_px"}
                                                  for p in RECORD["people"]])
-    keys = [k for k, _ in Topics().messages(record)]
+    keys = [k for k, _, _ in Topics().messages(record)]
     assert "humans/voices/tracked" in keys and "tf" in keys
     assert not [k for k in keys if k.startswith("humans/faces") or k == "humans/candidate_matches"]
 
@@ -65,8 +70,10 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def test_publish_between_two_processes() -> None:
-    """The test listens on a loopback port; `avhear demo --publish` connects to it and publishes every result."""
+def _demo_on_the_bus(*flags: str) -> tuple[subprocess.CompletedProcess[str], dict[str, list[tuple[bytes, bytes]]],
+                                             list[tuple[str, str]]]:
+    """`avhear demo --publish` for 2 s, connected to a session of the test's that listens on a loopback port:
+    (the process, every sample's payload and attachment by key, every liveliness token's (kind, key))."""
     import zenoh
 
     port = _free_port()
@@ -74,44 +81,127 @@ def test_publish_between_two_processes() -> None:
     config.insert_json5("mode", '"peer"')
     config.insert_json5("scouting/multicast/enabled", "false")
     config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{port}"]))
-    received: dict[str, list[bytes]] = {}
+    received: dict[str, list[tuple[bytes, bytes]]] = {}
+    tokens: list[tuple[str, str]] = []
     lock = threading.Lock()
 
     def on_sample(sample: zenoh.Sample) -> None:
+        attachment = sample.attachment.to_bytes() if sample.attachment is not None else b""
         with lock:
-            received.setdefault(str(sample.key_expr), []).append(sample.payload.to_bytes())
+            received.setdefault(str(sample.key_expr), []).append((sample.payload.to_bytes(), attachment))
+
+    def on_token(sample: zenoh.Sample) -> None:
+        with lock:
+            tokens.append((str(sample.kind), str(sample.key_expr)))
+
+    def arrived(suffix: str) -> int:
+        with lock:
+            return sum(len(v) for k, v in received.items() if k.endswith(suffix) or f"/{suffix}/" in k)
 
     with zenoh.open(config) as session:
-        session.declare_subscriber("lab/**", on_sample)
+        session.declare_subscriber("**", on_sample)
+        session.liveliness().declare_subscriber("@ros2_lv/**", on_token)
         done = subprocess.run(
             [sys.executable, "-m", "app", "demo", "--headless", "--duration", "2", "--fast", "--publish",
              "--bus-namespace", "lab", "--bus-connect", f"tcp/127.0.0.1:{port}",
-             "--bus-listen", f"tcp/127.0.0.1:{_free_port()}"],
+             "--bus-listen", f"tcp/127.0.0.1:{_free_port()}", *flags],
             capture_output=True, text=True, cwd=ROOT, timeout=120)
-
-        def arrived(key: str) -> int:
-            with lock:
-                return len(received.get(key, []))
-
         # the last samples may still be in flight when the process ends: wait for them, not for a set time
         deadline = time.monotonic() + 30.0
-        while min(arrived(f"lab/{k}") for k in ("avhear/results", "humans/voices/tracked", "tf")) < 60:
+        while min(arrived(k) for k in ("avhear/results", "humans/voices/tracked", "tf")) < 60:
             assert time.monotonic() < deadline, {k: len(v) for k, v in received.items()}
             time.sleep(0.02)
+    with lock:
+        return done, dict(received), list(tokens)
+
+
+def test_publish_between_two_processes_with_the_bridges_keys() -> None:
+    """Under zenoh-bridge-ros2dds's convention the keys are the ROS topics without their leading slash."""
+    done, received, tokens = _demo_on_the_bus("--ros-keys", "bridge")
     assert done.returncode == 0, done.stderr
     assert "60 results published on the bus (0 dropped" in done.stdout
-    with lock:
-        results = [json.loads(p) for p in received.get("lab/avhear/results", [])]
-        tracked = [decode(p, "hri_msgs/msg/IdsList") for p in received.get("lab/humans/voices/tracked", [])]
-        speaking = {k: [decode(p, "std_msgs/msg/Bool").data for p in v] for k, v in received.items()
-                    if k.endswith("/is_speaking")}
-        tf = [decode(p, "tf2_msgs/msg/TFMessage") for p in received.get("lab/tf", [])]
+    assert tokens == []  # the bridge announces DDS entities itself
+    results = [json.loads(p) for p, _ in received["lab/avhear/results"]]
+    tracked = [decode(p, "hri_msgs/msg/IdsList") for p, _ in received["lab/humans/voices/tracked"]]
+    speaking = {k: [decode(p, "std_msgs/msg/Bool").data for p, _ in v] for k, v in received.items()
+                if k.endswith("/is_speaking")}
+    tf = [decode(p, "tf2_msgs/msg/TFMessage") for p, _ in received["lab/tf"]]
     assert len(results) == 60 and len(tracked) == 60 and len(tf) == 60
     assert [r["index"] for r in results] == sorted(r["index"] for r in results)
     ids = {p["id"] for r in results for p in r["people"]}
     assert {f"lab/humans/voices/v{i}/is_speaking" for i in ids} == set(speaking)
     assert any(any(v) for v in speaking.values())  # somebody speaks in S2's first two seconds
     assert all(len(t.transforms) == 2 * len(r["people"]) for t, r in zip(tf, results))
+
+
+# REP-2011 hashes as ROS 2 Jazzy computes them (ros-z's regression table, checked there against rmw_zenoh_cpp:
+# ZettaScaleLabs/ros-z crates/ros-z-codegen/tests/hash_regression.rs)
+PUBLISHED_HASHES = {
+    "std_msgs/msg/String": "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18",
+    "std_msgs/msg/Header": "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
+    "geometry_msgs/msg/TwistStamped": "RIHS01_5f0fcd4f81d5d06ad9b4c4c63e3ea51b82d6ae4d0558f1d475229b1121db6f64",
+    "geometry_msgs/msg/PoseStamped": "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8",
+    "sensor_msgs/msg/Imu": "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b",
+    "nav_msgs/msg/Odometry": "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0",
+}
+
+
+@pytest.mark.parametrize("typename", sorted(PUBLISHED_HASHES))
+def test_type_hashes_are_the_ones_ros_publishes(typename: str) -> None:
+    from app.bus.messages import typestore
+
+    assert typestore().hash_rihs01(typename) == PUBLISHED_HASHES[typename]
+
+
+def test_publish_between_two_processes_as_a_native_ros2_node() -> None:
+    """Under rmw_zenoh's convention (the default): the data keys are <domain>/<topic>/<DDS type>/<RIHS01 hash>, each
+    sample carries rmw_zenoh's 33-byte attachment, and the node and each publisher hold liveliness tokens in
+    rmw_zenoh's format, read here as ros2/rmw_zenoh's docs/design.md and liveliness_utils.cpp describe them."""
+    import struct
+
+    from app.bus.messages import typestore
+
+    done, received, tokens = _demo_on_the_bus("--ros-domain", "7")
+    assert done.returncode == 0, done.stderr
+    topics = {}
+    for key, samples in received.items():
+        if key == "lab/avhear/results":  # the JSON is not a ROS message: the same key in both conventions
+            continue
+        domain, *topic, dds_type, type_hash = key.split("/")
+        package, msg, dds, name = dds_type.split("::")
+        typename = f"{package}/msg/{name[:-1]}"
+        assert (domain, topic[0], msg, dds, name[-1]) == ("7", "lab", "msg", "dds_", "_"), key
+        assert type_hash == typestore().hash_rihs01(typename), key
+        topics["/" + "/".join(topic)] = typename
+        sequence = []
+        for payload, attachment in samples:
+            decode(payload, typename)
+            assert len(attachment) == 33 and attachment[16] == 16  # int64, int64, LEB128 length 16, 16 bytes
+            number, source_ns = struct.unpack("<qq", attachment[:16])
+            assert abs(source_ns / 1e9 - time.time()) < 120
+            sequence.append(number)
+        assert sequence == list(range(1, len(samples) + 1)), key  # every sample, numbered from 1
+    assert topics["/lab/humans/voices/tracked"] == "hri_msgs/msg/IdsList" and topics["/lab/tf"] == "tf2_msgs/msg/TFMessage"
+    assert len(received["lab/avhear/results"]) == 60
+    alive = [key.split("/") for kind, key in tokens if kind == "SampleKind.PUT"]
+    gone = {key for kind, key in tokens if kind == "SampleKind.DELETE"}
+    assert {"/".join(parts) for parts in alive} == gone  # the process took its tokens back when it ended
+    nodes = [p for p in alive if p[5] == "NN"]
+    assert len(nodes) == 1
+    admin, domain, zid, node_id, entity_id, kind, enclave, namespace, node_name = nodes[0]
+    assert (admin, domain, node_id == entity_id, enclave, namespace, node_name) == ("@ros2_lv", "7", True, "%",
+                                                                                   "%lab", "avhear")
+    publishers = {}
+    for parts in (p for p in alive if p[5] == "MP"):
+        assert parts[1:4] == [domain, zid, node_id] and parts[6:9] == ["%", "%lab", "avhear"]
+        topic, dds_type, type_hash, qos = parts[9:]
+        publishers[topic.replace("%", "/")] = (dds_type, type_hash, qos)
+    assert set(publishers) == set(topics)
+    assert len({p[4] for p in alive}) == len(alive)  # one id per entity
+    for topic, typename in topics.items():
+        package, _, name = typename.split("/")
+        assert publishers[topic] == (f"{package}::msg::dds_::{name}_", typestore().hash_rihs01(typename),
+                                     "::,10:,:,:,,")  # reliable, volatile, keep last 10
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -133,6 +223,7 @@ def test_bus_mistakes_are_one_line(tmp_path: Path, argv: list[str], message: str
 def test_a_slow_bus_never_stalls_the_pipeline(people_result: Callable[..., object]) -> None:
     """The publisher's session takes 50 ms per message: publish() hands over without waiting, so the oldest
     results are dropped and counted, and what is published is whole."""
+    from app.bus.ros2 import Convention
     from app.sinks.bus import ResultPublisher
 
     class SlowPublisher:
@@ -154,10 +245,60 @@ def test_a_slow_bus_never_stalls_the_pipeline(people_result: Callable[..., objec
             return SlowPublisher(self.sent, key)
 
     session = SlowSession()
-    publisher = ResultPublisher(session, queue_size=4)
+    publisher = ResultPublisher(session, convention=Convention("bridge"), queue_size=4)
     for k in range(40):
         publisher.publish(people_result(k / 30, [[0.1, 0.0, 2.0]], [True]))
     publisher.close(timeout_s=10)
     # a publish() that waited for the slow session would have lost nothing: dropping is the proof it did not wait
     assert publisher.dropped > 0 and publisher.published + publisher.dropped == 40
     assert session.sent.count("avhear/results") == publisher.published
+
+
+def test_a_ros2_graph_behind_rmw_zenohs_router_sees_avhear(rmw_router: object) -> None:
+    """With no endpoint given, avhear joins rmw_zenoh's router on 7447 (as every rmw_zenoh node does) without
+    listening there: a session that only knows the router, as `ros2 node list` and `ros2 topic echo` on an
+    rmw_zenoh machine, finds the node `avhear`, its publisher of /humans/voices/tracked, and its messages."""
+    import zenoh
+
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("connect/endpoints", '["tcp/127.0.0.1:7447"]')
+    tokens: list[str] = []
+    tracked: list[bytes] = []
+    lock = threading.Lock()
+
+    def on_token(sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:  # a DELETE comes when the process takes its token back
+            with lock:
+                tokens.append(str(sample.key_expr))
+
+    def on_tracked(sample: zenoh.Sample) -> None:
+        with lock:
+            tracked.append(sample.payload.to_bytes())
+
+    with zenoh.open(config) as graph:
+        graph.liveliness().declare_subscriber("@ros2_lv/0/**", on_token)
+        graph.declare_subscriber("0/humans/voices/tracked/hri_msgs::msg::dds_::IdsList_/*", on_tracked)
+        env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()))
+        env.pop("ROS_DOMAIN_ID", None)
+        demo = subprocess.Popen([sys.executable, "-m", "app", "demo", "--headless", "--duration", "60",
+                                 "--publish"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                cwd=ROOT, env=env)
+        try:
+            deadline = time.monotonic() + 90.0
+            while True:
+                with lock:
+                    if len(tracked) >= 10:
+                        break
+                assert demo.poll() is None and time.monotonic() < deadline, demo.stderr.read()
+                time.sleep(0.05)
+        finally:
+            demo.send_signal(signal.SIGTERM)
+            demo.communicate(timeout=60)
+    with lock:
+        parts = [t.split("/") for t in tokens]
+        messages = [decode(p, "hri_msgs/msg/IdsList") for p in tracked]
+    assert [p[8] for p in parts if p[5] == "NN"] == ["avhear"]
+    assert any(p[5] == "MP" and p[9] == "%humans%voices%tracked" for p in parts)
+    assert all(m.header.frame_id == "avhear_rig" for m in messages) and any(m.ids for m in messages)
