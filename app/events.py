@@ -15,19 +15,21 @@ __all__ = ["AudioBlock", "StereoFrame"]
 
 @dataclass(frozen=True, eq=False)
 class StereoFrame:
-    """One stereo pair as a camera delivers it.
+    """One frame of the cameras: a stereo pair, or an RGB-D camera's colour and depth.
 
     index : frame number from 0; stamp_s, right_stamp_s : capture times of the left and right images, seconds on the
     stream clock; left, right : (h, w, 3) uint8 BGR images (rectified for the simulator; as recorded otherwise);
-    truth : the ground truth of the instant, when known.
+    truth : the ground truth of the instant, when known; depth_m : an RGB-D camera's depth aligned to ``left`` (its
+    colour image), (h, w) float32 metres, NaN where it has none; ``right`` is None then.
     """
 
     index: int
     stamp_s: float
     left: np.ndarray
-    right: np.ndarray
+    right: np.ndarray | None
     right_stamp_s: float
     truth: FrameTruth | None = None
+    depth_m: np.ndarray | None = None
 
 
 @dataclass(frozen=True, eq=False)

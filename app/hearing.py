@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import cv2
 import numpy as np
 
+from avcore.depth import locate_faces_depth, motion_points_depth
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import gives_frame_itds
@@ -78,8 +79,12 @@ class FaceGuided:
         return FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
 
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
-        """The faces of this frame (ValueError: a frame F3D cannot use)."""
-        faces = locate_faces(frame.left, frame.right, rig, detector=detector)
+        """The faces of this frame, from the stereo pair or an RGB-D camera's depth (ValueError: a frame F3D
+        cannot use)."""
+        if frame.depth_m is not None:
+            faces = locate_faces_depth(frame.left, frame.depth_m, rig, detector=detector)
+        else:
+            faces = locate_faces(frame.left, frame.right, rig, detector=detector)
         return Vision(frame.stamp_s, frame, faces.boxes, faces.points)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
@@ -128,7 +133,10 @@ class MotionGuided:
         interval.append(frame)
         if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
             return None
-        points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
+        if interval[0].depth_m is not None:  # an RGB-D camera: the points' depth is measured, not matched
+            points = motion_points_depth([f.left for f in interval], [f.depth_m for f in interval], rig).points
+        else:
+            points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
         self._interval = []
         return Vision(0.5 * (interval[0].stamp_s + interval[-1].stamp_s), interval[len(interval) // 2], None,
                       points)

@@ -543,11 +543,14 @@ class Pipeline:
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:
-    """A usable stereo pair: two uint8 images of the rig's size."""
+    """A usable frame: two uint8 images of the rig's size, or an RGB-D camera's uint8 colour image and a float
+    depth image of that size."""
     size = tuple(rig.image_size)
-    for img in (getattr(frame, "left", None), getattr(frame, "right", None)):
-        if not isinstance(img, np.ndarray) or img.dtype != np.uint8 or img.ndim not in (2, 3):
+    depth = getattr(frame, "depth_m", None)
+    second = depth if depth is not None else getattr(frame, "right", None)
+    for img in (getattr(frame, "left", None), second):
+        if not isinstance(img, np.ndarray) or img.ndim not in (2, 3) or img.shape[1::-1] != size:
             return False
-        if img.shape[1::-1] != size:
+        if img.dtype != (np.float32 if img is depth else np.uint8):
             return False
     return True

@@ -20,7 +20,7 @@ import numpy as np
 
 from avcore.stereo import StereoRig
 
-__all__ = ["MotionPoints", "harris_motion_points", "temporal_std"]
+__all__ = ["MotionPoints", "grey_frames", "harris_motion_points", "temporal_std"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -40,7 +40,8 @@ class MotionPoints:
         return int(self.points.shape[0])
 
 
-def _stack(frames: Sequence[np.ndarray] | np.ndarray, name: str) -> np.ndarray:
+def grey_frames(frames: Sequence[np.ndarray] | np.ndarray, name: str) -> np.ndarray:
+    """The frames of an interval as one (t, h, w) uint8 grey stack; ValueError naming ``name`` otherwise."""
     if isinstance(frames, np.ndarray) and frames.ndim == 3 and frames.dtype == np.uint8:
         return frames
     if len(frames) == 0:
@@ -126,8 +127,8 @@ def harris_motion_points(
 
     Returns :class:`MotionPoints`, the points of every frame of the interval together.
     """
-    left = _stack(left_frames, "left_frames")
-    right = _stack(right_frames, "right_frames")
+    left = grey_frames(left_frames, "left_frames")
+    right = grey_frames(right_frames, "right_frames")
     if left.shape != right.shape:
         raise ValueError(f"left_frames and right_frames must have the same shape, got {left.shape} and {right.shape}")
     t, h, w = left.shape

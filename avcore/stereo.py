@@ -306,6 +306,22 @@ class StereoRig:
         y = (v - cy) * z / fy
         return np.stack([x, y, z], axis=1)
 
+    def back_project(self, uv_left: object, depth_m: object) -> np.ndarray:
+        """Pixels of the rectified left image and their depth -> 3D points in the scene (cyclopean) frame: what an
+        RGB-D camera whose colour camera is the left camera measures (:mod:`avcore.depth`).
+
+        uv_left : (n, 2) float, pixels; depth_m : (n,) float, metres along the optical axis. Returns (n, 3) float,
+        metres; the inverse of :meth:`project`'s left image. A depth that is not positive gives a row of NaN."""
+        uv = _as_uv(uv_left, "uv_left")
+        z = np.asarray(depth_m, dtype=np.float64).reshape(-1)
+        if z.shape[0] != uv.shape[0]:
+            raise ValueError(f"one depth per pixel: {uv.shape[0]} pixels, {z.shape[0]} depths")
+        z = np.where(z > 0, z, np.nan)
+        p1 = self.proj_left
+        x = (uv[:, 0] - p1[0, 2]) * z / p1[0, 0] - 0.5 * self.baseline_m
+        y = (uv[:, 1] - p1[1, 2]) * z / p1[1, 1]
+        return np.stack([x, y, z], axis=1)
+
     def project(self, points: object) -> tuple[np.ndarray, np.ndarray]:
         """3D points in the scene frame -> pixels in the two rectified images (the inverse of :meth:`triangulate`).
 

@@ -369,7 +369,8 @@ class StereoSceneRenderer:
         if warped is not roi and not np.shares_memory(warped, canvas):  # OpenCV could not write in place
             roi[...] = warped
 
-    def _room_quads(self) -> list[tuple[np.ndarray, np.ndarray]]:
+    def room_quads(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The room's walls, floor and ceiling: [(corners (4, 3) metres, texture), ...] (textures drawn anew)."""
         r = self.room
         rng = np.random.default_rng(self.seed)
         xw, zn, zf, yf, yc = r.half_width, r.near_z, r.depth, r.floor_y, r.ceiling_y
@@ -387,7 +388,7 @@ class StereoSceneRenderer:
         if side not in self._background:
             w, h = self.rig.image_size
             canvas = np.zeros((h, w, 3), np.uint8)
-            for corners, tex in self._room_quads():
+            for corners, tex in self.room_quads():
                 self._draw(canvas, corners, tex, side)
             self._background[side] = canvas
         return self._background[side]

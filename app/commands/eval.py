@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_method_arguments, add_mics_argument, count,
-                         duration, pipeline_config, wants_bodies)
+from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_method_arguments,
+                                  add_mics_argument, count, duration, pipeline_config, wants_bodies)
 from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets, signed_us,
                              synthetic_json)
 from app.commands.paths import output_dir
@@ -77,6 +77,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_method_arguments(sce)
     add_mics_argument(sce)
     add_bodies_argument(sce)
+    add_camera_argument(sce)
     sce.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
                      help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
                           "(40 s), as a user of the rig would, and fuse with it (default); --no-calibrate fuses "
@@ -138,7 +139,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
                   "exact)")
     if args.calibrate and args.mics == "pair":
         _progress("calibration preset (section 5.3): fitting c1, c0 ...")
-        calibration = calibrate_on_preset(seed=args.seed[0], config=config)
+        calibration = calibrate_on_preset(seed=args.seed[0], config=config, camera=args.camera)
         c = calibration.as_dict()
         _progress(f"c1 = {c['c1']:.4f}, c0 = {signed_us(c['c0_us'])} us, median |residual| "
                   f"{c['median_abs_residual_before_us']:.1f} -> {c['median_abs_residual_after_us']:.1f} us")
@@ -150,7 +151,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
             t0 = time.perf_counter()
             score = evaluate_scenario(name, seed, duration_s=args.duration, config=config,
                                       mics=calibration.mics if calibration else None, mic_array=args.mics,
-                                      bodies=wants_bodies(args))
+                                      bodies=wants_bodies(args), camera=args.camera)
             u = score.utterances  # the table's first unit
             _progress(f"{name} seed {seed}: per spoken number TP {u.tp}, FN {u.fn}, FP {u.fp} "
                       f"({time.perf_counter() - t0:.0f} s)")

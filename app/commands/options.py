@@ -16,7 +16,7 @@ from app.sources.sim import MAX_SIMULATED_S
 
 __all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_bus_arguments", "add_device_arguments", "add_method_arguments",
            "bus_options", "bus_source", "count", "duration", "live_config", "odd_count", "pipeline_config", "port",
-           "positive", "wants_bodies"]
+           "positive", "wants_bodies", "add_camera_argument"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 
@@ -111,6 +111,14 @@ def add_mics_argument(p: argparse.ArgumentParser) -> None:
                    help="the simulated robot's microphones: pair (default, the paper's 12 cm pair), nao (NAO's "
                         "four), respeaker4, respeaker-usb, respeaker6, ps3eye, uma8; with several, the face-guided "
                         "fusion uses every pair")
+
+
+def add_camera_argument(p: argparse.ArgumentParser) -> None:
+    """``--camera``: the simulated robot's camera, a stereo pair or an RGB-D camera."""
+    p.add_argument("--camera", default="stereo", choices=["stereo", "rgbd"],
+                   help="the simulated robot's camera: stereo (default, the paper's pair; faces and motion points "
+                        "located by stereo matching) or rgbd (a RealSense-like colour and depth camera in the left "
+                        "camera's place, with its noise and holes: located by their depth)")
 
 
 def add_bodies_argument(p: argparse.ArgumentParser) -> None:

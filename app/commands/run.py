@@ -14,7 +14,7 @@ from app.bus.session import open_session
 from app.console import Console
 from app.errors import UserError
 from app.sources.live import LiveConfig
-from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument,
+from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_camera_argument,
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
                                   wants_bodies)
@@ -36,6 +36,7 @@ def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: f
     add_method_arguments(p)
     add_mics_argument(p)
     add_bodies_argument(p)
+    add_camera_argument(p)
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
     where.add_argument("--save", type=Path, default=None, metavar="FILE.rrd",
                        help="save the console's data to this file")
@@ -125,6 +126,8 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
     if args.mics != "pair" and not spec.startswith("sim:"):
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {spec} brings its own (one "
                         "pair from the rig file or the recording)")
+    if args.camera != "stereo" and not spec.startswith("sim:"):
+        raise UserError(f"--camera {args.camera} chooses the simulated room's camera; {spec} brings its own")
     distinct_outputs(("--save", target.save), ("--results-jsonl", args.results_jsonl),
                      ("--stats-json", args.stats_json))
     if target.save is not None:
@@ -154,7 +157,8 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         else:
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
-                                 mics=args.mics, bodies=wants_bodies(args), progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+                                 mics=args.mics, bodies=wants_bodies(args), camera=args.camera,
+                                 progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
         return _run_checked(spec, args, target, config, source, results, publisher,
                             wall_time=live is not None or spec == "bus")

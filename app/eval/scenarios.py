@@ -295,20 +295,20 @@ class CalibrationFit:
 
 
 def _open(name: str, seed: int, duration_s: float | None, progress: Progress | None,
-          mic_array: str = "pair", bodies: bool = False) -> StreamAdapter:
+          mic_array: str = "pair", bodies: bool = False, camera: str = "stereo") -> StreamAdapter:
     source = open_source(f"sim:{name}", realtime=False, duration_s=duration_s, seed=seed, mics=mic_array,
-                         bodies=bodies, progress=progress)
+                         bodies=bodies, camera=camera, progress=progress)
     assert isinstance(source, StreamAdapter)
     return source
 
 
 def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, config: PipelineConfig | None = None,
-                        progress: Progress | None = None) -> CalibrationFit:
+                        progress: Progress | None = None, camera: str = "stereo") -> CalibrationFit:
     """Fit the affine correction c1, c0 (eq. itd_up) as a user would: run the ``calibration`` preset through the
     pipeline (F3D faces, ITDs of each frame's time window), pair the one face of each frame with each of its ITDs,
     and fit robustly (:func:`avcore.calibration.fit_av_calibration_report`)."""
     cfg = replace(config or PipelineConfig(), inference="face")
-    source = _open("calibration", seed, duration_s, progress)
+    source = _open("calibration", seed, duration_s, progress, camera=camera)
     faces: list[np.ndarray] = []
     itds: list[float] = []
 
@@ -328,8 +328,8 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
 
 def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = None,
                       config: PipelineConfig | None = None, mics: MicPair | None = None,
-                      mic_array: str = "pair", bodies: bool = False, progress: Progress | None = None
-                      ) -> ScenarioScore:
+                      mic_array: str = "pair", bodies: bool = False, camera: str = "stereo",
+                      progress: Progress | None = None) -> ScenarioScore:
     """Simulate scenario ``name`` (S1-S5) with ``seed``, run it through the pipeline and score it (section 7.3).
 
     duration_s : seconds of scenario (default the preset's, 20-25 s). config : the pipeline's settings (default
@@ -337,16 +337,16 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     :func:`calibrate_on_preset`); default the simulator's nominal pair with c1 = 1, c0 = 0. mic_array : the
     robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); with several pairs the fusion uses them all and
     ``mics`` must be None (the simulated microphones are exact). bodies : people with a torso, arms and hands that
-    gesture, the seated behind a table (:class:`app.sources.sim.SimSource`). A motion-guided run is scored against
-    the centre of each person's visible moving body (:meth:`app.sources.sim.SimSource.body_centres`), a face-guided
-    one against the faces.
+    gesture, the seated behind a table; camera : the stereo pair or an RGB-D camera
+    (:class:`app.sources.sim.SimSource`). A motion-guided run is scored against the centre of each person's visible
+    moving body (:meth:`app.sources.sim.SimSource.body_centres`), a face-guided one against the faces.
     """
     if mics is not None and mic_array != "pair":
         raise ValueError("an audio-visual correction (mics) applies to the one pair; use mic_array='pair' with it")
     if name not in SCENARIOS:
         raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}, got {name!r}")
     cfg = config or PipelineConfig()
-    source = _open(name, seed, duration_s, progress, mic_array, bodies)
+    source = _open(name, seed, duration_s, progress, mic_array, bodies, camera)
     if mics is not None:
         source.mics = mics
     fused: list[Result] = []

@@ -94,10 +94,12 @@ class StreamAdapter(SourceBase):
 
 def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, seed: int = 0,
                 rig_path: str | None = None, live: LiveConfig | None = None, mics: str = "pair",
-                bodies: bool = False, progress=None) -> StreamAdapter | LiveSource:  # noqa: ANN001
+                bodies: bool = False, camera: str = "stereo", progress=None  # noqa: ANN001
+                ) -> StreamAdapter | LiveSource:
     """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER`` or ``live`` (with ``rig_path`` and ``live``);
     ``mics`` names the simulated room's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); ``bodies`` draws its
-    people with arms, hands and a table (:class:`app.sources.sim.SimSource`)."""
+    people with arms, hands and a table, ``camera`` is its stereo pair or an RGB-D camera
+    (:class:`app.sources.sim.SimSource`)."""
     kind, _, arg = spec.partition(":")
     if kind == "sim":
         try:
@@ -109,7 +111,8 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
         check_simulated_duration(duration_s)
         return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, mics=mics,
-                                                   bodies=bodies, progress=progress), realtime=realtime)
+                                                   bodies=bodies, camera=camera, progress=progress),
+                             realtime=realtime)
     if kind == "replay":
         if not arg:
             raise UserError("give the recording folder: --source replay:recordings/NAME")

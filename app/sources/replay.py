@@ -33,7 +33,8 @@ class ReplayStream:
 
     Subclasses provide ``stereo``, ``mics``, ``fps``, ``samplerate_hz``, ``n_channels``, ``frame_stamps_s`` (n,) and
     ``right_stamps_s`` (n,) seconds, ``audio_start_s``, ``n_samples``, ``_images(k)`` (called with increasing ``k``
-    within one stream), ``_samples(a, b)`` -> (b - a, C) float32, and ``truth(k)``.
+    within one stream), ``_samples(a, b)`` -> (b - a, C) float32, and ``truth(k)``; an RGB-D source also
+    ``_depth(k, colour)`` (its ``_images`` gives (colour, None)).
     """
 
     stereo: StereoRig
@@ -56,6 +57,10 @@ class ReplayStream:
 
     def _samples(self, a: int, b: int) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
+
+    def _depth(self, k: int, colour: np.ndarray) -> np.ndarray | None:
+        """Frame ``k``'s depth aligned to its colour image (an RGB-D source), or None (a stereo one)."""
+        return None
 
     def truth(self, k: int) -> FrameTruth | None:
         """The ground truth of frame ``k``, or None when unknown."""
@@ -149,7 +154,8 @@ class ReplayStream:
                 _sleep_until(clock0 + frame_due - self.start_s)
             left, right = self._images(k)
             self.stats.frames += 1
-            yield StereoFrame(k, frame_due, left, right, float(self.right_stamps_s[k]), self.truth(k))
+            yield StereoFrame(k, frame_due, left, right, float(self.right_stamps_s[k]), self.truth(k),
+                              self._depth(k, left))
             k += 1
 
 

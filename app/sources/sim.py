@@ -41,6 +41,7 @@ from sim.render import (
 )
 from sim.audio import SimAudio, load_clip_bank, render_audio
 from sim.body_truth import interval_times, visible_moving_centres
+from sim.depth import DepthRenderer
 from sim.render import load_textures
 from sim.scenario import (
     ClipBank,
@@ -49,7 +50,7 @@ from sim.scenario import (
     make_scenario,
 )
 
-__all__ = ["SimSource", "load_clip_bank", "load_textures", "render_audio"]
+__all__ = ["CAMERAS", "SimSource", "load_clip_bank", "load_textures", "render_audio"]
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +60,7 @@ LISTENING_GESTURE_M = 0.03  # and a listener's: people with bodies are never qui
 GESTURE_RAMP_S = 0.25  # how long the hands take to go from one to the other
 MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
 MIN_SIMULATED_S = 1.0  # and one second at least (sim.scenario's bound)
+CAMERAS = ("stereo", "rgbd")  # the simulated rig's stereo pair, or an RGB-D camera in its left camera's place
 
 
 def check_simulated_duration(duration_s: float | None) -> None:
@@ -97,8 +99,10 @@ class SimSource(ReplayStream):
     def __init__(self, scenario: Scenario, bank: ClipBank, *, textures: list[FaceTexture] | None = None,
                  data_dir: str | Path | None = None, fps: float = 30.0, block_size: int = 512,
                  noise_std: float = 1.5, audio: SimAudio | None = None, bodies: bool = False,
-                 progress: Callable[[str], None] | None = None) -> None:
+                 camera: str = "stereo", progress: Callable[[str], None] | None = None) -> None:
         super().__init__()
+        if camera not in CAMERAS:
+            raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got {camera!r}")
         if not (np.isfinite(fps) and 1.0 <= fps <= 60.0):
             raise ValueError(f"fps must be between 1 and 60 frames per second, got {fps!r}")
         if isinstance(block_size, bool) or not isinstance(block_size, (int, np.integer)) or block_size < 1:
@@ -140,6 +144,10 @@ class SimSource(ReplayStream):
         self._renderer = StereoSceneRenderer(self.stereo, [], room=scenario.visual_room, noise_std=0.0,
                                              seed=scenario.seed)
         self._cache = _FrameCache()
+        self.camera = camera
+        # an RGB-D camera: the left camera's colour and a depth image aligned to it (sim.depth, with its errors)
+        self._depth_renderer = DepthRenderer(self._renderer, self.people, seed=scenario.seed) \
+            if camera == "rgbd" else None
         rng = np.random.default_rng([scenario.seed, 23])
         w, h = self.stereo.image_size
         # sensor noise: a few precomputed fields, one drawn per image (cheap, deterministic)
@@ -149,7 +157,7 @@ class SimSource(ReplayStream):
     @classmethod
     def from_preset(cls, name: str, *, duration_s: float | None = None, seed: int = 0, fps: float = 30.0,
                     data_dir: str | Path | None = None, block_size: int = 512, rt60_s: float = 0.4,
-                    mics: str = "pair", bodies: bool = False,
+                    mics: str = "pair", bodies: bool = False, camera: str = "stereo",
                     progress: Callable[[str], None] | None = None) -> SimSource:
         """A preset of :data:`sim.scenario.PRESETS` with real faces and digits from ``data_dir`` (default
         ``../shared/data``; drawn faces and synthetic clips when it is absent), heard by the microphones ``mics``
@@ -158,7 +166,7 @@ class SimSource(ReplayStream):
         scenario = make_scenario(name, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,
                                  rt60_s=rt60_s, mics=mics)
         return cls(scenario, bank, data_dir=data_dir, fps=fps, block_size=block_size, bodies=bodies,
-                   progress=progress)
+                   camera=camera, progress=progress)
 
     # -------------------------------------------------------------- ReplayStream
     def people(self, t: float) -> list[Person]:
@@ -202,7 +210,12 @@ class SimSource(ReplayStream):
             right = cv2.add(right, self._noise[(2 * k + 1 + self.scenario.seed) % n], dtype=cv2.CV_8U)
         else:
             left, right = left.copy(), right.copy()
-        return left, right
+        return (left, None) if self._depth_renderer is not None else (left, right)
+
+    def _depth(self, k: int, colour: np.ndarray) -> np.ndarray | None:
+        if self._depth_renderer is None:
+            return None
+        return self._depth_renderer.render(float(self.frame_stamps_s[k]), colour)
 
     def _samples(self, a: int, b: int) -> np.ndarray:
         return self.audio.samples[a:b].astype(np.float32) / np.float32(32768.0)

@@ -120,6 +120,7 @@ def test_out_of_range_options_are_refused_when_parsed(argv: list[str], option: s
     (["--mics", "nao"], "--mics nao chooses the simulated room's microphones"),
     (["--bodies"], "--bodies chooses how the simulated room's people are drawn"),
     (["--no-bodies"], "--no-bodies chooses how the simulated room's people are drawn"),
+    (["--camera", "rgbd"], "--camera rgbd chooses the simulated room's camera"),
 ])
 def test_simulator_options_on_a_real_source_are_one_line(flag: list[str], message: str, tmp_path: Path,
                                                          capsys: pytest.CaptureFixture[str]) -> None:

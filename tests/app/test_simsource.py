@@ -171,3 +171,26 @@ def test_real_faces_and_digits_when_the_shared_data_is_there(shared_data):
     speaking = src.scenario.speaking_at(track.times_s)
     medians = [np.median(track.itds_s[speaking[:, i] & (speaking.sum(axis=1) == 1)]) for i in range(3)]
     assert medians[0] < -40e-6 and abs(medians[1]) < 20e-6 and medians[2] > 40e-6  # left, centre, right
+
+
+def test_an_rgbd_camera_gives_colour_and_depth_and_the_pipeline_finds_the_faces(missing):
+    """camera="rgbd": each frame is the left camera's colour with a depth image aligned to it (no right image); the
+    face-guided pipeline locates the faces from the depth, within 5 cm of the truth in every frame."""
+    from app.pipeline import Pipeline, PipelineConfig
+    from app.sources.open import StreamAdapter
+
+    source = SimSource.from_preset("S1", duration_s=2.0, seed=3, fps=10, data_dir=missing, camera="rgbd")
+    frames = list(source.frames(realtime=False))
+    assert all(f.right is None and f.depth_m.dtype == np.float32 and f.depth_m.shape == f.left.shape[:2]
+               for f in frames)
+    truth = {f.index: f.truth for f in frames}
+    errors = []
+
+    def keep(result) -> None:
+        t = truth[result.index]
+        for xyz in result.xyz:
+            errors.append(np.min(np.linalg.norm(t.positions_m[t.visible] - xyz, axis=1)))
+
+    stats = Pipeline(StreamAdapter(source, realtime=False), PipelineConfig(), keep).run()
+    assert stats.bad_frames == 0 and len(errors) >= len(frames)
+    assert max(errors) < 0.05
