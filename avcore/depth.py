@@ -2,8 +2,10 @@
 
 An RGB-D camera (RealSense D4xx, OAK-D, ZED, Orbbec) gives a colour image and a depth image aligned to it (metres
 along the optical axis; 0 or NaN where it has no measurement). avhear describes it with the :class:`StereoRig` whose
-rectified left camera is the colour camera, so that points land in the same scene frame as with stereo
-(docs/architecture.md): :meth:`StereoRig.back_project` turns a colour pixel and its depth into a scene point.
+left camera is the colour camera (:meth:`StereoRig.rgbd` for a camera known by its CameraInfo), so that points land
+in the same scene frame as with stereo (docs/architecture.md): :meth:`StereoRig.back_project` turns a colour pixel
+and its depth into a scene point. Colour images are used as the camera gives them: a rig that is not rectified
+(an RGB-D camera's) has its pixels rectified before they are back-projected.
 
 Depth images have holes (no texture for the projector, dark or shiny surfaces), flying pixels at depth edges (a
 mix of foreground and background), and noise that grows with the square of the distance. A face's depth is
@@ -91,7 +93,8 @@ def locate_faces_depth(image: np.ndarray, depth: np.ndarray, rig: StereoRig, *,
         fractions.append(fraction)
     mask = np.zeros(len(boxes), bool)
     mask[keep] = True
-    xyz = rig.back_project(np.array(centres).reshape(-1, 2), np.array(depths, dtype=np.float64))
+    xyz = rig.back_project(np.array(centres).reshape(-1, 2), np.array(depths, dtype=np.float64),
+                           rectified=rig.is_rectified)
     return FaceLocations(boxes[mask], xyz, np.asarray(fractions, dtype=np.float64), boxes[~mask])
 
 
@@ -136,7 +139,8 @@ def motion_points_depth(frames: Sequence[np.ndarray] | np.ndarray, depths: Seque
         if not ok.any():
             continue
         uv_l = np.stack([u[ok], v[ok]], axis=1).astype(np.float64)
-        results.append((rig.back_project(uv_l, z[ok].astype(np.float64)), np.full(int(ok.sum()), k), uv_l,
+        results.append((rig.back_project(uv_l, z[ok].astype(np.float64), rectified=rig.is_rectified),
+                        np.full(int(ok.sum()), k), uv_l,
                         np.ones(int(ok.sum()))))
     if not results:
         return empty

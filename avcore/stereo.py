@@ -32,6 +32,7 @@ __all__ = [
 
 _RIG_KEYS = ("image_size", "left", "right", "rotation", "translation_m")
 _CAMERA_KEYS = ("camera_matrix", "dist_coeffs")
+RGBD_TWIN_M = 0.001  # StereoRig.rgbd: how far the virtual right camera of an RGB-D camera stands
 
 
 def _matrix(value: object, name: str, shape: tuple[int, ...]) -> np.ndarray:
@@ -185,6 +186,17 @@ class StereoRig:
         k = np.array([[focal_px, 0.0, cx], [0.0, focal_px, cy], [0.0, 0.0, 1.0]])
         return cls(size, k, np.zeros(5), k.copy(), np.zeros(5), np.eye(3), np.array([-float(baseline_m), 0.0, 0.0]))
 
+    @classmethod
+    def rgbd(cls, camera_matrix: object, image_size: tuple[int, int]) -> StereoRig:
+        """An RGB-D camera as a rig (:mod:`avcore.depth`): its colour camera ``camera_matrix`` (a CameraInfo's K)
+        is the left camera, and a virtual twin 1 mm to its right stands in for the right one, so that the scene
+        frame is the colour camera's optical frame within half a millimetre. Only :meth:`back_project` and
+        :meth:`project`'s left image are meant for it; the colour image is used as the camera gives it (RGB-D
+        drivers publish it with negligible distortion)."""
+        k = _camera_matrix(camera_matrix, "camera_matrix")
+        return cls(_image_size(image_size), k, np.zeros(5), k.copy(), np.zeros(5), np.eye(3),
+                   np.array([-RGBD_TWIN_M, 0.0, 0.0]))
+
     def to_dict(self) -> dict[str, Any]:
         """Plain lists and numbers (for YAML or JSON); :meth:`from_dict` reads it back exactly."""
         return {
@@ -306,13 +318,16 @@ class StereoRig:
         y = (v - cy) * z / fy
         return np.stack([x, y, z], axis=1)
 
-    def back_project(self, uv_left: object, depth_m: object) -> np.ndarray:
-        """Pixels of the rectified left image and their depth -> 3D points in the scene (cyclopean) frame: what an
-        RGB-D camera whose colour camera is the left camera measures (:mod:`avcore.depth`).
+    def back_project(self, uv_left: object, depth_m: object, *, rectified: bool = True) -> np.ndarray:
+        """Pixels of the left image and their depth -> 3D points in the scene (cyclopean) frame: what an RGB-D
+        camera whose colour camera is the left camera measures (:mod:`avcore.depth`).
 
-        uv_left : (n, 2) float, pixels; depth_m : (n,) float, metres along the optical axis. Returns (n, 3) float,
-        metres; the inverse of :meth:`project`'s left image. A depth that is not positive gives a row of NaN."""
+        uv_left : (n, 2) float, pixels of the rectified left image, or of the raw one with ``rectified=False``;
+        depth_m : (n,) float, metres along the optical axis. Returns (n, 3) float, metres; the inverse of
+        :meth:`project`'s left image. A depth that is not positive gives a row of NaN."""
         uv = _as_uv(uv_left, "uv_left")
+        if not rectified:
+            uv = self.rectify_points(uv, "left")
         z = np.asarray(depth_m, dtype=np.float64).reshape(-1)
         if z.shape[0] != uv.shape[0]:
             raise ValueError(f"one depth per pixel: {uv.shape[0]} pixels, {z.shape[0]} depths")

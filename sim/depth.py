@@ -18,8 +18,7 @@ follows the same painter's order as the colour image, so that what is drawn in f
   D435 are not exposed together; a few milliseconds, stated in Intel's multi-camera sync notes), so a moving face
   is a little off.
 
-Invalid pixels are NaN (:func:`avcore.depth.as_depth_m`'s convention); 16-bit millimetres are what a driver
-publishes (:func:`to_millimetres`).
+Invalid pixels are NaN (:func:`avcore.depth.as_depth_m`'s convention).
 """
 from __future__ import annotations
 
@@ -31,7 +30,7 @@ import numpy as np
 
 from sim.render import Person, StereoSceneRenderer, drawing_order
 
-__all__ = ["DepthErrors", "DepthRenderer", "to_millimetres"]
+__all__ = ["DepthErrors", "DepthRenderer"]
 
 
 @dataclass(frozen=True)
@@ -134,9 +133,3 @@ class DepthRenderer:
         inv_z = coef[0] * uu + coef[1] * vv + coef[2]
         roi = depth[y0:y1, x0:x1]
         roi[mask] = (1.0 / np.maximum(inv_z, 1e-6))[mask]
-
-
-def to_millimetres(depth_m: np.ndarray) -> np.ndarray:
-    """16UC1 millimetres, 0 where invalid: the depth as RealSense's driver publishes it."""
-    d = np.where(np.isfinite(depth_m), np.rint(depth_m * 1000.0), 0.0)
-    return np.clip(d, 0, 65535).astype(np.uint16)

@@ -29,11 +29,15 @@ Message definitions not in rosbags' ROS 2 Jazzy store are declared here from the
 - ``hri_msgs/msg/IdsList`` and ``hri_msgs/msg/IdsMatch``: github.com/ros4hri/hri_msgs, commit dd03e79c0670
   (2023-12-18), ``msg/IdsList.msg`` and ``msg/IdsMatch.msg`` (comments left out; ``Header`` written as
   ``std_msgs/Header``, which is what ROS 2 resolves it to);
+- ``audio_common_msgs/msg/AudioData``, ``AudioDataStamped`` and ``AudioInfo``: github.com/ros-drivers/audio_common,
+  branch ros2, commit 06c280a79859 (2024-03-07), ``audio_common_msgs/msg/*.msg`` (comments left out), what its
+  ``audio_capture`` node publishes (``audio_stamped`` and ``audio_info``, the latter every 5 s);
 - ``avhear_msgs/msg/AudioBlock``: avhear's own, for the sensor stream (see its definition below).
 """
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
@@ -41,7 +45,7 @@ import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 __all__ = [
-    "AUDIO_BLOCK", "COMPRESSED_IMAGE", "FACE", "RESULTS_KEY", "RIG_FRAME", "VOICE", "Topics", "decode", "encode",
+    "AUDIO_BLOCK", "AUDIO_INFO", "AUDIO_STAMPED", "CAMERA_INFO", "COMPRESSED_IMAGE", "FACE", "IMAGE", "RESULTS_KEY", "RosTopics", "RIG_FRAME", "VOICE", "Topics", "decode", "encode",
     "face_id", "make_header", "typestore", "voice_id",
 ]
 
@@ -52,6 +56,11 @@ FACE, VOICE = 2, 4  # hri_msgs/IdsMatch id types
 IDS_LIST = "hri_msgs/msg/IdsList"
 IDS_MATCH = "hri_msgs/msg/IdsMatch"
 AUDIO_BLOCK = "avhear_msgs/msg/AudioBlock"
+AUDIO_DATA = "audio_common_msgs/msg/AudioData"
+AUDIO_STAMPED = "audio_common_msgs/msg/AudioDataStamped"
+AUDIO_INFO = "audio_common_msgs/msg/AudioInfo"
+IMAGE = "sensor_msgs/msg/Image"
+CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 BOOL = "std_msgs/msg/Bool"
 ROI = "sensor_msgs/msg/RegionOfInterest"
 TF = "tf2_msgs/msg/TFMessage"
@@ -59,6 +68,9 @@ COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 
 _DEFINITIONS = {
     IDS_LIST: "std_msgs/Header header\nstring[] ids\n",
+    AUDIO_DATA: "uint8[] data\n",
+    AUDIO_STAMPED: "std_msgs/Header header\naudio_common_msgs/AudioData audio\n",
+    AUDIO_INFO: "uint8 channels\nuint32 sample_rate\nstring sample_format\nuint32 bitrate\nstring coding_format\n",
     IDS_MATCH: ("int8 UNSET=0\nint8 PERSON=1\nint8 FACE=2\nint8 BODY=3\nint8 VOICE=4\n"
                 "string id1\nint8 id1_type\nstring id2\nint8 id2_type\nfloat32 confidence\n"),
     # One block of multichannel audio. header.stamp: capture time of the block's first sample; first_sample: its
@@ -90,6 +102,20 @@ def decode(payload: bytes, typename: str) -> Any:
         return typestore().deserialize_cdr(payload, typename)
     except Exception as exc:  # noqa: BLE001 - rosbags raises several types for bad bytes
         raise ValueError(f"a {typename} payload of {len(payload)} bytes does not decode: {exc}") from exc
+
+
+@dataclass(frozen=True)
+class RosTopics:
+    """The topics of a ROS 2 robot's RGB-D camera and microphone as their drivers name them by default:
+    realsense2_camera 4.x (``align_depth.enable:=true``: colour rgb8, depth 16UC1 millimetres aligned to it, the
+    colour camera's CameraInfo) and audio_common's ``audio_capture`` (namespace ``audio``; ``format:=wave``).
+    Read by :class:`app.bus.ros_source.RosSource`, published by :class:`app.bus.sensors.RosDriverPublisher`."""
+
+    colour: str = "/camera/camera/color/image_raw"
+    depth: str = "/camera/camera/aligned_depth_to_color/image_raw"
+    camera_info: str = "/camera/camera/color/camera_info"
+    audio: str = "/audio/audio_stamped"
+    audio_info: str = "/audio/audio_info"
 
 
 def make_header(stamp_s: float, frame_id: str = RIG_FRAME) -> Any:

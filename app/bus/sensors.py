@@ -22,14 +22,16 @@ from typing import Any
 import cv2
 import numpy as np
 
-from app.bus.messages import AUDIO_BLOCK, COMPRESSED_IMAGE, encode, make_header, typestore
+from app.bus import convert
+from app.bus.messages import (AUDIO_BLOCK, AUDIO_INFO, AUDIO_STAMPED, CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, RosTopics,
+                              encode, make_header, typestore)
 from app.bus.ros2 import Convention, RosNode
 from app.config import RigConfig, rig_to_dict
 from app.events import AudioBlock, StereoFrame
 
 log = logging.getLogger(__name__)
 
-__all__ = ["AUDIO_KEY", "LEFT_KEY", "RIGHT_KEY", "RIG_KEY", "SensorPublisher", "image_message"]
+__all__ = ["AUDIO_KEY", "LEFT_KEY", "RIGHT_KEY", "RIG_KEY", "RosDriverPublisher", "SensorPublisher", "image_message"]
 
 LEFT_KEY = "stereo/left/image_rect_color/compressed"
 RIGHT_KEY = "stereo/right/image_rect_color/compressed"
@@ -55,46 +57,66 @@ def audio_message(block: AudioBlock) -> bytes:
 
 class SensorPublisher:
     """Publishes ``source`` (the pipeline's Source contract: ``frames(stop)``, ``audio(stop)``, ``rig``, ``mics``,
-    ``samplerate_hz``, ``channels``) on ``session`` in ``convention`` until the source ends or ``stop``."""
+    ``samplerate_hz``, ``channels``) on ``session`` in ``convention`` until the source ends or ``stop``: the two
+    rectified cameras and avhear's audio blocks (module docstring); :class:`RosDriverPublisher` publishes as ROS
+    drivers do instead."""
+
+    node_name = "avhear_sensors"
 
     def __init__(self, session: Any, source: Any, *, convention: Convention | None = None,
                  jpeg_quality: int = 90) -> None:
-        self.node = RosNode(session, convention or Convention(), name="avhear_sensors")
+        self.node = RosNode(session, convention or Convention(), name=self.node_name)
         self.session, self.source, self.jpeg_quality = session, source, jpeg_quality
         self.frames = self.audio_blocks = self.bytes = 0
         self.errors: list[str] = []
-        rig = RigConfig(stereo=source.rig, microphones=source.mics, array=getattr(source, "array", None))
-        self.info = json.dumps({"rig": rig_to_dict(rig), "samplerate_hz": float(source.samplerate_hz),
-                                "channels": list(source.channels)})
+        self.info = json.dumps(self._rig_answer())
         self._queryable = session.declare_queryable(self.node.convention.plain(RIG_KEY), self._answer)
+
+    def _rig_answer(self) -> dict[str, Any]:
+        source = self.source
+        rig = RigConfig(stereo=source.rig, microphones=source.mics, array=getattr(source, "array", None))
+        return {"rig": rig_to_dict(rig), "samplerate_hz": float(source.samplerate_hz),
+                "channels": list(source.channels)}
 
     def _answer(self, query: Any) -> None:
         query.reply(query.key_expr, self.info.encode())
 
+    def _clock_offset(self) -> float:
+        """What moves the source's stamps onto the robot's: a robot stamps at capture on its monotonic clock."""
+        return time.monotonic() - self.source.clock()
+
+    def _declare(self) -> None:
+        self._pubs = {"left": self.node.publisher(LEFT_KEY, COMPRESSED_IMAGE),
+                      "right": self.node.publisher(RIGHT_KEY, COMPRESSED_IMAGE),
+                      "audio": self.node.publisher(AUDIO_KEY, AUDIO_BLOCK)}
+
+    def _send_frame(self, frame: StereoFrame, offset: float) -> int:
+        left = image_message(frame.left, frame.stamp_s + offset, "avhear_left", self.jpeg_quality)
+        right = image_message(frame.right, frame.right_stamp_s + offset, "avhear_right", self.jpeg_quality)
+        self._pubs["left"].put(left)
+        self._pubs["right"].put(right)
+        return len(left) + len(right)
+
+    def _send_audio(self, block: AudioBlock, offset: float) -> int:
+        payload = audio_message(replace(block, stamp_s=block.stamp_s + offset))
+        self._pubs["audio"].put(payload)
+        return len(payload)
+
     def run(self, stop: threading.Event, duration_s: float | None = None) -> None:
         """Publish until the source ends, ``duration_s`` of wall time, or ``stop``; device errors are collected in
         :attr:`errors` and end the run."""
-        pub_l = self.node.publisher(LEFT_KEY, COMPRESSED_IMAGE)
-        pub_r = self.node.publisher(RIGHT_KEY, COMPRESSED_IMAGE)
-        pub_a = self.node.publisher(AUDIO_KEY, AUDIO_BLOCK)
-        # a robot stamps at capture on its monotonic clock: the simulator's or a recording's own stamps are moved there
-        offset = time.monotonic() - self.source.clock()
+        self._declare()
+        offset = self._clock_offset()
 
         def frames() -> None:
             for frame in self.source.frames(stop):
-                left = image_message(frame.left, frame.stamp_s + offset, "avhear_left", self.jpeg_quality)
-                right = image_message(frame.right, frame.right_stamp_s + offset, "avhear_right", self.jpeg_quality)
-                pub_l.put(left)
-                pub_r.put(right)
+                self.bytes += self._send_frame(frame, offset)
                 self.frames += 1
-                self.bytes += len(left) + len(right)
 
         def audio() -> None:
             for block in self.source.audio(stop):
-                payload = audio_message(replace(block, stamp_s=block.stamp_s + offset))
-                pub_a.put(payload)
+                self.bytes += self._send_audio(block, offset)
                 self.audio_blocks += 1
-                self.bytes += len(payload)
 
         def guard(fn: Any, name: str) -> None:
             try:
@@ -112,12 +134,82 @@ class SensorPublisher:
         stop.set()
         for t in threads:
             t.join(2.0)
-        for pub in (pub_l, pub_r, pub_a):
+        for pub in self._pubs.values():
             pub.undeclare()
 
     def close(self) -> None:
         self._queryable.undeclare()
         self.node.close()
+
+
+class RosDriverPublisher(SensorPublisher):
+    """A robot made of an RGB-D source (the simulated room's ``camera="rgbd"``) that publishes as ROS 2 drivers do
+    (:class:`app.bus.ros_source.RosTopics`): realsense2_camera's colour (rgb8), aligned depth (16UC1 millimetres)
+    and CameraInfo, audio_common's AudioDataStamped (S16LE) and, at the start and every 5 s, its AudioInfo. Stamps are
+    ROS time (the system clock). The rig it answers holds the microphones in the colour camera's optical frame and
+    no stereo section: the laptop reads the camera from its CameraInfo, as it would a RealSense's."""
+
+    node_name = "camera"
+    info_period_s = 5.0
+
+    def __init__(self, session: Any, source: Any, **kwargs: Any) -> None:
+        super().__init__(session, source, **kwargs)
+        self._last_info = -np.inf
+
+    def _rig_answer(self) -> dict[str, Any]:
+        source = self.source
+        dx = 0.5 * source.rig.baseline_m  # the scene frame's origin is midway between the pair; the colour is left
+        array = getattr(source, "array", None)
+        rig = RigConfig(stereo=None,
+                        microphones=replace(source.mics, left=_moved(source.mics.left, dx),
+                                            right=_moved(source.mics.right, dx)),
+                        array=None if array is None else replace(array, positions=tuple(
+                            _moved(p, dx) for p in array.positions)))
+        return {"rig": rig_to_dict(rig), "samplerate_hz": float(source.samplerate_hz),
+                "channels": list(source.channels)}
+
+    def _clock_offset(self) -> float:
+        return time.time() - self.source.clock()
+
+    def _declare(self) -> None:
+        topics = RosTopics()  # the drivers' own names
+        self._pubs = {"colour": self.node.publisher(topics.colour, IMAGE),
+                      "depth": self.node.publisher(topics.depth, IMAGE),
+                      "camera_info": self.node.publisher(topics.camera_info, CAMERA_INFO),
+                      "audio": self.node.publisher(topics.audio, AUDIO_STAMPED),
+                      "audio_info": self.node.publisher(topics.audio_info, AUDIO_INFO)}
+        rig = self.source.rig
+        self._k = rig.proj_left[:, :3].copy()
+
+    def _send_frame(self, frame: StereoFrame, offset: float) -> int:
+        if frame.depth_m is None:
+            raise ValueError("the source is no RGB-D camera: its frames have no depth")
+        stamp = frame.stamp_s + offset
+        frame_id = "camera_color_optical_frame"
+        payloads = [("colour", encode(convert.image_message(frame.left, "rgb8", stamp, frame_id), IMAGE)),
+                    ("depth", encode(convert.image_message(convert.depth_millimetres(frame.depth_m), "16UC1", stamp,
+                                                           frame_id), IMAGE)),
+                    ("camera_info", encode(convert.camera_info(self._k, tuple(self.source.rig.image_size), stamp,
+                                                               frame_id), CAMERA_INFO))]
+        for name, payload in payloads:
+            self._pubs[name].put(payload)
+        return sum(len(p) for _, p in payloads)
+
+    def _send_audio(self, block: AudioBlock, offset: float) -> int:
+        stamped, info = convert.audio_messages(block.samples, block.stamp_s + offset, block.samplerate_hz)
+        payload = encode(stamped, AUDIO_STAMPED)
+        self._pubs["audio"].put(payload)
+        now = time.monotonic()
+        if now - self._last_info >= self.info_period_s:
+            self._pubs["audio_info"].put(encode(info, AUDIO_INFO))
+            self._last_info = now
+        return len(payload)
+
+
+def _moved(position: Any, dx: float) -> tuple[float, float, float]:
+    """A position of the rig's scene frame in its left camera's optical frame (``dx``: half the baseline)."""
+    x, y, z = (float(v) for v in position)
+    return (x + dx, y, z)
 
 
 def frame_from_messages(index: int, left: Any, right: Any) -> StereoFrame:

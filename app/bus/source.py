@@ -29,7 +29,53 @@ from avcore.sync import ApproximateTime
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BusSource"]
+__all__ = ["BusSource", "Presence", "ask_rig"]
+
+
+def ask_rig(session: Any, key: str, timeout_s: float, namespace: str) -> tuple[RigConfig, float, tuple[int, ...]]:
+    """The rig that ``avhear sensors`` answers on ``key``: (rig, samplerate_hz, channels), or a :class:`UserError`
+    saying what to start or give when nothing answers within ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        for reply in session.get(key, timeout=1.0):
+            if reply.ok is None:
+                continue
+            try:
+                info = json.loads(reply.ok.payload.to_bytes())
+                return (rig_from_dict(info["rig"], f"the robot's rig ({key})"), float(info["samplerate_hz"]),
+                        tuple(int(c) for c in info["channels"]))
+            except (ValueError, KeyError, TypeError) as exc:
+                raise UserError(f"the robot's rig on {key} does not read: {exc}") from None
+        time.sleep(0.2)
+    where = (f"in the namespace {namespace!r} (does the robot run with --bus-namespace {namespace}?)" if namespace
+             else "without a namespace (does the robot run with a --bus-namespace?)")
+    raise UserError(f"no robot answered on {key} within {timeout_s:g} s {where}: start `avhear sensors` there "
+                    "(on another machine, reach it with --bus-connect), or give its rig with --rig")
+
+
+class Presence:
+    """Whether the robot's frames come: a gap is counted, and said once, when none came for ``gap_s`` after the
+    robot had been seen; its return is said too. A gap is never counted before the robot was seen."""
+
+    def __init__(self, gap_s: float) -> None:
+        self.gap_s, self.gaps = gap_s, 0
+        self._last: float | None = None
+        self._away = False
+
+    def seen(self, arrived: bool) -> bool:
+        """Call once per wait for a frame: ``arrived`` whether one came. Returns ``arrived``."""
+        now = time.monotonic()
+        if not arrived:
+            if self._last is not None and not self._away and now - self._last > self.gap_s:
+                self._away = True
+                self.gaps += 1
+                log.warning("no camera frames from the robot for %.1f s: waiting for it", now - self._last)
+            return False
+        if self._away:
+            log.warning("the robot's sensors are back after %.1f s", now - (self._last or now))
+            self._away = False
+        self._last = now
+        return True
 
 
 class BusSource(SourceBase):
@@ -55,15 +101,14 @@ class BusSource(SourceBase):
         self.node = RosNode(session, convention, name="avhear")
         topics = (left_key or LEFT_KEY, right_key or RIGHT_KEY, audio_key or AUDIO_KEY)
         self.keys = tuple(convention.topic(t) for t in topics)  # ROS topic names, for messages
-        self.gap_s = gap_s
         self.bad_payloads = 0
-        self.gaps = 0
         self.images_received = 0
+        self._presence = Presence(gap_s)
         self._samplerate: float | None = None
         self._n_channels: int | None = None
         self.channels: tuple[int, int] = (0, 1)
         if rig is None:
-            rig, self._samplerate, self.channels = self._ask_rig(convention.plain(RIG_KEY), rig_timeout_s, ns)
+            rig, self._samplerate, self.channels = ask_rig(session, convention.plain(RIG_KEY), rig_timeout_s, ns)
         if rig.stereo is None or (rig.microphones is None and rig.array is None):
             raise UserError("the rig needs a 'stereo' section and a 'microphones' or 'array' section (give --rig "
                             "with both)")
@@ -83,24 +128,6 @@ class BusSource(SourceBase):
             self.node.subscriber(topics[1], COMPRESSED_IMAGE, lambda s: self._on_image(1, s)),
             self.node.subscriber(topics[2], AUDIO_BLOCK, self._on_audio),
         ]
-
-    def _ask_rig(self, key: str, timeout_s: float, namespace: str) -> tuple[RigConfig, float, tuple[int, int]]:
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            for reply in self.session.get(key, timeout=1.0):
-                if reply.ok is None:
-                    continue
-                try:
-                    info = json.loads(reply.ok.payload.to_bytes())
-                    return (rig_from_dict(info["rig"], f"the robot's rig ({key})"), float(info["samplerate_hz"]),
-                            tuple(int(c) for c in info["channels"]))
-                except (ValueError, KeyError, TypeError) as exc:
-                    raise UserError(f"the robot's rig on {key} does not read: {exc}") from None
-            time.sleep(0.2)
-        where = (f"in the namespace {namespace!r} (does the robot run with --bus-namespace {namespace}?)" if namespace
-                 else "without a namespace (does the robot run with a --bus-namespace?)")
-        raise UserError(f"no robot answered on {key} within {timeout_s:g} s {where}: start `avhear sensors` there "
-                        "(on another machine, reach it with --bus-connect), or give its rig with --rig")
 
     # -- Zenoh's threads: decode and hand over ---------------------------------------------------------------
 
@@ -153,23 +180,16 @@ class BusSource(SourceBase):
     def frames_dropped(self) -> int:
         return self._images.dropped + sum(self._pairing.dropped_counts)
 
+    @property
+    def gaps(self) -> int:
+        return self._presence.gaps
+
     def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
         index = 0
-        last: float | None = None  # a gap is counted only once the robot has been seen
-        away = False
         while not stop.is_set():
             item = self._images.get(timeout=0.05)
-            now = time.monotonic()
-            if item is None:
-                if last is not None and not away and now - last > self.gap_s:
-                    away = True
-                    self.gaps += 1
-                    log.warning("no camera frames from the robot for %.1f s: waiting for it", now - last)
+            if not self._presence.seen(item is not None):
                 continue
-            if away:
-                log.warning("the robot's sensors are back after %.1f s", now - last)
-                away = False
-            last = now
             self.images_received += 1
             side, stamp, msg = item
             if stamp < self._last_stamp[side]:  # the robot's stream started again on another clock

@@ -16,7 +16,7 @@ from app.sources.sim import MAX_SIMULATED_S
 
 __all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_bus_arguments", "add_device_arguments", "add_method_arguments",
            "bus_options", "bus_source", "count", "duration", "live_config", "odd_count", "pipeline_config", "port",
-           "positive", "wants_bodies", "add_camera_argument"]
+           "positive", "wants_bodies", "add_camera_argument", "add_ros_topic_arguments", "ros_source"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 
@@ -235,6 +235,36 @@ def add_bus_arguments(p: argparse.ArgumentParser) -> None:
                         "default) or bridge (zenoh-bridge-ros2dds's)")
     g.add_argument("--ros-domain", type=_domain, metavar="ID",
                    help="ROS domain id of rmw_zenoh's keys (default: ROS_DOMAIN_ID, or 0)")
+
+
+def add_ros_topic_arguments(p: argparse.ArgumentParser) -> None:
+    """The topics of ``--source ros`` (defaults: the drivers' own names, :class:`app.bus.messages.RosTopics`)."""
+    from app.bus.messages import RosTopics
+
+    g = p.add_argument_group("ROS 2 robot (--source ros)")
+    d = RosTopics()
+    for name, what in (("colour", "colour image (sensor_msgs/Image; CompressedImage when it ends in /compressed)"),
+                       ("depth", "depth aligned to the colour image (16UC1 millimetres or 32FC1 metres)"),
+                       ("camera_info", "the colour camera's CameraInfo (unless --rig has a stereo section)"),
+                       ("audio", "audio_common's AudioDataStamped (S16LE)"), ("audio_info", "audio_common's AudioInfo")):
+        flag = "--" + name.replace("_", "-") + "-topic"
+        g.add_argument(flag, default=getattr(d, name), metavar="TOPIC", help=f"{what} (default {getattr(d, name)})")
+
+
+def ros_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:
+    """A ROS 2 robot's RGB-D camera and microphone topics as a pipeline source (``--source ros``)."""
+    from app.bus.messages import RosTopics
+    from app.bus.ros_source import RosSource
+    from app.config import MICROPHONES_HINT, load_rig
+
+    rig = None
+    if getattr(args, "rig", None):
+        rig = load_rig(args.rig)
+        if rig.microphones is None and rig.array is None:
+            raise UserError(f"{args.rig} has no 'microphones' section: {MICROPHONES_HINT}")
+    topics = RosTopics(args.colour_topic, args.depth_topic, args.camera_info_topic, args.audio_topic,
+                       args.audio_info_topic)
+    return RosSource(session, rig, convention=options.convention, topics=topics)
 
 
 def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:

@@ -15,6 +15,7 @@ from app.console import Console
 from app.errors import UserError
 from app.sources.live import LiveConfig
 from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_camera_argument,
+                                  add_ros_topic_arguments, ros_source,
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
                                   wants_bodies)
@@ -68,14 +69,15 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     _common(demo, duration_help=f"seconds of the simulated room to run (default 20, at most {MAX_SIMULATED_S:g})",
             max_duration_s=MAX_SIMULATED_S)
     demo.set_defaults(func=run_demo, duration=20.0)
-    run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER, live or bus",
+    run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER, live, bus or ros",
                          description="Runs the pipeline (who is there, where, who speaks) on a source: the simulated "
                          "room (sim:S1..S5), a recording folder (replay:FOLDER), cameras and a microphone (live, "
-                         "with --rig), or a robot's sensors on the bus (bus). Results go to the Rerun console, a "
-                         "results file (--results-jsonl) and the bus (--publish). Ctrl-C stops and keeps "
-                         "everything.")
+                         "with --rig), a robot's `avhear sensors` on the bus (bus), or a ROS 2 robot's RGB-D camera "
+                         "and microphone topics (ros). Results go to the Rerun console, a results file "
+                         "(--results-jsonl) and the bus (--publish). Ctrl-C stops and keeps everything.")
     run.add_argument("--source", default="sim:S2",
-                     help="sim:S1..S5|calibration, replay:FOLDER, live, or bus (a robot's `avhear sensors`)")
+                     help="sim:S1..S5|calibration, replay:FOLDER, live, bus (a robot's `avhear sensors`) or ros (a "
+                          "ROS 2 robot's camera and microphone topics)")
     run.add_argument("--left-key", default=None, metavar="TOPIC",
                      help="bus: ROS topic of the left camera (sensor_msgs/CompressedImage, rectified; relative to "
                           "--bus-namespace unless it starts with /; default: avhear sensors')")
@@ -85,8 +87,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
     run.add_argument("--rig", default=None,
                      help="rig YAML of a live source (stereo + microphones); with --source bus it overrides the "
-                          "robot's")
+                          "robot's; with --source ros, the microphones in the colour camera's optical frame")
     add_device_arguments(run)
+    add_ros_topic_arguments(run)
     _common(run, duration_help="stop after this many seconds of stream (default: the whole source; a live source "
                                "until Ctrl-C)")
     run.set_defaults(func=run_source)
@@ -145,7 +148,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         results = stack.enter_context(ResultsWriter(args.results_jsonl)) if args.results_jsonl is not None else None
         publisher = session = None
         options = bus_options(args)
-        if args.publish or spec == "bus":
+        if args.publish or spec in ("bus", "ros"):
             session = open_session(options)
             stack.callback(session.close)
         if args.publish:
@@ -154,6 +157,8 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         print(f"avhear: preparing {spec} ...", file=sys.stderr, flush=True)
         if spec == "bus":
             source = bus_source(session, options, args)
+        elif spec == "ros":
+            source = ros_source(session, options, args)
         else:
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
@@ -161,14 +166,14 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
         return _run_checked(spec, args, target, config, source, results, publisher,
-                            wall_time=live is not None or spec == "bus")
+                            wall_time=live is not None or spec in ("bus", "ros"))
 
 
 def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: PipelineStats, source: Any,
             sinks: Sinks) -> None:
     """The run's summary and where its outputs are."""
     print(f"avhear: {stats.summary()}")
-    if spec == "bus":
+    if spec in ("bus", "ros"):
         print(f"avhear: from the bus: {source.gaps} gaps while the robot was away, {source.bad_payloads} payloads "
               "that did not decode (skipped)")
     if args.stats_json is not None:
@@ -223,11 +228,12 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
             signal.signal(signal.SIGTERM, previous)
     stats.interrupted = stats.interrupted or terminated.is_set()
     _report(spec, args, target, stats, source, sinks)
-    if spec == "bus" and not source.images_received and not stats.interrupted:
+    if spec in ("bus", "ros") and not source.images_received and not stats.interrupted:
         session.close(keep_serving=False)
-        raise UserError(f"no robot published on {', '.join(source.keys[:2])} during the run: start `avhear sensors` "
-                        "there (the same --bus-namespace and --ros-keys), or name its camera topics with "
-                        "--left-key/--right-key")
+        hint = ("start `avhear sensors` there (the same --bus-namespace and --ros-keys), or name its camera topics "
+                "with --left-key/--right-key") if spec == "bus" else ("is the camera driver running (the same "
+                "--ros-domain and --ros-keys)? Name its topics with --colour-topic/--depth-topic")
+        raise UserError(f"no robot published on {', '.join(source.keys[:2])} during the run: {hint}")
     if stats.interrupted:
         print("avhear: interrupted", file=sys.stderr)
         session.close(keep_serving=False)

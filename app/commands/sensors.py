@@ -8,7 +8,7 @@ import sys
 import threading
 import time
 
-from app.bus.sensors import SensorPublisher
+from app.bus.sensors import RosDriverPublisher, SensorPublisher
 from app.bus.session import open_session
 from app.errors import UserError
 from app.commands.options import (add_bus_arguments, add_device_arguments, add_mics_argument, bus_options, count,
@@ -29,6 +29,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS",
                    help="stop after this many seconds (default: the end of the source, or Ctrl-C)")
     p.add_argument("--jpeg-quality", type=count(10, 100), default=90, help="JPEG quality of the images (90)")
+    p.add_argument("--ros", action="store_true",
+                   help="publish as a ROS 2 robot's drivers do: the simulated room's RGB-D camera as "
+                        "realsense2_camera's colour, aligned depth and camera_info topics, the microphones as "
+                        "audio_common's audio_stamped and audio_info (read them with avhear run --source ros)")
     add_mics_argument(p)
     add_device_arguments(p)
     add_bus_arguments(p)
@@ -41,14 +45,19 @@ def run(args: argparse.Namespace) -> int:
     if args.mics != "pair" and not args.source.startswith("sim:"):
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {args.source} brings its own "
                         "(the rig file's array or pair, or the recording's)")
+    if args.ros and not args.source.startswith("sim:"):
+        raise UserError(f"--ros publishes the simulated room's RGB-D camera as a driver does; {args.source} has "
+                        "none (a real robot's drivers publish their own topics)")
     live = live_config(args) if args.source == "live" else None
     options = bus_options(args)
     session = open_session(options)
     try:
         source = open_source(args.source, realtime=True, duration_s=args.duration if live is None else None,
                              seed=args.seed, rig_path=args.rig, live=live, mics=args.mics,
+                             camera="rgbd" if args.ros else "stereo",
                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
-        publisher = SensorPublisher(session, source, convention=options.convention, jpeg_quality=args.jpeg_quality)
+        kind = RosDriverPublisher if args.ros else SensorPublisher
+        publisher = kind(session, source, convention=options.convention, jpeg_quality=args.jpeg_quality)
         print(f"avhear: publishing {args.source} on the bus ... Ctrl-C stops", file=sys.stderr, flush=True)
         start = time.monotonic()
         with stop_on_signals(threading.Event()) as stop:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from avcore.depth import locate_faces_depth
-from sim.depth import DepthErrors, DepthRenderer, to_millimetres
+from sim.depth import DepthErrors, DepthRenderer
 from sim.render import default_scene
 
 
@@ -72,9 +72,3 @@ def test_rgbd_faces_within_two_centimetres() -> None:
         assert np.all(nearest < 0.05), (k, nearest)  # every face found, none far off
         errors += nearest.tolist()
     assert np.median(errors) < 0.02
-
-
-def test_millimetres_as_a_driver_publishes_them() -> None:
-    got = to_millimetres(np.array([[1.2344, np.nan], [70.0, 0.5]], np.float32))
-    assert got.dtype == np.uint16
-    assert got.tolist() == [[1234, 0], [65535, 500]]  # invalid is 0, beyond 65.535 m the largest value

@@ -1,0 +1,261 @@
+"""A ROS 2 robot as it is (``avhear run --source ros``): an RGB-D camera and a microphone's topics, named as their
+drivers name them, as a pipeline source.
+
+Default topics (:class:`app.bus.messages.RosTopics`, each renamed by a flag): realsense2_camera 4.x with
+``align_depth.enable:=true`` publishes ``/camera/camera/color/image_raw`` (sensor_msgs/Image, rgb8),
+``/camera/camera/aligned_depth_to_color/image_raw`` (16UC1 millimetres, aligned to the colour image, with the colour
+image's stamp) and ``/camera/camera/color/camera_info``; audio_common's ``audio_capture`` (``format:=wave``)
+publishes ``/audio/audio_stamped`` (AudioDataStamped, S16LE) and, every 5 s, ``/audio/audio_info``. A colour topic
+whose name ends in ``/compressed`` is read as sensor_msgs/CompressedImage (image_transport's naming).
+
+The camera's intrinsics come from its CameraInfo (:meth:`StereoRig.rgbd`: the scene frame is the colour camera's
+optical frame, x right, y down, z forward) unless the rig file has a ``stereo`` section; the microphones and their
+place in that frame come from the rig file. The source waits (``info_timeout_s``) for the CameraInfo and the first
+AudioInfo before it starts.
+
+Clocks: ROS stamps are the robot's system time; :meth:`clock` is this machine's (``time.time()``), as ROS time is.
+A stream whose first stamp is more than ``clock_tolerance_s`` away from now is on another clock (audio_capture stamps
+on GStreamer's monotonic clock): it is moved onto this one by the offset its first message shows, once, with a
+notice. Colour and depth are paired by stamp; audio samples are numbered by count, and a stamp later than the count
+says by more than half a message counts a lost message and skips the numbering ahead.
+"""
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import cv2
+import numpy as np
+
+from app.bus.convert import AudioFormat, audio_format, audio_samples, camera_matrix, image_from_msg, stamp_s
+from app.bus.messages import AUDIO_INFO, AUDIO_STAMPED, CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, RosTopics, decode
+from app.bus.ros2 import Convention, RosNode
+from app.bus.sensors import RIG_KEY
+from app.bus.source import Presence, ask_rig
+from app.config import RigConfig
+from app.errors import UserError
+from app.events import AudioBlock, StereoFrame
+from app.queues import DropOldestQueue
+from app.sources.contract import SourceBase
+from avcore.depth import as_depth_m
+from avcore.stereo import StereoRig
+from avcore.sync import ApproximateTime
+
+log = logging.getLogger(__name__)
+
+__all__ = ["RosSource"]
+
+
+class _Rebase:
+    """Moves a stream's stamps onto this machine's clock when its first one shows it is on another."""
+
+    def __init__(self, name: str, tolerance_s: float) -> None:
+        self.name, self.tolerance_s, self.offset_s = name, tolerance_s, None
+
+    def __call__(self, stamp: float, now: float) -> float:
+        if self.offset_s is None:
+            self.offset_s = now - stamp if abs(now - stamp) > self.tolerance_s else 0.0
+            if self.offset_s:
+                log.warning("the %s is stamped on another clock (%.1f s from this one's): moved onto it", self.name,
+                            self.offset_s)
+        return stamp + self.offset_s
+
+
+class RosSource(SourceBase):
+    """The robot's RGB-D camera and microphones from their ROS 2 topics (module docstring)."""
+
+    realtime = True
+
+    def __init__(self, session: Any, rig: RigConfig | None = None, *, convention: Convention | None = None,
+                 topics: RosTopics | None = None, info_timeout_s: float = 10.0, gap_s: float = 1.0,
+                 clock_tolerance_s: float = 10.0, queue_size: int = 64) -> None:
+        convention = convention or Convention()
+        if rig is None:  # a robot made of `avhear sensors --ros` answers with its microphones
+            rig = ask_rig(session, convention.plain(RIG_KEY), info_timeout_s, convention.namespace.strip("/"))[0]
+        if rig.microphones is None and rig.array is None:
+            raise UserError("the rig file needs a 'microphones' or 'array' section: where the robot's microphones "
+                            "are, in the colour camera's optical frame (x right, y down, z forward, metres)")
+        self.topics = topics = topics or RosTopics()
+        self.session, self.node = session, RosNode(session, convention, name="avhear")
+        self.keys = (convention.topic(topics.colour), convention.topic(topics.depth))  # for messages
+        self.bad_payloads = self.images_received = self.audio_gaps = 0
+        self._presence = Presence(gap_s)
+        self._rebase = {k: _Rebase(k, clock_tolerance_s) for k in ("colour camera", "depth camera", "microphone")}
+        self._pairing = ApproximateTime(2, queue_size=4, max_interval_s=0.02)
+        self._images: DropOldestQueue[tuple[int, float, Any]] = DropOldestQueue(queue_size, "ros-images")
+        self._audio: DropOldestQueue[AudioBlock] = DropOldestQueue(4 * queue_size, "ros-audio")
+        self._info: dict[str, Any] = {}
+        self._ready = threading.Condition()
+        self._format: AudioFormat | None = None
+        self._next_sample = self._blocks = 0
+        self._audio_t0: float | None = None
+        colour_type = COMPRESSED_IMAGE if topics.colour.rstrip("/").endswith("/compressed") else IMAGE
+        subs = [(topics.colour, colour_type, lambda s: self._on_image(0, s, colour_type)),
+                (topics.depth, IMAGE, lambda s: self._on_image(1, s, IMAGE)),
+                (topics.audio_info, AUDIO_INFO, lambda s: self._on_info("audio", s, AUDIO_INFO)),
+                (topics.audio, AUDIO_STAMPED, self._on_audio)]
+        if rig.stereo is None:
+            subs.append((topics.camera_info, CAMERA_INFO, lambda s: self._on_info("camera", s, CAMERA_INFO)))
+        self._subscribers = [self.node.subscriber(topic, kind, callback) for topic, kind, callback in subs]
+        try:
+            stereo = rig.stereo or self._camera(info_timeout_s, convention)
+            self._format = self._audio_info(info_timeout_s, convention)
+        except BaseException:
+            self.close()
+            raise
+        self.rig, self.mics, self.array = stereo, rig.microphones, None
+        self.channels: tuple[int, int] = (0, 1)
+        if rig.array is not None:
+            pair = rig.array.pairs[0]  # type: ignore[index]
+            self.mics = rig.array.pair(0)
+            self.channels = (rig.array.channels[pair[0]], rig.array.channels[pair[1]])  # type: ignore[index]
+            self.array = rig.array if rig.array.n_pairs > 1 else None
+        wanted = max(rig.array.channels) + 1 if rig.array is not None else 2  # type: ignore[union-attr]
+        if self._format.channels < wanted:
+            raise UserError(f"the microphone publishes {self._format.channels} channels; the rig's microphones need "
+                            f"{wanted}")
+        self.samplerate_hz = float(self._format.samplerate_hz)
+
+    # -- waiting for the drivers' info messages ----------------------------------------------------------------
+
+    def _wait_for(self, what: str, timeout_s: float) -> Any:
+        with self._ready:
+            self._ready.wait_for(lambda: what in self._info, timeout=timeout_s)
+            return self._info.get(what)
+
+    def _camera(self, timeout_s: float, convention: Convention) -> StereoRig:
+        info = self._wait_for("camera", timeout_s)
+        if info is None:
+            raise UserError(f"no CameraInfo on {convention.topic(self.topics.camera_info)} within {timeout_s:g} s: "
+                            "is the camera driver running (same --ros-domain, --ros-keys)? Name the topic with "
+                            "--camera-info-topic, or give the camera's intrinsics in the rig file's stereo section")
+        try:
+            k, size = camera_matrix(info)
+        except ValueError as exc:
+            raise UserError(f"{convention.topic(self.topics.camera_info)}: {exc}") from None
+        return StereoRig.rgbd(k, size)
+
+    def _audio_info(self, timeout_s: float, convention: Convention) -> AudioFormat:
+        info = self._wait_for("audio", timeout_s)
+        if info is None:
+            raise UserError(f"no AudioInfo on {convention.topic(self.topics.audio_info)} within {timeout_s:g} s: "
+                            "is audio_capture running (it publishes one every 5 s)? Name the topics with "
+                            "--audio-topic and --audio-info-topic")
+        try:
+            return audio_format(info)
+        except ValueError as exc:
+            raise UserError(f"{convention.topic(self.topics.audio_info)}: {exc}") from None
+
+    # -- Zenoh's threads: decode and hand over ---------------------------------------------------------------
+
+    def _on_info(self, what: str, sample: Any, typename: str) -> None:
+        try:
+            msg = decode(sample.payload.to_bytes(), typename)
+        except ValueError:
+            self.bad_payloads += 1
+            return
+        with self._ready:
+            self._info[what] = msg
+            self._ready.notify_all()
+
+    def _on_image(self, side: int, sample: Any, typename: str) -> None:
+        try:
+            msg = decode(sample.payload.to_bytes(), typename)
+        except ValueError:
+            self.bad_payloads += 1
+            return
+        stamp = self._rebase[("colour camera", "depth camera")[side]](stamp_s(msg.header), time.time())
+        self._images.put((side, stamp, msg))
+
+    def _on_audio(self, sample: Any) -> None:
+        fmt = self._format
+        if fmt is None:  # before the AudioInfo: the stream has not started for avhear
+            return
+        try:
+            msg = decode(sample.payload.to_bytes(), AUDIO_STAMPED)
+            samples = audio_samples(msg, fmt)
+        except ValueError:
+            self.bad_payloads += 1
+            return
+        if samples.shape[0] == 0:
+            return
+        fs = fmt.samplerate_hz
+        stamp = self._rebase["microphone"](stamp_s(msg.header), time.time() - samples.shape[0] / fs)
+        if self._audio_t0 is None:
+            self._audio_t0 = stamp
+        expected = self._audio_t0 + self._next_sample / fs
+        if stamp - expected > 0.5 * samples.shape[0] / fs:  # a message (or more) was lost on the way
+            self.audio_gaps += 1
+            self._next_sample = int(round((stamp - self._audio_t0) * fs))
+        first = self._next_sample
+        self._audio.put(AudioBlock(self._blocks, first, self._audio_t0 + first / fs, samples, fs))
+        self._next_sample += samples.shape[0]
+        self._blocks += 1
+
+    # -- the Source contract -----------------------------------------------------------------------------------
+
+    def clock(self) -> float:
+        """ROS time: this machine's system clock."""
+        return time.time()
+
+    def audio_format(self, timeout_s: float = 10.0) -> tuple[float, int]:
+        """(samplerate_hz, n_channels) of the robot's audio (known from its AudioInfo)."""
+        assert self._format is not None
+        return self.samplerate_hz, self._format.channels
+
+    @property
+    def overflows(self) -> int:
+        return self._audio.dropped
+
+    @property
+    def frames_dropped(self) -> int:
+        return self._images.dropped + sum(self._pairing.dropped_counts)
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
+        index = 0
+        while not stop.is_set():
+            item = self._images.get(timeout=0.05)
+            if not self._presence.seen(item is not None):
+                continue
+            self.images_received += 1
+            side, stamp, msg = item
+            for colour, depth in self._pairing.push(side, stamp, (stamp, msg)):
+                try:
+                    frame = self._frame(index, *colour, depth[1])
+                except ValueError:
+                    self.bad_payloads += 1
+                    continue
+                yield frame
+                index += 1
+
+    def _frame(self, index: int, stamp: float, colour: Any, depth: Any) -> StereoFrame:
+        if hasattr(colour, "encoding"):
+            image = image_from_msg(colour)
+        else:
+            image = cv2.imdecode(np.frombuffer(bytes(colour.data), np.uint8), cv2.IMREAD_COLOR)
+            if image is None:
+                raise ValueError(f"a compressed image of format {colour.format!r} does not decode")
+        depth_m = as_depth_m(image_from_msg(depth))
+        if depth_m.shape != image.shape[:2]:
+            raise ValueError(f"the depth image is {depth_m.shape[::-1]}, the colour image {image.shape[1::-1]}: "
+                             "is the depth aligned to the colour image (align_depth.enable:=true)?")
+        return StereoFrame(index, stamp, image, None, stamp, None, depth_m)
+
+    @property
+    def gaps(self) -> int:
+        return self._presence.gaps
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
+        while not stop.is_set():
+            block = self._audio.get(timeout=0.05)
+            if block is not None:
+                yield block
+
+    def close(self) -> None:
+        for sub in self._subscribers:
+            sub.undeclare()
+        self._subscribers = []
+        self.node.close()

@@ -1,0 +1,202 @@
+"""`--source ros`: a ROS 2 robot's RGB-D camera and microphone topics, as realsense2_camera and audio_common publish
+them, read over real Zenoh sessions. The robot's messages are built here by rosbags alone (with audio_common's
+message definitions as its package declares them), under rmw_zenoh's keys written out by hand."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+K = [[600.0, 0.0, 322.0], [0.0, 601.0, 239.0], [0.0, 0.0, 1.0]]
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _session(listen: int | None = None, connect: int | None = None):  # noqa: ANN202
+    import zenoh
+
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    if listen is not None:
+        config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{listen}"]))
+    if connect is not None:
+        config.insert_json5("connect/endpoints", json.dumps([f"tcp/127.0.0.1:{connect}"]))
+    return zenoh.open(config)
+
+
+class _Driver:
+    """A RealSense and an audio_capture node, as rosbags serialises their messages (ROS 2 Jazzy)."""
+
+    def __init__(self, session) -> None:  # noqa: ANN001
+        from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+        self.store = get_typestore(Stores.ROS2_JAZZY)
+        # audio_common (ros-drivers/audio_common, branch ros2), audio_common_msgs/msg/*.msg
+        for name, text in (("AudioData", "uint8[] data"),
+                           ("AudioDataStamped", "std_msgs/Header header\naudio_common_msgs/AudioData audio"),
+                           ("AudioInfo", "uint8 channels\nuint32 sample_rate\nstring sample_format\nuint32 bitrate\n"
+                                         "string coding_format")):
+            self.store.register(get_types_from_msg(text, f"audio_common_msgs/msg/{name}"))
+        self.t = self.store.types
+        self.session = session
+        self._pubs = {}
+
+    def put(self, topic: str, typename: str, message: object) -> None:
+        package, _, name = typename.split("/")
+        key = f"0/{topic}/{package}::msg::dds_::{name}_/{self.store.hash_rihs01(typename)}"
+        if key not in self._pubs:
+            self._pubs[key] = self.session.declare_publisher(key)
+        self._pubs[key].put(bytes(self.store.serialize_cdr(message, typename)))
+
+    def header(self, stamp: float, frame: str):  # noqa: ANN201
+        sec = int(stamp)
+        return self.t["std_msgs/msg/Header"](stamp=self.t["builtin_interfaces/msg/Time"](
+            sec=sec, nanosec=int(round((stamp - sec) * 1e9))), frame_id=frame)
+
+    def camera(self, stamp: float, colour_rgb: np.ndarray, depth_mm: np.ndarray) -> None:
+        h, w = depth_mm.shape
+        image = self.t["sensor_msgs/msg/Image"]
+        self.put("camera/camera/color/image_raw", "sensor_msgs/msg/Image", image(
+            header=self.header(stamp, "camera_color_optical_frame"), height=h, width=w, encoding="rgb8",
+            is_bigendian=0, step=3 * w, data=colour_rgb.reshape(-1)))
+        self.put("camera/camera/aligned_depth_to_color/image_raw", "sensor_msgs/msg/Image", image(
+            header=self.header(stamp, "camera_color_optical_frame"), height=h, width=w, encoding="16UC1",
+            is_bigendian=0, step=2 * w, data=depth_mm.astype("<u2").view(np.uint8).reshape(-1)))
+
+    def camera_info(self, stamp: float, w: int, h: int) -> None:
+        t = self.t
+        self.put("camera/camera/color/camera_info", "sensor_msgs/msg/CameraInfo", t["sensor_msgs/msg/CameraInfo"](
+            header=self.header(stamp, "camera_color_optical_frame"), height=h, width=w, distortion_model="plumb_bob",
+            d=np.zeros(5), k=np.array(K).ravel(), r=np.eye(3).ravel(),
+            p=np.hstack([np.array(K), np.zeros((3, 1))]).ravel(), binning_x=0, binning_y=0,
+            roi=t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)))
+
+    def audio(self, stamp: float, pcm: np.ndarray) -> None:
+        t = self.t
+        self.put("audio/audio_stamped", "audio_common_msgs/msg/AudioDataStamped", t[
+            "audio_common_msgs/msg/AudioDataStamped"](header=self.header(stamp, "mic"), audio=t[
+                "audio_common_msgs/msg/AudioData"](data=pcm.astype("<i2").view(np.uint8).reshape(-1))))
+
+    def audio_info(self, channels: int) -> None:
+        self.put("audio/audio_info", "audio_common_msgs/msg/AudioInfo", self.t["audio_common_msgs/msg/AudioInfo"](
+            channels=channels, sample_rate=16000, sample_format="S16LE", bitrate=16 * 16000 * channels,
+            coding_format="wave"))
+
+
+def test_a_realsense_and_audio_capture_as_a_source(tmp_path: Path) -> None:
+    """The camera's intrinsics come from its CameraInfo, colour (rgb8) and aligned depth (16UC1) are paired into
+    frames with their depth in metres, and the audio (S16LE, stamped on GStreamer's monotonic clock, far from ROS
+    time) is numbered and moved onto ROS time; a lost audio message skips its samples."""
+    from app.bus.ros_source import RosSource
+    from app.config import RigConfig
+    from avcore.geometry import MicPair
+
+    port = _free_port()
+    w, h = 64, 48
+    rig = RigConfig(None, MicPair(left=(-0.05, 0.0, 0.0), right=(0.05, 0.0, 0.0)))
+    with _session(listen=port) as robot, _session(connect=port) as laptop:
+        driver = _Driver(robot)
+        stop_info = threading.Event()
+
+        def infos() -> None:  # the drivers publish their info messages over and over (audio_capture every 5 s)
+            while not stop_info.is_set():
+                driver.camera_info(time.time(), w, h)
+                driver.audio_info(2)
+                stop_info.wait(0.1)
+
+        threading.Thread(target=infos, daemon=True).start()
+        try:
+            source = RosSource(laptop, rig, info_timeout_s=30.0)
+        finally:
+            stop_info.set()
+        assert source.rig.image_size == (w, h) and source.samplerate_hz == 16000.0
+        np.testing.assert_allclose(source.rig.back_project([[322.0, 239.0]], [2.0], rectified=False),
+                                   [[-0.0005, 0.0, 2.0]], atol=1e-9)  # the principal point, 2 m ahead
+        rng = np.random.default_rng(0)
+        now = time.time()
+        colour = rng.integers(0, 255, (h, w, 3), np.uint8)
+        depth = np.full((h, w), 1500, np.uint16)
+        depth[0, 0] = 0  # no depth here
+        uptime = 5000.0  # GStreamer's clock: seconds since boot
+        pcm = (np.arange(4 * 160 * 2) % 2000 - 1000).reshape(4, 160, 2).astype(np.int16)
+        deadline = time.monotonic() + 30
+        frames: list = []
+        blocks: list = []
+        stop = threading.Event()
+        for k in range(5):
+            driver.camera(now + k / 30, colour, depth)
+        for k in (0, 1, 3):  # message 2 is lost
+            driver.audio(uptime + k * 0.01, pcm[k])
+        for frame in source.frames(stop):
+            frames.append(frame)
+            if len(frames) == 4 or time.monotonic() > deadline:
+                break
+        for block in source.audio(stop):
+            blocks.append(block)
+            if len(blocks) == 3 or time.monotonic() > deadline:
+                break
+        source.close()
+    assert len(frames) == 4 and all(f.right is None for f in frames)
+    f = frames[0]
+    np.testing.assert_array_equal(f.left, colour[..., ::-1])  # rgb8 -> BGR
+    assert np.isnan(f.depth_m[0, 0]) and f.depth_m[1, 1] == pytest.approx(1.5)
+    assert f.stamp_s == pytest.approx(now, abs=1e-6)
+    assert [b.first_sample for b in blocks] == [0, 160, 480] and source.audio_gaps == 1
+    np.testing.assert_allclose(blocks[2].samples, pcm[3] / 32768.0)
+    assert abs(blocks[0].stamp_s - time.time()) < 10  # moved onto ROS time
+    assert blocks[2].stamp_s - blocks[0].stamp_s == pytest.approx(0.03)
+
+
+def test_mp3_audio_is_one_line() -> None:
+    from app.bus.convert import audio_format
+    from app.bus.messages import AUDIO_INFO, typestore
+
+    info = typestore().types[AUDIO_INFO](channels=1, sample_rate=16000, sample_format="S16LE", bitrate=192,
+                                         coding_format="mp3")
+    with pytest.raises(ValueError, match="format:=wave"):
+        audio_format(info)
+
+
+def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router: object) -> None:
+    """`avhear sensors --ros` (the simulated room's RGB-D camera and microphones as realsense2_camera and
+    audio_capture topics) and `avhear run --source ros --publish`, beside rmw_zenoh's router: the people are found
+    where they are (in the colour camera's frame) and someone speaks."""
+    env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()), PYTHONPATH=str(ROOT))
+    env.pop("ROS_DOMAIN_ID", None)
+    results = tmp_path / "results.jsonl"
+    robot = subprocess.Popen([sys.executable, "-m", "app", "sensors", "--source", "sim:S1", "--ros", "--duration",
+                              "60"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path, env=env)
+    try:
+        run = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "6", "--headless",
+                              "--results-jsonl", str(results), "--vote-frames", "1"],
+                             capture_output=True, text=True, cwd=tmp_path, env=env, timeout=180)
+    finally:
+        robot.send_signal(signal.SIGTERM)
+        robot.communicate(timeout=60)
+    assert run.returncode == 0, run.stderr
+    lines = [json.loads(line) for line in results.read_text().splitlines()]
+    assert len(lines) > 30
+    from app.sources.sim import load_clip_bank
+    from sim.scenario import make_scenario
+
+    scenario = make_scenario("S1", clip_durations_s=load_clip_bank(16000, None, seed=0).durations_s, seed=0)
+    truth = scenario.positions(1.0) + np.array([0.5 * scenario.rig.baseline_m, 0.0, 0.0])  # in the colour frame
+    found = np.array([p["position_m"] for r in lines for p in r["people"]])
+    nearest = np.linalg.norm(found[:, None] - truth[None], axis=2).min(axis=1)
+    assert np.median(nearest) < 0.05
+    assert any(p["speaking"] for r in lines for p in r["people"])
