@@ -23,7 +23,7 @@ from avcore.faces import FaceDetector, FaceLocations, detect_faces
 from avcore.motion import MotionPoints, grey_frames, temporal_std
 from avcore.stereo import StereoRig
 
-__all__ = ["as_depth_m", "face_depth", "locate_faces_depth", "motion_points_depth"]
+__all__ = ["as_depth_m", "depth_millimetres", "face_depth", "locate_faces_depth", "motion_points_depth"]
 
 
 def as_depth_m(depth: np.ndarray) -> np.ndarray:
@@ -40,6 +40,13 @@ def as_depth_m(depth: np.ndarray) -> np.ndarray:
         raise ValueError(f"a depth image is uint16 millimetres or float metres, got {d.dtype}")
     out[~(np.isfinite(out) & (out > 0))] = np.nan
     return out
+
+
+def depth_millimetres(depth_m: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`as_depth_m`: 16UC1 millimetres, 0 where invalid, as RealSense's driver publishes depth
+    and a recording keeps it (values beyond 65.535 m are clipped there)."""
+    d = np.where(np.isfinite(depth_m), np.rint(np.asarray(depth_m, np.float64) * 1000.0), 0.0)
+    return np.clip(d, 0, 65535).astype(np.uint16)
 
 
 def face_depth(depth_m: np.ndarray, box: Sequence[float], *, inner: float = 0.5, min_valid: float = 0.2,

@@ -17,7 +17,7 @@ import numpy as np
 
 from app.bus.messages import AUDIO_INFO, AUDIO_STAMPED, CAMERA_INFO, IMAGE, make_header, typestore
 
-__all__ = ["AudioFormat", "audio_format", "audio_messages", "audio_samples", "camera_info", "camera_matrix", "depth_millimetres",
+__all__ = ["AudioFormat", "audio_format", "audio_messages", "audio_samples", "camera_info", "camera_matrix",
            "image_from_msg", "image_message", "stamp_s"]
 
 _CHANNELS = {"rgb8": 3, "bgr8": 3, "mono8": 1, "rgba8": 4, "bgra8": 4, "16UC1": 1, "mono16": 1, "32FC1": 1}
@@ -113,12 +113,6 @@ def audio_messages(samples: np.ndarray, stamp: float, samplerate_hz: int) -> tup
     info = t[AUDIO_INFO](channels=pcm.shape[1], sample_rate=int(samplerate_hz), sample_format="S16LE",
                          bitrate=16 * pcm.shape[1] * int(samplerate_hz), coding_format="wave")
     return stamped, info
-
-
-def depth_millimetres(depth_m: np.ndarray) -> np.ndarray:
-    """16UC1 millimetres, 0 where invalid (NaN), as RealSense's driver publishes depth."""
-    d = np.where(np.isfinite(depth_m), np.rint(depth_m * 1000.0), 0.0)
-    return np.clip(d, 0, 65535).astype(np.uint16)
 
 
 def camera_info(k: np.ndarray, size: tuple[int, int], stamp: float, frame_id: str) -> Any:

@@ -28,6 +28,7 @@ from app.bus.messages import (AUDIO_BLOCK, AUDIO_INFO, AUDIO_STAMPED, CAMERA_INF
 from app.bus.ros2 import Convention, RosNode
 from app.config import RigConfig, rig_to_dict
 from app.events import AudioBlock, StereoFrame
+from avcore.depth import depth_millimetres
 
 log = logging.getLogger(__name__)
 
@@ -187,7 +188,7 @@ class RosDriverPublisher(SensorPublisher):
         stamp = frame.stamp_s + offset
         frame_id = "camera_color_optical_frame"
         payloads = [("colour", encode(convert.image_message(frame.left, "rgb8", stamp, frame_id), IMAGE)),
-                    ("depth", encode(convert.image_message(convert.depth_millimetres(frame.depth_m), "16UC1", stamp,
+                    ("depth", encode(convert.image_message(depth_millimetres(frame.depth_m), "16UC1", stamp,
                                                            frame_id), IMAGE)),
                     ("camera_info", encode(convert.camera_info(self._k, tuple(self.source.rig.image_size), stamp,
                                                                frame_id), CAMERA_INFO))]

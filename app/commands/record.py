@@ -13,8 +13,8 @@ from app.bus.session import open_session
 from app.config import RigConfig, require_live_rig
 from app.errors import UserError
 from app.sources.live import LiveSource
-from app.commands.options import (add_bus_arguments, add_device_arguments, bus_options, bus_source, count, duration,
-                                  live_config, positive)
+from app.commands.options import (add_bus_arguments, add_device_arguments, add_ros_topic_arguments, bus_options,
+                                  bus_source, count, duration, live_config, positive, ros_source)
 from app.commands.paths import output_dir
 from app.sources.recorder import RecordStats, record
 from app.sources.recording import RecordingWriter
@@ -27,8 +27,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "microphone into the raw recording format (recordings/FORMAT.md), replayable with "
                        "avhear run --source replay:FOLDER. Ctrl-C stops and keeps everything captured.")
     p.add_argument("-o", "--output", type=Path, required=True, help="the recording folder to write")
-    p.add_argument("--source", choices=("live", "bus"), default="live",
-                   help="live devices (default), or a robot's `avhear sensors` on the bus")
+    p.add_argument("--source", choices=("live", "bus", "ros"), default="live",
+                   help="live devices (default), a robot's `avhear sensors` on the bus, or a ROS 2 robot's RGB-D "
+                        "camera and microphone topics (run --help lists the topic flags)")
     p.add_argument("--rig", default=None, help="rig YAML (stereo + microphones), from avhear calibrate stereo; "
                    "with --source bus, the robot's unless given")
     p.add_argument("--fps", type=functools.partial(positive, maximum=240.0), default=30.0,
@@ -40,11 +41,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="replace a recording already in the folder")
     add_device_arguments(p, recording=True)
     add_bus_arguments(p)
+    add_ros_topic_arguments(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.source == "bus":
+    if args.source in ("bus", "ros"):
         return _record_bus(args)
     if args.rig is None:
         raise UserError("a live recording needs the rig calibration: --rig rig.yaml (avhear calibrate stereo "
@@ -90,22 +92,24 @@ def _status(stats: RecordStats, stop: threading.Event, folder: Path) -> int:
 
 
 def _record_bus(args: argparse.Namespace) -> int:
-    """The robot's sensors from the bus into the same raw recording format, as received (stamps included)."""
+    """The robot's sensors from the bus (``avhear sensors``, or a ROS 2 robot's topics) into the same raw recording
+    format, as received (stamps included; an RGB-D camera's depth in depth/)."""
     if (args.output / "frames.csv").exists() and not args.force:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
     options = bus_options(args)
     with ExitStack() as stack:
         session = open_session(options)
         stack.callback(session.close)
-        source = bus_source(session, options, args)
+        source = (ros_source if args.source == "ros" else bus_source)(session, options, args)
         stack.callback(source.close)
         samplerate, n_channels = source.audio_format()
         output_dir(args.output, "-o")
-        writer = RecordingWriter(args.output, rig=RigConfig(source.rig, source.mics), fps=args.fps,
+        rig = RigConfig(source.rig, source.mics, getattr(source, "array", None))
+        writer = RecordingWriter(args.output, rig=rig, fps=args.fps,
                                  samplerate_hz=int(samplerate), n_channels=n_channels, video=args.video,
                                  overwrite=args.force, channels={"left": source.channels[0],
                                                                  "right": source.channels[1]},
-                                 meta={"kind": "bus", "keys": list(source.keys)})
+                                 meta={"kind": args.source, "keys": list(source.keys)})
         print(f"avhear: recording the bus to {args.output} ... Ctrl-C stops", file=sys.stderr, flush=True)
         with stop_on_signals(threading.Event()) as stop:
             stats = record(source, writer, duration_s=args.duration, stop=stop)

@@ -15,7 +15,8 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.commands.options import MAX_SIMULATED_S, add_bodies_argument, add_mics_argument, count, duration, positive, wants_bodies
+from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_mics_argument, count,
+                                  duration, positive, wants_bodies)
 from app.commands.paths import output_dir
 from app.sources.recording import write_recording
 from app.signals import stop_on_signals
@@ -47,6 +48,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="replace a recording already in the output folder")
     add_mics_argument(p)
     add_bodies_argument(p)
+    add_camera_argument(p)
     p.set_defaults(func=run)
 
 
@@ -63,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         source = SimSource.from_preset(args.scenario, duration_s=args.duration, seed=args.seed, fps=args.fps,
                                        data_dir=args.data, rt60_s=args.rt60, mics=args.mics,
-                                       bodies=wants_bodies(args),
+                                       bodies=wants_bodies(args), camera=args.camera,
                                        progress=lambda msg: print(f"  {msg}", file=out, flush=True))
     except ValueError as exc:
         raise UserError(f"cannot simulate {args.scenario}: {exc}") from None
@@ -91,7 +93,8 @@ def run(args: argparse.Namespace) -> int:
         return 130
     elapsed = time.perf_counter() - t0
     fps = source.n_frames / max(time.perf_counter() - t1, 1e-9)
-    print(f"wrote {args.output}: {source.n_frames} stereo frames at {source.fps:g} FPS, "
+    kind = "colour and depth" if args.camera == "rgbd" else "stereo"
+    print(f"wrote {args.output}: {source.n_frames} {kind} frames at {source.fps:g} FPS, "
           f"{source.n_samples / source.samplerate_hz:g} s of {source.n_channels}-channel audio at "
           f"{source.samplerate_hz} Hz, ground truth; {elapsed:.1f} s "
           f"({source.scenario.duration_s / elapsed:.2f} s of scenario per second; frames at {fps:.0f} FPS)",

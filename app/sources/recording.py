@@ -32,6 +32,7 @@ import csv
 import json
 import logging
 import math
+import shutil
 import struct
 import threading
 import wave
@@ -46,6 +47,7 @@ from app.config import RigConfig, load_rig, save_rig
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.sources.replay import ReplayStream
+from avcore.depth import as_depth_m, depth_millimetres
 from avcore.evaluation import FrameTruth
 
 __all__ = ["RecordingError", "RecordingWriter", "Recording", "open_recording", "write_recording", "FORMAT"]
@@ -102,6 +104,7 @@ class RecordingWriter:
             raise RecordingError(f"{self.folder}: cannot create the recording folder ({exc.strerror})") from None
         for stale in ("truth.csv", "events.csv", "left.avi", "right.avi"):
             (self.folder / stale).unlink(missing_ok=True)
+        shutil.rmtree(self.folder / "depth", ignore_errors=True)  # else a stereo recording would read as RGB-D
         self.rig_config = rig
         self.fps = float(fps)
         self.samplerate_hz = int(samplerate_hz)
@@ -127,19 +130,17 @@ class RecordingWriter:
         self._closed = False
 
     def add_frame(self, frame: StereoFrame) -> None:
-        """Append one stereo frame (its images, stamps and truth if any)."""
+        """Append one frame (its images, or an RGB-D camera's colour and depth; its stamps and truth if any)."""
         if frame.index != self.n_frames:
             log.debug("frame %d written as frame %d (frames are renumbered in order)", frame.index, self.n_frames)
         w, h = self.rig_config.stereo.image_size  # type: ignore[union-attr]
-        for side, img in (("left", frame.left), ("right", frame.right)):
-            if img.shape != (h, w, 3) or img.dtype != np.uint8:
-                raise ValueError(f"{side} image must be ({h}, {w}, 3) uint8 as the rig says, got {img.dtype} "
-                                 f"{img.shape}")
+        sides = [("left", frame.left)] if frame.depth_m is not None else [("left", frame.left), ("right", frame.right)]
+        for side, img in sides:
+            if not isinstance(img, np.ndarray) or img.shape != (h, w, 3) or img.dtype != np.uint8:
+                got = f"{img.dtype} {img.shape}" if isinstance(img, np.ndarray) else type(img).__name__
+                raise ValueError(f"{side} image must be ({h}, {w}, 3) uint8 as the rig says, got {got}")
             if self.video == "png":
-                d = self.folder / side
-                d.mkdir(exist_ok=True)
-                if not cv2.imwrite(str(d / f"{self.n_frames:06d}.png"), img):
-                    raise RecordingError(f"{d}: cannot write frame {self.n_frames} (disk full or not writable?)")
+                self._write_png(side, img)
             else:
                 writer = self._writers.get(side)
                 if writer is None:
@@ -151,10 +152,20 @@ class RecordingWriter:
                                              "use --video png")
                     self._writers[side] = writer
                 writer.write(img)
+        if frame.depth_m is not None:  # an RGB-D camera: 16-bit PNG millimetres, lossless (recordings/FORMAT.md)
+            if frame.depth_m.shape != (h, w):
+                raise ValueError(f"the depth image must be ({h}, {w}) as the rig says, got {frame.depth_m.shape}")
+            self._write_png("depth", depth_millimetres(frame.depth_m))
         self._frames.writerow([self.n_frames, repr(float(frame.stamp_s)), repr(float(frame.right_stamp_s))])
         if frame.truth is not None:
             self._write_truth(self.n_frames, frame.stamp_s, frame.truth)
         self.n_frames += 1
+
+    def _write_png(self, side: str, img: np.ndarray) -> None:
+        d = self.folder / side
+        d.mkdir(exist_ok=True)
+        if not cv2.imwrite(str(d / f"{self.n_frames:06d}.png"), img):
+            raise RecordingError(f"{d}: cannot write frame {self.n_frames} (disk full or not writable?)")
 
     def _write_truth(self, k: int, stamp_s: float, truth: FrameTruth) -> None:
         if self._truth is None:
@@ -361,7 +372,10 @@ class Recording(ReplayStream):
             gaps = np.diff(self.frame_stamps_s)
             fps = 1.0 / float(np.median(gaps)) if gaps.size and np.median(gaps) > 0 else 30.0
         self.fps = float(fps)
-        self._video = {side: self._find_video(side) for side in ("left", "right")}
+        # an RGB-D camera's recording: the colour camera as "left" and a depth/ folder of 16-bit PNG millimetres
+        self.depth_files = self._depth_files()
+        sides = ("left",) if self.depth_files is not None else ("left", "right")
+        self._video = {side: self._find_video(side) for side in sides}
         wav = self.folder / "audio.wav"
         if not wav.is_file():
             raise RecordingError(f"{wav}: missing; the recording needs the microphones' multichannel WAV")
@@ -442,6 +456,16 @@ class Recording(ReplayStream):
         if not left:
             raise RecordingError(f"{path}: lists no frame; a recording needs at least one")
         return np.array(left), np.array(right)
+
+    def _depth_files(self) -> list[Path] | None:
+        d = self.folder / "depth"
+        if not d.is_dir():
+            return None
+        files = sorted(p for p in d.iterdir() if p.suffix.lower() == ".png")
+        if len(files) < self.n_frames:
+            raise RecordingError(f"{d}: holds {len(files)} depth images but frames.csv lists {self.n_frames} frames; "
+                                 "the sequence is truncated: add the missing images or cut frames.csv")
+        return files
 
     def _find_video(self, side: str) -> tuple[str, Any]:
         d = self.folder / side
@@ -532,9 +556,18 @@ class Recording(ReplayStream):
         self._caps = {}
         self._next = 0
 
-    def _images(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+    def _depth(self, k: int, colour: np.ndarray) -> np.ndarray | None:
+        if self.depth_files is None:
+            return None
+        img = cv2.imread(str(self.depth_files[k]), cv2.IMREAD_UNCHANGED)
+        if img is None or img.dtype != np.uint16 or img.shape != colour.shape[:2]:
+            raise RecordingError(f"{self.depth_files[k]}: not a 16-bit depth image of the colour image's size "
+                                 f"(frame {k}); replace it")
+        return as_depth_m(img)
+
+    def _images(self, k: int) -> tuple[np.ndarray, np.ndarray | None]:
         out = []
-        for side in ("left", "right"):
+        for side in self._video:
             kind, what = self._video[side]
             if kind == "images":
                 img = cv2.imread(str(what[k]), cv2.IMREAD_COLOR)
@@ -553,7 +586,7 @@ class Recording(ReplayStream):
                                          "mjpeg OUT.avi`) or cut frames.csv to the frames present")
             out.append(img)
         self._next = k + 1
-        return out[0], out[1]
+        return (out[0], out[1]) if len(out) == 2 else (out[0], None)
 
     def _samples(self, a: int, b: int) -> np.ndarray:
         x = np.asarray(self._audio[a:b])

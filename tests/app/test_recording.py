@@ -207,3 +207,28 @@ def test_a_recording_joined_late_replays_as_the_live_run(tmp_path):
         total += mine.size
     assert total > 200 and matched / total >= 0.95  # the same ITDs, not only as many
     assert sum(live[s].output.speaking.sum() for s in compared) > 10  # someone speaks in these seconds
+
+
+def test_an_rgbd_recording_keeps_the_depth(tmp_path):
+    """An RGB-D camera's recording: the colour images and a depth/ folder of 16-bit PNG millimetres, no right
+    camera; it replays the same colour images and the depth to the millimetre, holes where the depth had none; a
+    stereo recording written over it later is stereo again."""
+    missing = tmp_path / "no-shared-data"
+    source = SimSource.from_preset("S1", duration_s=1.0, seed=2, fps=10, data_dir=missing, camera="rgbd")
+    folder = write_recording(tmp_path / "rgbd", source, video="png")
+    assert (folder / "depth").is_dir() and not (folder / "right").exists()
+    rec = open_recording(folder)
+    a = [x for x in source.stream() if isinstance(x, StereoFrame)]
+    b = [x for x in rec.stream() if isinstance(x, StereoFrame)]
+    assert len(a) == len(b) == 10
+    for x, y in zip(a, b):
+        assert y.right is None
+        np.testing.assert_array_equal(x.left, y.left)
+        np.testing.assert_array_equal(np.isnan(x.depth_m), np.isnan(y.depth_m))
+        ok = ~np.isnan(x.depth_m)
+        assert np.max(np.abs(x.depth_m[ok] - y.depth_m[ok])) <= 0.0005 + 1e-6
+    stereo = SimSource.from_preset("S1", duration_s=1.0, seed=2, fps=10, data_dir=missing)
+    write_recording(folder, stereo, video="png", overwrite=True)
+    again = open_recording(folder)
+    frame = next(x for x in again.stream() if isinstance(x, StereoFrame))
+    assert frame.depth_m is None and frame.right is not None

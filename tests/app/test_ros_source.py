@@ -174,8 +174,9 @@ def test_mp3_audio_is_one_line() -> None:
 
 def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router: object) -> None:
     """`avhear sensors --ros` (the simulated room's RGB-D camera and microphones as realsense2_camera and
-    audio_capture topics) and `avhear run --source ros --publish`, beside rmw_zenoh's router: the people are found
-    where they are (in the colour camera's frame) and someone speaks."""
+    audio_capture topics), then `avhear run --source ros` and `avhear record --source ros`, beside rmw_zenoh's
+    router: the people are found where they are (in the colour camera's frame), someone speaks, and the recording
+    holds the colour and the depth and replays."""
     env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()), PYTHONPATH=str(ROOT))
     env.pop("ROS_DOMAIN_ID", None)
     results = tmp_path / "results.jsonl"
@@ -185,6 +186,8 @@ def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router
         run = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "6", "--headless",
                               "--results-jsonl", str(results), "--vote-frames", "1"],
                              capture_output=True, text=True, cwd=tmp_path, env=env, timeout=180)
+        record = subprocess.run([sys.executable, "-m", "app", "record", "--source", "ros", "-o", "rec", "--duration",
+                                 "3"], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=180)
     finally:
         robot.send_signal(signal.SIGTERM)
         robot.communicate(timeout=60)
@@ -200,3 +203,11 @@ def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router
     nearest = np.linalg.norm(found[:, None] - truth[None], axis=2).min(axis=1)
     assert np.median(nearest) < 0.05
     assert any(p["speaking"] for r in lines for p in r["people"])
+    assert record.returncode == 0, record.stderr
+    from app.events import StereoFrame
+    from app.sources.recording import open_recording
+
+    rec = open_recording(tmp_path / "rec")
+    assert rec.depth_files is not None and rec.n_frames > 30 and rec.n_samples > 16000
+    frame = next(x for x in rec.stream() if isinstance(x, StereoFrame))
+    assert frame.right is None and np.nanmedian(frame.depth_m) > 1.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from avcore.depth import as_depth_m, face_depth, locate_faces_depth, motion_points_depth
+from avcore.depth import as_depth_m, depth_millimetres, face_depth, locate_faces_depth, motion_points_depth
 from avcore.stereo import StereoRig
 
 RIG = StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12)
@@ -20,6 +20,8 @@ def test_depth_units_and_invalid_pixels() -> None:
     assert np.isnan(got[:, 0]).all() and np.isnan(got[0, 1]) and got[1, 1] == 2.25
     with pytest.raises(ValueError, match="uint16 millimetres or float metres"):
         as_depth_m(np.zeros((2, 2), np.int32))
+    back = depth_millimetres(np.array([[1.2344, np.nan], [70.0, 0.5]], np.float32))
+    assert back.dtype == np.uint16 and back.tolist() == [[1234, 0], [65535, 500]]  # 0 = invalid, clipped at 65.535 m
 
 
 def test_a_faces_depth_ignores_holes_background_and_flying_pixels() -> None:
