@@ -3,6 +3,8 @@ against the same pipeline in one process.
 
     python benchmarks/bus.py                   # 60 s of the simulated room S2
     python benchmarks/bus.py --duration 30
+    python benchmarks/bus.py --ros             # an RGB-D camera and a 4-microphone array as ROS 2 drivers publish
+                                               # them (avhear sensors --ros, avhear run --source ros), rmw_zenoh keys
 
 Three real processes for the bus (sensors, run, nothing else) and one for the reference (`avhear run --source
 sim:S2` in real time). Printed: frames published and fused (lost = published - fused - the source's own late
@@ -51,29 +53,35 @@ def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--duration", type=float, default=60.0)
     p.add_argument("--scenario", default="S2")
+    p.add_argument("--ros", action="store_true", help="RGB-D and ReSpeaker 4-mic array as ROS 2 driver topics")
     args = p.parse_args()
     d = args.duration
+    sim = ("--camera", "rgbd", "--mics", "respeaker4") if args.ros else ()
+    robot_side = ("--ros", "--mics", "respeaker4") if args.ros else ()
+    laptop = ("run", "--source", "ros") if args.ros else ("run", "--source", "bus")
     with tempfile.TemporaryDirectory() as tmp:
         one = Path(tmp) / "one.json"
         ref = _start("run", "--source", f"sim:{args.scenario}", "--duration", str(d), "--headless",
-                     "--stats-json", str(one))
+                     "--stats-json", str(one), *sim)
         ref.started = time.monotonic()
         _, ref_cpu, ref_wall = _finish(ref)
         robot = _free_port()
         stats = Path(tmp) / "bus.json"
         sensors = _start("sensors", "--source", f"sim:{args.scenario}", "--duration", str(d + 8),
-                         "--bus-listen", f"tcp/127.0.0.1:{robot}")
+                         "--bus-listen", f"tcp/127.0.0.1:{robot}", *robot_side)
         sensors.started = time.monotonic()
         time.sleep(6.0)  # the simulated room is prepared before it publishes
-        run = _start("run", "--source", "bus", "--headless", "--duration", str(d), "--stats-json", str(stats),
+        run = _start(*laptop, "--headless", "--duration", str(d), "--stats-json", str(stats),
                      "--bus-connect", f"tcp/127.0.0.1:{robot}", "--bus-listen", f"tcp/127.0.0.1:{_free_port()}")
         run.started = time.monotonic()
         _, run_cpu, run_wall = _finish(run)
         sensors_out, sensors_cpu, sensors_wall = _finish(sensors)
         a, b = json.loads(one.read_text()), json.loads(stats.read_text())
-    published = int(sensors_out.split("published ")[1].split(" stereo")[0])
+    published = int(sensors_out.split("published ")[1].split(" ")[0])
     mb_s = float(sensors_out.split("(")[-1].split(" MB/s")[0])
-    print(f"\n{d:g} s of {args.scenario} (640x480 stereo at 30 FPS, 16 kHz audio), loopback")
+    what = ("640x480 colour + 16UC1 depth at 30 FPS, 16 kHz 4-channel audio, ROS 2 driver topics" if args.ros
+            else "640x480 stereo at 30 FPS, 16 kHz audio")
+    print(f"\n{d:g} s of {args.scenario} ({what}), loopback")
     print(f"{'':34s} {'one process':>14s} {'over the bus':>14s}")
     rows = [
         ("results per second", a["fps"], b["fps"]),
@@ -87,7 +95,9 @@ def main() -> int:
     ]
     for name, x, y in rows:
         print(f"{name:34s} {str(x):>14s} {str(y):>14s}")
-    print(f"bus: {published} stereo frames published during the sensors' {d + 8:g} s, {mb_s:.2f} MB/s; "
+    lost = {k: v for k, v in b["drops"].items() if v}
+    print(f"drops over the bus, by counter: {lost or 'none'}")
+    print(f"bus: {published} frames published during the sensors' {d + 8:g} s, {mb_s:.2f} MB/s; "
           f"latency added by the bus at p95: {b['latency_ms_p95'] - a['latency_ms_p95']:+.1f} ms")
     return 0
 

@@ -26,6 +26,7 @@ from avcore.faces import (
     locate_faces,
 )
 from avcore.motion import harris_motion_points
+from avcore.depth import motion_points_depth
 from sim.render import default_scene
 
 DEFAULT_FACES = Path(__file__).resolve().parents[2] / "shared" / "data" / "faces"
@@ -160,10 +161,18 @@ def hm3d_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
             left = np.stack([cv2.cvtColor(f.left, cv2.COLOR_BGR2GRAY) for f in frames])
             right = np.stack([cv2.cvtColor(f.right, cv2.COLOR_BGR2GRAY) for f in frames])
             runs = []
+            if args.camera == "rgbd":  # the simulated D435's depth aligned to the left (colour) camera
+                from sim.depth import DepthRenderer
+
+                depth_renderer = DepthRenderer(scene, lambda _t, s=scene: s.people, seed=seed)
+                depths = [depth_renderer.render(t, f.left) for t, f in zip(times, frames)]
             clock = _clock(args.threads)
             for _ in range(args.repeat):
                 t0 = clock()
-                result = harris_motion_points(left, right, scene.rig)
+                if args.camera == "rgbd":
+                    result = motion_points_depth(left, depths, scene.rig)
+                else:
+                    result = harris_motion_points(left, right, scene.rig)
                 runs.append((clock() - t0) / len(times))
             nearest = [scene.nearest_parts(result.points[result.frame_index == k], t) for k, t in enumerate(times)]
             d = np.concatenate([n[0] for n in nearest])
@@ -198,6 +207,8 @@ def main() -> int:
     parser.add_argument("--repeat", type=int, default=2, help="HM3D timing repeats (best kept)")
     parser.add_argument("--threads", type=int, default=1, help="OpenCV threads (default 1: one core)")
     parser.add_argument("--skip", choices=("f3d", "hm3d"), action="append", default=[])
+    parser.add_argument("--camera", choices=("stereo", "rgbd"), default="stereo",
+                        help="HM3D from the stereo pair (default) or from an RGB-D camera's depth (sim.depth)")
     parser.add_argument("--bodies", action="store_true",
                         help="HM3D on people with bodies (checked shirts, gesturing arms and hands, a table)")
     args = parser.parse_args()

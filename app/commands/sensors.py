@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
         publisher.close()
     finally:
         session.close()
-    print(f"avhear: published {publisher.frames} stereo frames and {publisher.audio_blocks} audio blocks in "
+    print(f"avhear: published {publisher.frames} {'colour and depth' if args.ros else 'stereo'} frames and {publisher.audio_blocks} audio blocks in "
           f"{elapsed:.1f} s ({publisher.bytes / elapsed / 1e6:.2f} MB/s)")
     if publisher.errors:
         raise UserError(f"the sensors stopped: {publisher.errors[0]}")
