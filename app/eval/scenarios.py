@@ -195,6 +195,7 @@ class ScenarioScore:
     visible_faces: int = 0
     faces_found: int = 0
     f3d_errors_m: list[float] = field(default_factory=list, repr=False)
+    people_errors_m: list[float] = field(default_factory=list, repr=False)  # every result's matched people
     itd_errors_s: list[float] = field(default_factory=list, repr=False)
     itd_true_s: list[float] = field(default_factory=list, repr=False)
     n_itds: int = 0
@@ -213,6 +214,12 @@ class ScenarioScore:
     @property
     def f3d_median_m(self) -> float:
         return float(np.median(self.f3d_errors_m)) if self.f3d_errors_m else math.nan
+
+    @property
+    def people_ale_m(self) -> float:
+        """The mean localisation error of the people found (matched within tau_loc), over every result: against
+        the faces (face-guided) or the moving bodies' centres (motion-guided)."""
+        return float(np.mean(self.people_errors_m)) if self.people_errors_m else math.nan
 
     @property
     def itd_accuracy(self) -> float:
@@ -242,6 +249,7 @@ class ScenarioScore:
         for name in ("n_intervals", "n_frames", "frames_all_found", "visible_faces", "faces_found", "n_itds"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.f3d_errors_m += other.f3d_errors_m
+        self.people_errors_m += other.people_errors_m
         self.itd_errors_s += other.itd_errors_s
         self.itd_true_s += other.itd_true_s
 
@@ -259,6 +267,7 @@ class ScenarioScore:
             "frames_all_faces_found": _clean(self.all_found_share),
             "face_recall": _clean(self.face_recall),
             "f3d_median_error_m": _clean(self.f3d_median_m),
+            "people_ale_m": _clean(self.people_ale_m),
             "itd_windows_one_talker": len(self.itd_errors_s),
             "itd_accuracy_40us": _clean(self.itd_accuracy),
             "itd_median_bias_us": _clean(self.itd_bias_s * 1e6),
@@ -424,6 +433,7 @@ def _judge(scenario: Scenario, fused: Sequence[Result], n_intervals: int, score:
             out.states[j, g] = int(bool(judged_speaking[d]))
             matched.add(d)
         out.false_speaking[k] += bool(any(judged_speaking[d] for d in range(xyz.shape[0]) if d not in matched))
+        score.people_errors_m += [float(e) for e in match.errors_m]
         if face_figures:
             vis = np.flatnonzero(tr.visible)
             hit = {g for g, _ in match.pairs}

@@ -201,6 +201,7 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert len(said) >= 3 and u["tp"] + u["fn"] == len(said)
     assert f"S2 seed 0: per spoken number TP {u['tp']}, FN {u['fn']}, FP {u['fp']} " in captured.err  # as the table
     assert 0.0 <= row["frames_all_faces_found"] <= 1.0 and row["f3d_median_error_m"] < 0.1
+    assert 0.0 < row["people_ale_m"] < 0.05  # the people found lie within centimetres of the faces
     assert row["itd_windows_one_talker"] > 0 and 0.0 <= row["itd_accuracy_40us"] <= 1.0
     assert out["paper"]["S2"] == PAPER_SCENARIOS["S2"] == {"fp": 22, "fn": 31, "tp": 176}
     assert "tp_at_least_95" in out["targets"]["per_interval"]["S2"]
@@ -227,6 +228,7 @@ def test_eval_scenarios_motion_guided(capsys: pytest.CaptureFixture[str]) -> Non
     # one person, visible in every interval: each interval is one of TP, FN, FP, TN (plus any false cluster)
     assert s["tp"] + s["fn"] + s["fp"] - s["fp_false_face"] + s["tn"] == 8
     assert row["n_frames"] == 0 and row["f3d_median_error_m"] is None  # no F3D faces in the motion-guided variant
+    assert 0.0 < row["people_ale_m"] < 0.15  # against the moving body's centre
 
 
 def test_calibration_on_the_preset_shrinks_the_residuals() -> None:
