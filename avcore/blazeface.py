@@ -204,17 +204,26 @@ class TrackingBlazeFace:
     then spans 192 / ``context`` px of the model's input, where it is found best) plus one square of the full scan
     (the whole image, then each tile of ``base``, one a frame), so that a frame costs one inference per face and
     one more; a newcomer is found within ``len(base.squares(...))`` frames. The first frame gets the whole scan.
-    Stateful: one instance per video stream."""
+    A face its square loses is looked for there again in each of the next ``lost_frames`` frames (as
+    :class:`avcore.faces.TrackingFaceDetector` does), so that a face missed in one frame (turned, blurred) comes
+    back at once rather than at the scan's next pass; only detections are returned, never a kept box. Stateful: one
+    instance per video stream."""
 
     base: BlazeFaceDetector
     context: float = 4.0
+    lost_frames: int = 15
     _previous: np.ndarray = field(init=False, repr=False, default_factory=lambda: np.zeros((0, 4)))
+    _lost: list[tuple[np.ndarray, int]] = field(init=False, repr=False, default_factory=list)  # (box, frames lost)
     _next: int = field(init=False, repr=False, default=-1)
     _size: tuple[int, int] = field(init=False, repr=False, default=(0, 0))
 
+    def __post_init__(self) -> None:
+        if not (isinstance(self.lost_frames, int) and self.lost_frames >= 0):
+            raise ValueError(f"lost_frames must be a whole number of frames >= 0, got {self.lost_frames!r}")
+
     def reset(self) -> None:
         """Forget the previous faces: the next frame gets the whole scan."""
-        self._previous, self._next = np.zeros((0, 4)), -1
+        self._previous, self._lost, self._next = np.zeros((0, 4)), [], -1
 
     def detect_faces(self, image: np.ndarray) -> FaceDetections:
         bgr = _bgr(image)
@@ -228,10 +237,14 @@ class TrackingBlazeFace:
         else:
             squares = [scan[self._next]]
             self._next = (self._next + 1) % len(scan)
-            for x, y, bw, bh in self._previous:
+            for x, y, bw, bh in [*self._previous, *(box for box, _ in self._lost)]:
                 side = int(round(self.context * max(bw, bh)))
                 squares.append((int(round(x + bw / 2 - side / 2)), int(round(y + bh / 2 - side / 2)), side))
         found = weighted_nms(self.base.run(bgr, squares), iou=self.base.nms_iou)
+        # a face seen in the last frame or lost since, and not found now, is kept for the next lost_frames frames
+        candidates = [(box, 0) for box in self._previous] + self._lost
+        self._lost = [(box, n + 1) for box, n in candidates
+                      if n < self.lost_frames and np.all(_iou(box, found.boxes) < 0.3)]
         self._previous = found.boxes
         return found
 

@@ -87,8 +87,7 @@ def locate_faces_depth(image: np.ndarray, depth: np.ndarray, rig: StereoRig, *,
     if depth_m.shape != image.shape[:2] or depth_m.shape[::-1] != tuple(rig.image_size):
         raise ValueError(f"the colour and depth images must both be of the rig's size {rig.image_size} (width, "
                          f"height), got {image.shape[1::-1]} and {depth_m.shape[::-1]}")
-    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
-    boxes = detect_faces(grey, detector)
+    boxes = detect_faces(image, detector)  # in colour: a detector trained on colour (BlazeFace) needs it
     keep, centres, depths, fractions = [], [], [], []
     for i, box in enumerate(boxes):
         z, fraction = face_depth(depth_m, box)

@@ -445,8 +445,9 @@ def locate_faces(
         raise ValueError(f"left and right must both be images of the rig's size {rig.image_size} (width, height), "
                          f"got {grey_l.shape[::-1]} and {grey_r.shape[::-1]}")
     if not rectified:
-        grey_l, grey_r = rig.rectify(grey_l, grey_r)
-    boxes = detect_faces(grey_l, detector)
+        left, right = rig.rectify(left, right)
+        grey_l, grey_r = _as_grey(left, "left"), _as_grey(right, "right")
+    boxes = detect_faces(left, detector)  # in colour: a detector trained on colour (BlazeFace) needs it
     max_disp = rig.focal_px * rig.baseline_m / min_depth_m
     keep, points, nccs, centres_r = [], [], [], []
     for i, box in enumerate(boxes):

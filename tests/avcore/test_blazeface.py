@@ -124,3 +124,42 @@ def test_tracked_blazeface_finds_every_rendered_face_with_a_square_per_face(mode
         for face in faces:
             assert (np.abs(centres - (face[:2] + face[2:] / 2)) < face[2:] / 2).all(axis=1).any(), k
     assert batches[0] == 5 and set(batches[1:]) == {4}  # the whole scan, then three faces and one square
+
+
+def test_a_lost_face_is_looked_for_where_it_was_for_lost_frames_frames() -> None:
+    """A face found in frame 0 and missed from frame 1 on: its square is searched in frame 1 (tracked) and again in
+    frames 2-4 (lost_frames = 3), not in frame 5; a kept box is never returned. Found again in frame 2, it is
+    tracked as before."""
+    from avcore.blazeface import FaceDetections, TrackingBlazeFace
+
+    face = np.array([[100.0, 80.0, 40.0, 40.0]])
+
+    class Base:
+        nms_iou = 0.3
+
+        def __init__(self, visible: set[int]) -> None:
+            self.visible, self.frame, self.asked = visible, 0, []
+
+        def squares(self, w: int, h: int) -> list[tuple[int, int, int]]:
+            return [(0, 0, 64)]  # one square of the scan, far from the face
+
+        def run(self, bgr: np.ndarray, squares: list) -> FaceDetections:
+            self.asked.append(len(squares))
+            found = self.frame in self.visible
+            self.frame += 1
+            if not found:
+                return FaceDetections.empty()
+            return FaceDetections(face.copy(), np.zeros((1, 6, 2)), np.array([0.9]))
+
+    image = np.zeros((240, 320, 3), np.uint8)
+    base = Base({0})
+    tracker = TrackingBlazeFace(base, lost_frames=3)  # type: ignore[arg-type]
+    returned = [len(tracker.detect(image)) for _ in range(6)]
+    assert returned == [1, 0, 0, 0, 0, 0]
+    assert base.asked == [1, 2, 2, 2, 2, 1]  # the scan's square, plus the face's: tracked, then lost three frames
+    base = Base({0, 2})
+    tracker = TrackingBlazeFace(base, lost_frames=3)  # type: ignore[arg-type]
+    assert [len(tracker.detect(image)) for _ in range(4)] == [1, 0, 1, 0]
+    assert base.asked == [1, 2, 2, 2]
+    with pytest.raises(ValueError, match="lost_frames"):
+        TrackingBlazeFace(base, lost_frames=-1)  # type: ignore[arg-type]
