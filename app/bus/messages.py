@@ -11,14 +11,21 @@ ROS4HRI (REP-155, "ROS for Human-Robot Interaction"):
   ``/humans/faces/<face_id>/roi`` (sensor_msgs/RegionOfInterest, the face's box in the image);
 - section "Voices": ``/humans/voices/tracked`` (hri_msgs/IdsList) and ``/humans/voices/<voice_id>/is_speaking``
   (std_msgs/Bool);
+- section "Persons": ``/humans/persons/tracked`` (hri_msgs/IdsList, the persons seen now), ``/humans/persons/known``
+  (those seen now or remembered), and per person ``anonymous`` (std_msgs/Bool), ``face_id`` and ``voice_id``
+  (std_msgs/String) and ``location_confidence`` (std_msgs/Float32): 1 while seen, then decreasing linearly to 0 over
+  :data:`PERSON_MEMORY_S` (REP-155's "Person frame", case 2, as hri_person_manager does), when the person is
+  forgotten. The topics REP-155 latches are sent with every result instead (a late subscriber has them at once);
 - section "Person identification": ``/humans/candidate_matches`` (hri_msgs/IdsMatch, e.g. a face and a voice that
-  belong together, FACE = 2, VOICE = 4);
+  belong together, PERSON = 1, FACE = 2, VOICE = 4);
 - section "Frames": each face and voice has a TF frame ``face_<id>`` / ``voice_<id>`` (tf2_msgs/TFMessage on
   ``/tf``).
 
-avhear's ids: a tracked person ``N`` (stable while tracked, :class:`avcore.tracking.NearestTracker`) has the face id
-``fN`` (face-guided runs only) and the voice id ``vN``: the voice is the sound coming from that person's place, so a
-face and its voice are matched with confidence 1.0. Frames: ``face_fN`` and ``voice_vN`` are children of
+avhear's ids: a tracked person ``N`` (stable while tracked, :class:`avcore.tracking.NearestTracker`; the ``id`` of the
+results file) is the person ``pN``, has the face id ``fN`` (face-guided runs only) and the voice id ``vN``: the voice
+is the sound coming from that person's place, so a person, its face and its voice are matched with confidence 1.0.
+avhear's persons are anonymous (nobody is recognised, only followed). Frames: ``person_pN`` (at the face while seen,
+at the last place while remembered), ``face_fN`` and ``voice_vN`` are children of
 :data:`RIG_FRAME` (``avhear_rig``): the scene frame of docs/architecture.md (origin midway between the two camera
 centres, x right, y down, z forward, metres: the optical-frame convention), with identity rotation. Headers carry the
 result's capture stamp on the source's clock (``time.monotonic()`` for live input, the recording's own clock for a
@@ -46,12 +53,13 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 __all__ = [
     "AUDIO_BLOCK", "AUDIO_INFO", "AUDIO_STAMPED", "CAMERA_INFO", "COMPRESSED_IMAGE", "FACE", "IMAGE", "RESULTS_KEY", "RosTopics", "RIG_FRAME", "VOICE", "Topics", "decode", "encode",
-    "face_id", "make_header", "typestore", "voice_id",
+    "face_id", "make_header", "person_id", "typestore", "voice_id", "PERSON", "PERSON_MEMORY_S",
 ]
 
 RIG_FRAME = "avhear_rig"
 RESULTS_KEY = "avhear/results"  # the JSON of app.sinks.results_file, one message per result
-FACE, VOICE = 2, 4  # hri_msgs/IdsMatch id types
+PERSON, FACE, VOICE = 1, 2, 4  # hri_msgs/IdsMatch id types
+PERSON_MEMORY_S = 10.0  # how long a person no longer seen is remembered (location_confidence from 1 down to 0)
 
 IDS_LIST = "hri_msgs/msg/IdsList"
 IDS_MATCH = "hri_msgs/msg/IdsMatch"
@@ -62,6 +70,8 @@ AUDIO_INFO = "audio_common_msgs/msg/AudioInfo"
 IMAGE = "sensor_msgs/msg/Image"
 CAMERA_INFO = "sensor_msgs/msg/CameraInfo"
 BOOL = "std_msgs/msg/Bool"
+STRING = "std_msgs/msg/String"
+FLOAT32 = "std_msgs/msg/Float32"
 ROI = "sensor_msgs/msg/RegionOfInterest"
 TF = "tf2_msgs/msg/TFMessage"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
@@ -127,6 +137,10 @@ def make_header(stamp_s: float, frame_id: str = RIG_FRAME) -> Any:
                                     frame_id=frame_id)
 
 
+def person_id(person: int) -> str:
+    return f"p{int(person)}"
+
+
 def face_id(person: int) -> str:
     return f"f{int(person)}"
 
@@ -137,10 +151,13 @@ def voice_id(person: int) -> str:
 
 class Topics:
     """Builds the messages of one result: (topic relative to the namespace, ROS type, payload); the JSON line of the
-    results file goes on :data:`RESULTS_KEY` with the type None (it is not a ROS message)."""
+    results file goes on :data:`RESULTS_KEY` with the type None (it is not a ROS message). Stateful: it remembers
+    the persons no longer seen for :data:`PERSON_MEMORY_S` (one instance per stream of results)."""
 
-    def __init__(self) -> None:
+    def __init__(self, memory_s: float = PERSON_MEMORY_S) -> None:
         self._t = typestore().types
+        self.memory_s = float(memory_s)
+        self._last_seen: dict[int, tuple[float, list[float], bool]] = {}  # id -> (stamp, position, has a face)
 
     def _transform(self, header: Any, child: str, xyz: list[float]) -> Any:
         t = self._t
@@ -176,6 +193,36 @@ class Topics:
                 add("humans/candidate_matches", IDS_MATCH,
                     t[IDS_MATCH](id1=fid, id1_type=FACE, id2=vid, id2_type=VOICE, confidence=1.0))
                 transforms.append(self._transform(header, f"face_{fid}", p["position_m"]))
+        transforms += self._persons(record, add, header)
         add("tf", TF, t[TF](transforms=transforms))
         out.append((RESULTS_KEY, None, json.dumps(record, separators=(",", ":")).encode()))
         return out
+
+    def _persons(self, record: dict[str, Any], add: Any, header: Any) -> list[Any]:
+        """The persons' messages (module docstring); returns their TF transforms."""
+        t, stamp, face = self._t, float(record["stamp_s"]), record["mode"] == "face"
+        for p in record["people"]:
+            self._last_seen[int(p["id"])] = (stamp, list(p["position_m"]), face)
+        confidence = {n: 1.0 - max(stamp - seen, 0.0) / self.memory_s for n, (seen, _, _) in self._last_seen.items()}
+        self._last_seen = {n: v for n, v in self._last_seen.items() if confidence[n] > 0}
+        now = [int(p["id"]) for p in record["people"]]
+        add("humans/persons/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=[person_id(n) for n in now]))
+        add("humans/persons/known", IDS_LIST, t[IDS_LIST](header=header,
+                                                           ids=[person_id(n) for n in sorted(self._last_seen)]))
+        transforms = []
+        for n in sorted(self._last_seen):
+            _, position, has_face = self._last_seen[n]
+            pid, c = person_id(n), (1.0 if n in now else confidence[n])
+            add(f"humans/persons/{pid}/anonymous", BOOL, t[BOOL](data=True))
+            add(f"humans/persons/{pid}/voice_id", STRING, t[STRING](data=voice_id(n)))
+            add(f"humans/persons/{pid}/location_confidence", FLOAT32, t[FLOAT32](data=float(c)))
+            if has_face:
+                add(f"humans/persons/{pid}/face_id", STRING, t[STRING](data=face_id(n)))
+            if n in now:
+                add("humans/candidate_matches", IDS_MATCH,
+                    t[IDS_MATCH](id1=pid, id1_type=PERSON, id2=voice_id(n), id2_type=VOICE, confidence=1.0))
+                if has_face:
+                    add("humans/candidate_matches", IDS_MATCH,
+                        t[IDS_MATCH](id1=pid, id1_type=PERSON, id2=face_id(n), id2_type=FACE, confidence=1.0))
+            transforms.append(self._transform(header, f"person_{pid}", position))
+        return transforms

@@ -179,6 +179,61 @@ class Timeline:
 
 
 @dataclass
+class IdentityCounts:
+    """Who is who over time, the multi-object tracking scores: IDF1 (Ristani et al. 2016, "Performance measures and
+    a data set for multi-target, multi-camera tracking": the one-to-one map between true people and avhear's ids
+    that agrees in the most results; IDTP the agreements, IDFN the visible people the map misses, IDFP avhear's
+    people it does not explain) and identity switches (CLEAR MOT, Bernardin and Stiefelhagen 2008: a person matched
+    to another id than at their previous match). Summed over seeds, each seed with its own map."""
+
+    idtp: int = 0
+    idfp: int = 0
+    idfn: int = 0
+    id_switches: int = 0
+
+    @property
+    def idf1(self) -> float:
+        d = 2 * self.idtp + self.idfp + self.idfn
+        return 2 * self.idtp / d if d else math.nan
+
+    def add(self, other: IdentityCounts) -> None:
+        self.idtp += other.idtp
+        self.idfp += other.idfp
+        self.idfn += other.idfn
+        self.id_switches += other.id_switches
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"idf1": _clean(self.idf1), "id_switches": self.id_switches, "idtp": self.idtp, "idfp": self.idfp,
+                "idfn": self.idfn}
+
+
+def identity_counts(matches: Sequence[Sequence[tuple[int, int]]], n_true: Sequence[int], n_found: Sequence[int]
+                    ) -> IdentityCounts:
+    """:class:`IdentityCounts` of a run. matches : per result (in time order) its (true person, avhear id) pairs
+    matched within tau_loc; n_true : per result the visible true people; n_found : per result avhear's people."""
+    from scipy.optimize import linear_sum_assignment
+
+    pairs = [p for m in matches for p in m]
+    out = IdentityCounts()
+    if pairs:
+        truths = sorted({g for g, _ in pairs})
+        ids = sorted({i for _, i in pairs})
+        together = np.zeros((len(truths), len(ids)))
+        for g, i in pairs:
+            together[truths.index(g), ids.index(i)] += 1
+        rows, cols = linear_sum_assignment(-together)
+        out.idtp = int(together[rows, cols].sum())
+    out.idfn = int(sum(n_true)) - out.idtp
+    out.idfp = int(sum(n_found)) - out.idtp
+    last: dict[int, int] = {}
+    for m in matches:
+        for g, i in m:
+            out.id_switches += int(g in last and last[g] != i)
+            last[g] = i
+    return out
+
+
+@dataclass
 class ScenarioScore:
     """The figures of one scenario (summed or pooled over its seeds)."""
 
@@ -196,6 +251,7 @@ class ScenarioScore:
     faces_found: int = 0
     f3d_errors_m: list[float] = field(default_factory=list, repr=False)
     people_errors_m: list[float] = field(default_factory=list, repr=False)  # every result's matched people
+    identity: IdentityCounts = field(default_factory=lambda: IdentityCounts())
     itd_errors_s: list[float] = field(default_factory=list, repr=False)
     itd_true_s: list[float] = field(default_factory=list, repr=False)
     n_itds: int = 0
@@ -250,6 +306,7 @@ class ScenarioScore:
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.f3d_errors_m += other.f3d_errors_m
         self.people_errors_m += other.people_errors_m
+        self.identity.add(other.identity)
         self.itd_errors_s += other.itd_errors_s
         self.itd_true_s += other.itd_true_s
 
@@ -268,6 +325,7 @@ class ScenarioScore:
             "face_recall": _clean(self.face_recall),
             "f3d_median_error_m": _clean(self.f3d_median_m),
             "people_ale_m": _clean(self.people_ale_m),
+            "identity": self.identity.as_dict(),
             "itd_windows_one_talker": len(self.itd_errors_s),
             "itd_accuracy_40us": _clean(self.itd_accuracy),
             "itd_median_bias_us": _clean(self.itd_bias_s * 1e6),
@@ -394,6 +452,9 @@ class _Judged:
     results_per: np.ndarray
     states: np.ndarray
     stamps: np.ndarray
+    id_matches: list = field(default_factory=list)  # per result: (true person, avhear id) pairs
+    n_true: list = field(default_factory=list)  # per result: visible true people
+    n_found: list = field(default_factory=list)  # per result: avhear's people
 
 
 def _truth_per_interval(truths: list, frame_interval: np.ndarray, n_intervals: int, n_people: int
@@ -427,6 +488,11 @@ def _judge(scenario: Scenario, fused: Sequence[Result], n_intervals: int, score:
         match = match_clusters(xyz, truth_xyz, tau_loc=TAU_LOC_M)
         out.results_per[k] += 1
         matched = set()
+        ids = np.asarray(r.person_ids).ravel()
+        visible = tr.visible & np.isfinite(truth_xyz).all(axis=1)
+        out.id_matches.append([(int(g), int(ids[d])) for g, d in match.pairs if visible[g]])
+        out.n_true.append(int(visible.sum()))
+        out.n_found.append(int(xyz.shape[0]))
         for g, d in match.pairs:
             out.found[k, g] += 1
             out.judged[k, g] += bool(judged_speaking[d])
@@ -466,6 +532,7 @@ def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, sa
     visible, speaking, spoke, frames_per = _truth_per_interval(truths, frame_interval, n_intervals, n_people)
     j = _judge(scenario, fused, n_intervals, score, face_figures=not motion, positions_at=positions_at)
     score.counts = _interval_counts(visible, speaking, spoke, j.found, j.judged, j.false_speaking, j.results_per)
+    score.identity = identity_counts(j.id_matches, j.n_true, j.n_found)
     # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends
     held = scenario.speaking_at(frame_stamps_s, hold_s=TIMING_REFERENCE_S)
     seen = np.array([tr.visible for tr in truths], dtype=bool).reshape(-1, n_people)

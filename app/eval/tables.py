@@ -221,6 +221,18 @@ def _front_end_lines(scores: list[ScenarioScore]) -> list[str]:
     return lines
 
 
+def _identity_lines(scores: list[ScenarioScore]) -> list[str]:
+    lines = [("Who is who over time, per result: IDF1 = 2 IDTP / (2 IDTP + IDFP + IDFN) under the best one-to-one map "
+              "of true people to avhear's ids; switches = a person matched to another id than before; ALE = mean "
+              "distance of the people found to their truth (faces, or moving bodies' centres).")]
+    lines.append(f"{'Scen.':6s} {'IDF1':>7s} {'switches':>9s} {'IDTP':>7s} {'IDFP':>6s} {'IDFN':>6s} {'ALE [m]':>8s}")
+    for s in scores:
+        i = s.identity
+        lines.append(f"{s.scenario:6s} {_num(i.idf1, '.3f'):>7s} {i.id_switches:9d} {i.idtp:7d} {i.idfp:6d} "
+                     f"{i.idfn:6d} {_num(s.people_ale_m, '.3f'):>8s}")
+    return lines
+
+
 def _target_lines(scores: list[ScenarioScore], reference: str) -> list[str]:
     t = scenario_targets(scores)
     lines = [("Targets (beyond the paper's table): TP >= 95 %; FP/spk at most half the paper's; S4's unseen "
@@ -253,7 +265,7 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
     reference = f"truth held +-{TIMING_REFERENCE_S * 1e3:.0f} ms"
     sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration),
                 _per_number_lines(scores, label), _per_interval_lines(scores, label, reference),
-                _front_end_lines(scores), _target_lines(scores, reference)]
+                _front_end_lines(scores), _identity_lines(scores), _target_lines(scores, reference)]
     return "\n\n".join("\n".join(section) for section in sections)
 
 

@@ -39,11 +39,13 @@ def test_every_message_round_trips_through_rosbags() -> None:
     assert decode(got["humans/faces/tracked"], "hri_msgs/msg/IdsList").ids == ["f0", "f3"]
     roi = decode(got["humans/faces/f3/roi"], "sensor_msgs/msg/RegionOfInterest")
     assert (roi.x_offset, roi.y_offset, roi.width, roi.height) == (410, 100, 30, 33)
-    match = decode(got["humans/candidate_matches"], "hri_msgs/msg/IdsMatch")  # the last person's
-    assert (match.id1, match.id1_type, match.id2, match.id2_type) == ("f3", FACE, "v3", VOICE) == ("f3", 2, "v3", 4)
+    matches = [decode(p, "hri_msgs/msg/IdsMatch") for topic, _, p in messages if topic == "humans/candidate_matches"]
+    assert {(m.id1, m.id1_type, m.id2, m.id2_type) for m in matches} == {
+        ("f0", FACE, "v0", VOICE), ("f3", FACE, "v3", VOICE), ("p0", 1, "v0", 4), ("p0", 1, "f0", 2),
+        ("p3", 1, "v3", 4), ("p3", 1, "f3", 2)}  # PERSON = 1, FACE = 2, VOICE = 4 (hri_msgs/IdsMatch)
     tf = decode(got["tf"], "tf2_msgs/msg/TFMessage")
     frames = {t.child_frame_id: t for t in tf.transforms}
-    assert set(frames) == {"voice_v0", "voice_v3", "face_f0", "face_f3"}
+    assert set(frames) == {"voice_v0", "voice_v3", "face_f0", "face_f3", "person_p0", "person_p3"}
     v = frames["voice_v3"].transform.translation
     assert (v.x, v.y, v.z) == (0.7, -0.1, 2.9) and frames["voice_v3"].header.frame_id == "avhear_rig"
     assert json.loads(got["avhear/results"]) == RECORD
@@ -51,12 +53,45 @@ def test_every_message_round_trips_through_rosbags() -> None:
     assert all(payload[:4] == b"\x00\x01\x00\x00" for key, payload in got.items() if not key.endswith("results"))
 
 
+def test_persons_are_followed_and_fade_when_no_longer_seen() -> None:
+    """ROS4HRI persons: the person seen has location confidence 1; one no longer seen is still known, at its last
+    place, its confidence falling linearly to 0 over 10 s, then forgotten (REP-155, "Person frame")."""
+    topics = Topics()
+    moved = dict(RECORD["people"][0], position_m=[-0.7, 0.05, 1.9])
+
+    def at(stamp_s: float, people: list) -> dict[str, list[bytes]]:
+        out: dict[str, list[bytes]] = {}
+        for topic, _, payload in topics.messages(dict(RECORD, stamp_s=stamp_s, people=people)):
+            out.setdefault(topic, []).append(payload)
+        return out
+
+    at(12.25, RECORD["people"])
+    later = at(17.25, [moved])  # person 3 unseen for 5 s
+    ids = lambda topic, got: decode(got[topic][0], "hri_msgs/msg/IdsList").ids  # noqa: E731
+    assert ids("humans/persons/tracked", later) == ["p0"] and ids("humans/persons/known", later) == ["p0", "p3"]
+    conf = {p: decode(later[f"humans/persons/{p}/location_confidence"][0], "std_msgs/msg/Float32").data
+            for p in ("p0", "p3")}
+    assert conf["p0"] == 1.0 and conf["p3"] == pytest.approx(0.5)
+    assert decode(later["humans/persons/p3/anonymous"][0], "std_msgs/msg/Bool").data is True
+    assert decode(later["humans/persons/p3/face_id"][0], "std_msgs/msg/String").data == "f3"
+    assert decode(later["humans/persons/p3/voice_id"][0], "std_msgs/msg/String").data == "v3"
+    frames = {t.child_frame_id: t.transform.translation for t in
+              decode(later["tf"][0], "tf2_msgs/msg/TFMessage").transforms}
+    assert (frames["person_p3"].x, frames["person_p3"].z) == (0.7, 2.9)  # where person 3 was last seen
+    assert (frames["person_p0"].x, frames["person_p0"].z) == (-0.7, 1.9)  # with the face
+    gone = at(22.3, [moved])  # 10.05 s after person 3 was last seen
+    assert ids("humans/persons/known", gone) == ["p0"] and "humans/persons/p3/location_confidence" not in gone
+
+
 def test_motion_guided_results_have_voices_only() -> None:
     record = dict(RECORD, mode="motion", people=[{k: v for k, v in p.items() if k != "box_px"}
                                                  for p in RECORD["people"]])
-    keys = [k for k, _, _ in Topics().messages(record)]
-    assert "humans/voices/tracked" in keys and "tf" in keys
-    assert not [k for k in keys if k.startswith("humans/faces") or k == "humans/candidate_matches"]
+    messages = Topics().messages(record)
+    keys = [k for k, _, _ in messages]
+    assert "humans/voices/tracked" in keys and "tf" in keys and "humans/persons/p3/voice_id" in keys
+    assert not [k for k in keys if k.startswith("humans/faces") or k.endswith("/face_id")]
+    matches = [decode(p, "hri_msgs/msg/IdsMatch") for k, _, p in messages if k == "humans/candidate_matches"]
+    assert {(m.id1, m.id2) for m in matches} == {("p0", "v0"), ("p3", "v3")}  # a person and its voice, no face
 
 
 def test_an_undecodable_payload_is_a_value_error() -> None:
@@ -131,7 +166,7 @@ def test_publish_between_two_processes_with_the_bridges_keys() -> None:
     ids = {p["id"] for r in results for p in r["people"]}
     assert {f"lab/humans/voices/v{i}/is_speaking" for i in ids} == set(speaking)
     assert any(any(v) for v in speaking.values())  # somebody speaks in S2's first two seconds
-    assert all(len(t.transforms) == 2 * len(r["people"]) for t, r in zip(tf, results))
+    assert all(len(t.transforms) >= 3 * len(r["people"]) for t, r in zip(tf, results))  # voice, face, person
 
 
 # REP-2011 hashes as ROS 2 Jazzy computes them (ros-z's regression table, checked there against rmw_zenoh_cpp:

@@ -202,6 +202,7 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert f"S2 seed 0: per spoken number TP {u['tp']}, FN {u['fn']}, FP {u['fp']} " in captured.err  # as the table
     assert 0.0 <= row["frames_all_faces_found"] <= 1.0 and row["f3d_median_error_m"] < 0.1
     assert 0.0 < row["people_ale_m"] < 0.05  # the people found lie within centimetres of the faces
+    assert row["identity"]["idf1"] > 0.9 and row["identity"]["id_switches"] <= 1
     assert row["itd_windows_one_talker"] > 0 and 0.0 <= row["itd_accuracy_40us"] <= 1.0
     assert out["paper"]["S2"] == PAPER_SCENARIOS["S2"] == {"fp": 22, "fn": 31, "tp": 176}
     assert "tp_at_least_95" in out["targets"]["per_interval"]["S2"]
@@ -326,3 +327,16 @@ def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.M
         with pytest.raises(SystemExit):
             main(["eval", "scenarios", "--scenario", "S1", "--no-calibrate", *argv])
         assert asked[-1] is bodies
+
+
+def test_identity_scores_as_the_mot_literature_defines_them() -> None:
+    """Person 0 is tracked as id 7 then as id 8 (one switch); person 1 as id 9, missed in the last result, where a
+    false person appears. The best map (0 -> 7 or 8, 1 -> 9) agrees in 5 matches: IDF1 = 10 / (10 + 4 + 3)."""
+    from app.eval.scenarios import identity_counts
+
+    matches = [[(0, 7), (1, 9)], [(0, 7), (1, 9)], [(0, 8), (1, 9)], [(0, 8)]]
+    got = identity_counts(matches, n_true=[2, 2, 2, 2], n_found=[2, 2, 2, 3])
+    assert (got.idtp, got.idfn, got.idfp, got.id_switches) == (5, 3, 4, 1)
+    assert got.idf1 == pytest.approx(10 / 17)
+    perfect = identity_counts([[(0, 3)], [(0, 3)]], n_true=[1, 1], n_found=[1, 1])
+    assert perfect.idf1 == 1.0 and perfect.id_switches == 0
