@@ -5,31 +5,18 @@ Zenoh keys in either convention (rmw_zenoh's or zenoh-bridge-ros2dds's). Payload
 serialises them (little-endian, 4-byte encapsulation header), built and read by rosbags' typestore (ROS 2 Jazzy's
 definitions, no ROS installation needed), which also gives each type's REP-2011 hash.
 
-ROS4HRI (REP-155, "ROS for Human-Robot Interaction"):
+ROS4HRI (REP-155) as avhear publishes it (the README's table): faces (``humans/faces/tracked``, each face's
+``roi``), voices (``humans/voices/tracked``, each voice's ``is_speaking``), persons (``humans/persons/tracked`` and
+``known``; each person's ``anonymous``, ``face_id``, ``voice_id`` and ``location_confidence``: 1 while seen, then
+down to 0 over :data:`PERSON_MEMORY_S`, REP-155's "Person frame" case 2), ``humans/candidate_matches`` (PERSON = 1,
+FACE = 2, VOICE = 4) and TF frames on ``tf``. Topics REP-155 latches are sent with every result instead.
 
-- section "Faces": ``/humans/faces/tracked`` (hri_msgs/IdsList, the faces seen now) and
-  ``/humans/faces/<face_id>/roi`` (sensor_msgs/RegionOfInterest, the face's box in the image);
-- section "Voices": ``/humans/voices/tracked`` (hri_msgs/IdsList) and ``/humans/voices/<voice_id>/is_speaking``
-  (std_msgs/Bool);
-- section "Persons": ``/humans/persons/tracked`` (hri_msgs/IdsList, the persons seen now), ``/humans/persons/known``
-  (those seen now or remembered), and per person ``anonymous`` (std_msgs/Bool), ``face_id`` and ``voice_id``
-  (std_msgs/String) and ``location_confidence`` (std_msgs/Float32): 1 while seen, then decreasing linearly to 0 over
-  :data:`PERSON_MEMORY_S` (REP-155's "Person frame", case 2, as hri_person_manager does), when the person is
-  forgotten. The topics REP-155 latches are sent with every result instead (a late subscriber has them at once);
-- section "Person identification": ``/humans/candidate_matches`` (hri_msgs/IdsMatch, e.g. a face and a voice that
-  belong together, PERSON = 1, FACE = 2, VOICE = 4);
-- section "Frames": each face and voice has a TF frame ``face_<id>`` / ``voice_<id>`` (tf2_msgs/TFMessage on
-  ``/tf``).
-
-avhear's ids: a tracked person ``N`` (stable while tracked, :class:`avcore.tracking.NearestTracker`; the ``id`` of the
-results file) is the person ``pN``, has the face id ``fN`` (face-guided runs only) and the voice id ``vN``: the voice
-is the sound coming from that person's place, so a person, its face and its voice are matched with confidence 1.0.
-avhear's persons are anonymous (nobody is recognised, only followed). Frames: ``person_pN`` (at the face while seen,
-at the last place while remembered), ``face_fN`` and ``voice_vN`` are children of
-:data:`RIG_FRAME` (``avhear_rig``): the scene frame of docs/architecture.md (origin midway between the two camera
-centres, x right, y down, z forward, metres: the optical-frame convention), with identity rotation. Headers carry the
-result's capture stamp on the source's clock (``time.monotonic()`` for live input, the recording's own clock for a
-replay), the same ``stamp_s`` as the JSON.
+avhear's ids: a tracked person ``N`` (:class:`avcore.tracking.NearestTracker`; the results file's ``id``) is the
+person ``pN`` with the face ``fN`` (face-guided runs) and the voice ``vN``, matched with confidence 1.0 (the voice is
+the sound from that person's place); persons are anonymous (followed, not recognised). Frames ``person_pN`` (at the
+face while seen, at the last place while remembered), ``face_fN`` and ``voice_vN`` are children of :data:`RIG_FRAME`,
+the scene frame of docs/architecture.md, with identity rotation. Headers carry the result's capture stamp on the
+source's clock, the JSON's ``stamp_s``.
 
 Message definitions not in rosbags' ROS 2 Jazzy store are declared here from their sources:
 

@@ -34,12 +34,11 @@ from app.bus.convert import AudioFormat, audio_format, audio_samples, camera_mat
 from app.bus.messages import AUDIO_INFO, AUDIO_STAMPED, CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, RosTopics, decode
 from app.bus.ros2 import Convention, RosNode
 from app.bus.sensors import RIG_KEY
-from app.bus.source import Presence, ask_rig
+from app.bus.source import Presence, ReceivedSource, ask_rig
 from app.config import RigConfig
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.queues import DropOldestQueue
-from app.sources.contract import SourceBase
 from avcore.depth import as_depth_m
 from avcore.stereo import StereoRig
 from avcore.sync import ApproximateTime
@@ -64,10 +63,8 @@ class _Rebase:
         return stamp + self.offset_s
 
 
-class RosSource(SourceBase):
+class RosSource(ReceivedSource):
     """The robot's RGB-D camera and microphones from their ROS 2 topics (module docstring)."""
-
-    realtime = True
 
     def __init__(self, session: Any, rig: RigConfig | None = None, *, convention: Convention | None = None,
                  topics: RosTopics | None = None, info_timeout_s: float = 10.0, gap_s: float = 1.0,
@@ -206,14 +203,6 @@ class RosSource(SourceBase):
         assert self._format is not None
         return self.samplerate_hz, self._format.channels
 
-    @property
-    def overflows(self) -> int:
-        return self._audio.dropped
-
-    @property
-    def frames_dropped(self) -> int:
-        return self._images.dropped + sum(self._pairing.dropped_counts)
-
     def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
         index = 0
         while not stop.is_set():
@@ -244,18 +233,3 @@ class RosSource(SourceBase):
                              "is the depth aligned to the colour image (align_depth.enable:=true)?")
         return StereoFrame(index, stamp, image, None, stamp, None, depth_m)
 
-    @property
-    def gaps(self) -> int:
-        return self._presence.gaps
-
-    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
-        while not stop.is_set():
-            block = self._audio.get(timeout=0.05)
-            if block is not None:
-                yield block
-
-    def close(self) -> None:
-        for sub in self._subscribers:
-            sub.undeclare()
-        self._subscribers = []
-        self.node.close()

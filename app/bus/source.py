@@ -29,7 +29,7 @@ from avcore.sync import ApproximateTime
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BusSource", "Presence", "ask_rig"]
+__all__ = ["BusSource", "Presence", "ReceivedSource", "ask_rig"]
 
 
 def ask_rig(session: Any, key: str, timeout_s: float, namespace: str) -> tuple[RigConfig, float, tuple[int, ...]]:
@@ -78,7 +78,45 @@ class Presence:
         return True
 
 
-class BusSource(SourceBase):
+class ReceivedSource(SourceBase):
+    """What the bus's sources share: a subclass's Zenoh callbacks fill ``_images`` (for ``_pairing``) and ``_audio``
+    (bounded queues that drop the oldest), ``_presence`` counts the robot's absences, and ``_subscribers`` and
+    ``node`` are released by :meth:`close`."""
+
+    realtime = True
+    _images: DropOldestQueue
+    _audio: DropOldestQueue
+    _pairing: ApproximateTime
+    _presence: Presence
+    _subscribers: list
+    node: Any
+
+    @property
+    def gaps(self) -> int:
+        return self._presence.gaps
+
+    @property
+    def overflows(self) -> int:
+        return self._audio.dropped
+
+    @property
+    def frames_dropped(self) -> int:
+        return self._images.dropped + sum(self._pairing.dropped_counts)
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
+        while not stop.is_set():
+            block = self._audio.get(timeout=0.05)
+            if block is not None:
+                yield block
+
+    def close(self) -> None:
+        for sub in self._subscribers:
+            sub.undeclare()
+        self._subscribers = []
+        self.node.close()
+
+
+class BusSource(ReceivedSource):
     """A pipeline source fed by the bus (see module docstring).
 
     convention : the key convention, ROS domain and namespace (:mod:`app.bus.ros2`).
@@ -89,8 +127,6 @@ class BusSource(SourceBase):
         ``rig_timeout_s``.
     gap_s : seconds without a camera frame after which the robot counts as gone (until frames come again).
     """
-
-    realtime = True
 
     def __init__(self, session: Any, *, convention: Convention | None = None, rig: RigConfig | None = None,
                  left_key: str | None = None, right_key: str | None = None, audio_key: str | None = None,
@@ -172,18 +208,6 @@ class BusSource(SourceBase):
             time.sleep(0.02)
         return self.samplerate_hz, self._n_channels
 
-    @property
-    def overflows(self) -> int:
-        return self._audio.dropped
-
-    @property
-    def frames_dropped(self) -> int:
-        return self._images.dropped + sum(self._pairing.dropped_counts)
-
-    @property
-    def gaps(self) -> int:
-        return self._presence.gaps
-
     def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
         index = 0
         while not stop.is_set():
@@ -205,14 +229,3 @@ class BusSource(SourceBase):
                 yield frame
                 index += 1
 
-    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
-        while not stop.is_set():
-            block = self._audio.get(timeout=0.05)
-            if block is not None:
-                yield block
-
-    def close(self) -> None:
-        for sub in self._subscribers:
-            sub.undeclare()
-        self._subscribers = []
-        self.node.close()
