@@ -25,3 +25,9 @@ def _own_bus_rendezvous() -> None:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     os.environ.setdefault("AVHEAR_BUS_PORT", str(port))
+    # and the rmw_zenoh router they join is the suite's own (tests/app/conftest.py's rmw_router), not 7447, where a
+    # developer's ROS 2 system may run: processes of one test then never meet those another test left behind
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        router = s.getsockname()[1]
+    os.environ.setdefault("AVHEAR_ROS_ROUTER", f"tcp/127.0.0.1:{router}")

@@ -39,7 +39,7 @@ from typing import Any, Callable
 
 from app.errors import UserError
 
-__all__ = ["CONVENTIONS", "DEFAULT_CONVENTION", "ROUTER", "Convention", "Endpoint", "RosNode", "dds_type_name",
+__all__ = ["CONVENTIONS", "DEFAULT_CONVENTION", "ROUTER", "router", "Convention", "Endpoint", "RosNode", "dds_type_name",
            "domain_from_env", "qos_text"]
 
 CONVENTIONS = ("rmw_zenoh", "bridge")
@@ -59,6 +59,15 @@ def dds_type_name(typename: str) -> str:
 def qos_text(depth: int = 10) -> str:
     """A reliable, volatile, keep-last ``depth`` profile in rmw_zenoh's token form (module docstring)."""
     return f"::,{'' if depth == _RMW_DEFAULT_DEPTH else depth}:,:,:,,"
+
+
+def router() -> str | None:
+    """The rmw_zenoh router avhear joins under rmw_zenoh's keys: ``AVHEAR_ROS_ROUTER`` (a Zenoh endpoint; empty for
+    none) or :data:`ROUTER`."""
+    text = os.environ.get("AVHEAR_ROS_ROUTER")
+    if text is None:
+        return ROUTER
+    return text.strip() or None
 
 
 def _mangle(name: str) -> str:

@@ -24,7 +24,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Iterator
 from typing import Any
 
 import cv2
@@ -202,23 +201,6 @@ class RosSource(ReceivedSource):
         """(samplerate_hz, n_channels) of the robot's audio (known from its AudioInfo)."""
         assert self._format is not None
         return self.samplerate_hz, self._format.channels
-
-    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
-        index = 0
-        while not stop.is_set():
-            item = self._images.get(timeout=0.05)
-            if not self._presence.seen(item is not None):
-                continue
-            self.images_received += 1
-            side, stamp, msg = item
-            for colour, depth in self._pairing.push(side, stamp, (stamp, msg)):
-                try:
-                    frame = self._frame(index, *colour, depth[1])
-                except ValueError:
-                    self.bad_payloads += 1
-                    continue
-                yield frame
-                index += 1
 
     def _frame(self, index: int, stamp: float, colour: Any, depth: Any) -> StereoFrame:
         if hasattr(colour, "encoding"):

@@ -11,8 +11,9 @@ Zenoh JSON5 configuration file, for TLS, access control and everything else; the
 the endpoints the flags give).
 
 Under rmw_zenoh's key convention (the default, :mod:`app.bus.ros2`) the session also connects to rmw_zenoh's router
-on ``tcp/127.0.0.1:7447`` when the user gave no endpoint, retrying, as every rmw_zenoh node does: that is how ROS 2
-processes on this machine see avhear's node and topics. Connecting is not listening: the router keeps its port.
+on ``tcp/127.0.0.1:7447`` (``AVHEAR_ROS_ROUTER`` names another, or none when empty) when the user gave no endpoint,
+retrying, as every rmw_zenoh node does: that is how ROS 2 processes on this machine see avhear's node and topics.
+Connecting is not listening: the router keeps its port.
 """
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from app.bus.ros2 import DEFAULT_CONVENTION, ROUTER, Convention
+from app.bus.ros2 import DEFAULT_CONVENTION, Convention, router
 from app.errors import UserError
 
 __all__ = ["ENDPOINT", "RENDEZVOUS_PORT", "BusOptions", "open_session", "rendezvous"]
@@ -101,11 +102,15 @@ def open_session(options: BusOptions) -> Any:
 
     if options.config is None and not options.listen and not options.connect:
         meet = rendezvous()
-        router = [ROUTER] if options.convention.native else []
+        ros = router() if options.convention.native else None
+        if ros is not None and not ENDPOINT.match(ros):
+            raise UserError(f"AVHEAR_ROS_ROUTER={ros!r} is not a Zenoh endpoint (e.g. tcp/127.0.0.1:7447; empty for "
+                            "none)")
+        router_endpoints = [ros] if ros else []
         try:
-            return zenoh.open(_config(options, listen=[meet], connect=router or None))
+            return zenoh.open(_config(options, listen=[meet], connect=router_endpoints or None))
         except Exception:  # noqa: BLE001 - ZError: the rendezvous is taken (by another avhear): join it instead
-            return _open(zenoh, _config(options, listen=[_ANY_PORT], connect=[meet, *router]), options)
+            return _open(zenoh, _config(options, listen=[_ANY_PORT], connect=[meet, *router_endpoints]), options)
     listen = [_ANY_PORT] if options.config is None and not options.listen else None
     return _open(zenoh, _config(options, listen=listen), options)
 

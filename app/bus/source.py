@@ -79,9 +79,13 @@ class Presence:
 
 
 class ReceivedSource(SourceBase):
-    """What the bus's sources share: a subclass's Zenoh callbacks fill ``_images`` (for ``_pairing``) and ``_audio``
-    (bounded queues that drop the oldest), ``_presence`` counts the robot's absences, and ``_subscribers`` and
-    ``node`` are released by :meth:`close`."""
+    """What the bus's sources share: a subclass's Zenoh callbacks fill ``_images`` with (stream 0 or 1, stamp,
+    message) for ``_pairing`` and ``_audio`` with blocks (bounded queues that drop the oldest), its ``_frame`` makes
+    a frame of a pair, ``_presence`` counts the robot's absences, and :meth:`close` releases ``_subscribers`` and
+    ``node``."""
+
+    images_received = 0
+    bad_payloads = 0
 
     realtime = True
     _images: DropOldestQueue
@@ -102,6 +106,34 @@ class ReceivedSource(SourceBase):
     @property
     def frames_dropped(self) -> int:
         return self._images.dropped + sum(self._pairing.dropped_counts)
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
+        """The two image streams paired by stamp, each pair made a frame by the subclass's ``_frame(index, stamp,
+        first message, second message)`` (ValueError: counted in ``bad_payloads`` and skipped). A stream whose
+        stamps go back (the robot started again, on another clock) restarts the pairing."""
+        index = 0
+        last = [-np.inf, -np.inf]
+        while not stop.is_set():
+            item = self._images.get(timeout=0.05)
+            if not self._presence.seen(item is not None):
+                continue
+            self.images_received += 1
+            side, stamp, msg = item
+            if stamp < last[side]:
+                self._pairing.reset()
+                last = [-np.inf, -np.inf]
+            last[side] = stamp
+            for first, second in self._pairing.push(side, stamp, (stamp, msg)):
+                try:
+                    frame = self._frame(index, first[0], first[1], second[1])
+                except ValueError:
+                    self.bad_payloads += 1
+                    continue
+                yield frame
+                index += 1
+
+    def _frame(self, index: int, stamp: float, first: Any, second: Any) -> StereoFrame:  # pragma: no cover
+        raise NotImplementedError
 
     def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
         while not stop.is_set():
@@ -158,7 +190,6 @@ class BusSource(ReceivedSource):
         self._audio: DropOldestQueue[AudioBlock] = DropOldestQueue(4 * queue_size, "bus-audio")
         self._pairing = ApproximateTime(2, queue_size=4, max_interval_s=0.02)
         self._blocks = 0
-        self._last_stamp = [-np.inf, -np.inf]
         self._subscribers = [
             self.node.subscriber(topics[0], COMPRESSED_IMAGE, lambda s: self._on_image(0, s)),
             self.node.subscriber(topics[1], COMPRESSED_IMAGE, lambda s: self._on_image(1, s)),
@@ -208,24 +239,6 @@ class BusSource(ReceivedSource):
             time.sleep(0.02)
         return self.samplerate_hz, self._n_channels
 
-    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
-        index = 0
-        while not stop.is_set():
-            item = self._images.get(timeout=0.05)
-            if not self._presence.seen(item is not None):
-                continue
-            self.images_received += 1
-            side, stamp, msg = item
-            if stamp < self._last_stamp[side]:  # the robot's stream started again on another clock
-                self._pairing.reset()
-                self._last_stamp = [-np.inf, -np.inf]
-            self._last_stamp[side] = stamp
-            for left, right in self._pairing.push(side, stamp, msg):
-                try:
-                    frame = frame_from_messages(index, left, right)
-                except ValueError:
-                    self.bad_payloads += 1
-                    continue
-                yield frame
-                index += 1
+    def _frame(self, index: int, stamp: float, first: Any, second: Any) -> StereoFrame:
+        return frame_from_messages(index, first, second)
 

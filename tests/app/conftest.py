@@ -1,6 +1,8 @@
 """Devices for the app's tests: video files as cameras, and a stand-in for sounddevice's PortAudio stream."""
 from __future__ import annotations
 
+import json
+import os
 import socket
 import threading
 import types
@@ -19,22 +21,35 @@ from avcore.stereo import StereoRig
 SMALL_RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)  # the video-file cameras' size
 
 
-@pytest.fixture
-def rmw_router() -> Iterator[object]:
-    """A router-mode Zenoh session on tcp/127.0.0.1:7447, as rmw_zenoh's `ros2 run rmw_zenoh_cpp rmw_zenohd`;
-    None when something listens there already (a router of the developer's: what is under test holds then too)."""
+def _router(endpoint: str):  # noqa: ANN202
     import zenoh
 
+    config = zenoh.Config()
+    config.insert_json5("mode", '"router"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", json.dumps([endpoint]))
+    return zenoh.open(config)
+
+
+@pytest.fixture
+def router_on_7447() -> Iterator[object]:
+    """A router-mode Zenoh session on tcp/127.0.0.1:7447, as rmw_zenoh's `ros2 run rmw_zenoh_cpp rmw_zenohd`;
+    None when something listens there already (a router of the developer's: what is under test holds then too)."""
     with socket.socket() as probe:
         if probe.connect_ex(("127.0.0.1", 7447)) == 0:
             yield None
             return
-    config = zenoh.Config()
-    config.insert_json5("mode", '"router"')
-    config.insert_json5("scouting/multicast/enabled", "false")
-    config.insert_json5("listen/endpoints", '["tcp/127.0.0.1:7447"]')
-    with zenoh.open(config) as router:
+    with _router("tcp/127.0.0.1:7447") as router:
         yield router
+
+
+@pytest.fixture
+def rmw_router() -> Iterator[str]:
+    """The rmw_zenoh router avhear's processes join (``AVHEAR_ROS_ROUTER``, the suite's own port: tests/conftest.py),
+    as a router-mode session; yields its endpoint."""
+    endpoint = os.environ["AVHEAR_ROS_ROUTER"]
+    with _router(endpoint):
+        yield endpoint
 
 
 @pytest.fixture

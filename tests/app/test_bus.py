@@ -181,6 +181,16 @@ PUBLISHED_HASHES = {
 }
 
 
+def test_rmw_zenohs_router_is_joined_where_ros_2_has_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    from app.bus.ros2 import ROUTER, router
+
+    assert ROUTER == "tcp/127.0.0.1:7447"  # rmw_zenoh's router, rmw_zenohd's default port
+    monkeypatch.delenv("AVHEAR_ROS_ROUTER", raising=False)
+    assert router() == ROUTER
+    monkeypatch.setenv("AVHEAR_ROS_ROUTER", "")
+    assert router() is None
+
+
 @pytest.mark.parametrize("typename", sorted(PUBLISHED_HASHES))
 def test_type_hashes_are_the_ones_ros_publishes(typename: str) -> None:
     from app.bus.messages import typestore
@@ -289,16 +299,17 @@ def test_a_slow_bus_never_stalls_the_pipeline(people_result: Callable[..., objec
     assert session.sent.count("avhear/results") == publisher.published
 
 
-def test_a_ros2_graph_behind_rmw_zenohs_router_sees_avhear(rmw_router: object) -> None:
-    """With no endpoint given, avhear joins rmw_zenoh's router on 7447 (as every rmw_zenoh node does) without
-    listening there: a session that only knows the router, as `ros2 node list` and `ros2 topic echo` on an
-    rmw_zenoh machine, finds the node `avhear`, its publisher of /humans/voices/tracked, and its messages."""
+def test_a_ros2_graph_behind_rmw_zenohs_router_sees_avhear(rmw_router: str) -> None:
+    """With no endpoint given, avhear joins rmw_zenoh's router (on 7447 by default; here the suite's own port,
+    AVHEAR_ROS_ROUTER) as every rmw_zenoh node does, without listening there: a session that only knows the router,
+    as `ros2 node list` and `ros2 topic echo` on an rmw_zenoh machine, finds the node `avhear`, its publisher of
+    /humans/voices/tracked, and its messages."""
     import zenoh
 
     config = zenoh.Config()
     config.insert_json5("mode", '"peer"')
     config.insert_json5("scouting/multicast/enabled", "false")
-    config.insert_json5("connect/endpoints", '["tcp/127.0.0.1:7447"]')
+    config.insert_json5("connect/endpoints", json.dumps([rmw_router]))
     tokens: list[str] = []
     tracked: list[bytes] = []
     lock = threading.Lock()

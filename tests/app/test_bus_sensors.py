@@ -250,7 +250,7 @@ def test_the_readmes_bus_recipe_on_one_machine(order: str, tmp_path: Path, reque
     meet = _free_port()
     env = dict(os.environ, AVHEAR_BUS_PORT=str(meet), PYTHONPATH=str(ROOT))
     if "router" in order:
-        request.getfixturevalue("rmw_router")
+        request.getfixturevalue("router_on_7447")
     received: list[bytes] = []
     lock = threading.Lock()
 
