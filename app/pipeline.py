@@ -520,7 +520,8 @@ class Pipeline:
             a = a.reshape(times.size, hearing.array.n_pairs)
         output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
         ids = tracker.update(self.mode.people_xyz(vision, output))
-        result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids)
+        result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,
+                        frame.depth_m)
         for voted in self._vote.push(result, ids, output.speaking, output.probability):
             self._emit_voted(*voted)  # the result whose vote this one completed (itself without a vote)
         self._fused += 1

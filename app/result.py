@@ -46,7 +46,7 @@ class Result:
     itds_s : (K, P) the ITDs of its time frame, one row per window and one column per pair (NaN: the pair has
     none); (K,) with one pair. output : the method's FaceGuidedOutput or MotionGuidedOutput. latency_s : result time
     minus capture stamp (nan for a source replayed as fast as possible). person_ids : (N,) stable ids of the people
-    of ``output``.
+    of ``output``. depth_m : an RGB-D camera's depth aligned to ``image``, metres (NaN: none), or None.
     """
 
     stamp_s: float
@@ -58,6 +58,7 @@ class Result:
     output: Any
     latency_s: float
     person_ids: np.ndarray
+    depth_m: np.ndarray | None = None
 
     @property
     def mode(self) -> str:
@@ -100,7 +101,7 @@ class Result:
 
     def without_image(self) -> Result:
         """The same result without its image, for a sink that keeps many (the evaluation)."""
-        return replace(self, image=_NO_IMAGE)
+        return replace(self, image=_NO_IMAGE, depth_m=None)
 
     def as_dict(self) -> dict[str, Any]:
         """The result as one line of the results file (schema: :mod:`app.sinks.results_file`)."""

@@ -44,7 +44,8 @@ def default_blueprint() -> rrb.Blueprint:
     Rig-independent: the 2D views fit their bounds to the static data the console logs (the camera's resolution,
     the bird's-eye range rings, the ITD axis), so one saved ``.rbl`` serves every rig.
     """
-    image = rrb.Spatial2DView(origin="scene/cameras/left", name="Left image")
+    image = rrb.Spatial2DView(origin="scene/cameras/left", contents=["+ $origin/**", "- $origin/depth"],
+                              name="Left image")  # an RGB-D camera's depth is for the 3D view
     birdseye = rrb.Spatial2DView(origin="birdseye", name="Bird's-eye view (x-z, forward up)")
     itd_space = rrb.Spatial2DView(origin="itd", contents=["+ $origin/**", "- $origin/bars"],
                                   name="ITD space (us; fraction of ITDs per bin)")

@@ -703,3 +703,35 @@ def test_the_itd_pane_keeps_its_scale(recorded: dict, scene: dict, tmp_path: Pat
     labels = recorded["rrd"].values("/itd/axis/ticks", "Points2D:labels")[0]
     values = [0.0 if lb == "0" else float(lb.split()[0]) for lb in labels]
     assert values and all(v % 200 == 0 for v in values) and 0.0 in values
+
+
+def test_an_rgbd_cameras_depth_goes_to_the_3d_view(scene: dict, tmp_path: Path) -> None:
+    """An RGB-D frame's depth is logged (millimetres, meter = 1000) under the left camera every DEPTH_EVERY frames,
+    where the 3D view draws it as a point cloud; the left image's 2D view leaves it out."""
+    from app.console import DEPTH, DEPTH_EVERY
+
+    path = tmp_path / "rgbd.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(scene["rig"], MICS, recording=rec)
+    depth = np.full((480, 640), 2.5, np.float32)
+    depth[0, 0] = np.nan
+    out = FaceGuidedHearing(MICS).step(scene["xyz"], np.zeros(0))
+    for i in range(DEPTH_EVERY + 1):
+        console.log(ConsoleFrame(10.0 + i / 30, i, scene["image"], scene["boxes"], scene["xyz"], out.speaking,
+                                 out.probability, np.zeros(0), depth_m=depth))
+    with pytest.raises(ValueError, match="depth_m must be of the rig's size"):
+        console.log(ConsoleFrame(11.0, 99, scene["image"], scene["boxes"], scene["xyz"], out.speaking,
+                                 out.probability, np.zeros(0), depth_m=depth[:240]))
+    rec.disconnect()
+    rrd = Rrd(path)
+    assert rrd.frames(f"/{DEPTH}", "DepthImage:buffer") == [0, DEPTH_EVERY]
+    assert rrd.values(f"/{DEPTH}", "DepthImage:meter")[0] == [1000.0]
+    left = [v for v in _views(default_blueprint().root_container) if str(v.origin) == "scene/cameras/left"]
+    assert len(left) == 1 and "- $origin/depth" in left[0].contents
+
+
+def _views(container):  # noqa: ANN001, ANN202
+    """Every view of a blueprint container, depth first."""
+    for item in container.contents:
+        yield from (_views(item) if hasattr(item, "contents") and not hasattr(item, "origin") else [item])
