@@ -519,7 +519,7 @@ class Pipeline:
         if hearing.array is not None:
             a = a.reshape(times.size, hearing.array.n_pairs)
         output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
-        ids = tracker.update(self.mode.people_xyz(vision, output))
+        ids = tracker.update(self.mode.people_xyz(vision, output), vision.stamp_s)
         result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,
                         frame.depth_m)
         for voted in self._vote.push(result, ids, output.speaking, output.probability):

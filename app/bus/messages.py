@@ -38,6 +38,8 @@ from typing import Any
 import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from avcore.tracking import PERSON_MEMORY_S  # as long as the tracker keeps a person's id
+
 __all__ = [
     "AUDIO_BLOCK", "AUDIO_INFO", "AUDIO_STAMPED", "CAMERA_INFO", "COMPRESSED_IMAGE", "FACE", "IMAGE", "RESULTS_KEY", "RosTopics", "RIG_FRAME", "VOICE", "Topics", "decode", "encode",
     "face_id", "make_header", "person_id", "typestore", "voice_id", "PERSON", "PERSON_MEMORY_S",
@@ -46,7 +48,7 @@ __all__ = [
 RIG_FRAME = "avhear_rig"
 RESULTS_KEY = "avhear/results"  # the JSON of app.sinks.results_file, one message per result
 PERSON, FACE, VOICE = 1, 2, 4  # hri_msgs/IdsMatch id types
-PERSON_MEMORY_S = 10.0  # how long a person no longer seen is remembered (location_confidence from 1 down to 0)
+
 
 IDS_LIST = "hri_msgs/msg/IdsList"
 IDS_MATCH = "hri_msgs/msg/IdsMatch"

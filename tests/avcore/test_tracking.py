@@ -35,3 +35,18 @@ def test_gate_and_two_close_people() -> None:
     assert tr.update(np.empty((0, 3))).shape == (0,)
     with pytest.raises(ValueError, match="positions"):
         tr.update(np.zeros((2, 2)))
+
+
+def test_a_person_back_within_the_memory_keeps_their_id() -> None:
+    """With stamps, a person who leaves and comes back to about the same place within memory_s (10 s) keeps their
+    id, however many updates passed; after longer, they are someone new."""
+    tr = NearestTracker(memory_s=10.0)
+    assert tr.update([[0, 0, 2], [1, 0, 2]], 0.0).tolist() == [0, 1]
+    for k in range(1, 250):  # person 1 away for 8.3 s at 30 updates a second
+        assert tr.update([[0, 0, 2]], k / 30).tolist() == [0]
+    assert tr.update([[0, 0, 2], [1.1, 0, 2]], 250 / 30).tolist() == [0, 1]
+    for k in range(251, 600):  # away again, 11.6 s
+        tr.update([[0, 0, 2]], k / 30)
+    assert tr.update([[0, 0, 2], [1.0, 0, 2]], 600 / 30).tolist() == [0, 2]
+    with pytest.raises(ValueError, match="memory_s"):
+        NearestTracker(memory_s=0.0)
