@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from avcore.faces import FaceDetector, FaceLocations, detect_faces
-from avcore.motion import MotionPoints, grey_frames, temporal_std
+from avcore.motion import MotionPoints, grey_frames, interval_shape, temporal_std
 from avcore.stereo import StereoRig
 
 __all__ = ["as_depth_m", "depth_millimetres", "face_depth", "locate_faces_depth", "motion_points_depth"]
@@ -117,15 +117,10 @@ def motion_points_depth(frames: Sequence[np.ndarray] | np.ndarray, depths: Seque
     colour = grey_frames(frames, "frames")
     if len(depths) != colour.shape[0]:
         raise ValueError(f"one depth image per frame: {colour.shape[0]} frames, {len(depths)} depth images")
-    t, h, w = colour.shape
-    if t < 2:
-        raise ValueError(f"an interval needs at least 2 frames to measure motion, got {t}")
-    if (w, h) != tuple(rig.image_size):
-        raise ValueError(f"frames are {w}x{h} but the rig's images are {rig.image_size[0]}x{rig.image_size[1]}")
+    t, h, w = interval_shape(colour, rig)
     dynamic = (temporal_std(colour) > tau_m).astype(np.uint8)
-    empty = MotionPoints(np.zeros((0, 3)), np.zeros(0, int), np.zeros((0, 2)), np.zeros(0))
     if not dynamic.any():
-        return empty
+        return MotionPoints.empty()
     results = []
     for k in range(t):
         corners = cv2.goodFeaturesToTrack(colour[k], max_corners, quality_level, min_distance_px, mask=dynamic,
@@ -149,5 +144,5 @@ def motion_points_depth(frames: Sequence[np.ndarray] | np.ndarray, depths: Seque
                         np.full(int(ok.sum()), k), uv_l,
                         np.ones(int(ok.sum()))))
     if not results:
-        return empty
+        return MotionPoints.empty()
     return MotionPoints(*(np.concatenate(parts) for parts in zip(*results)))

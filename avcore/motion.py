@@ -20,7 +20,7 @@ import numpy as np
 
 from avcore.stereo import StereoRig
 
-__all__ = ["MotionPoints", "grey_frames", "harris_motion_points", "temporal_std"]
+__all__ = ["MotionPoints", "grey_frames", "harris_motion_points", "interval_shape", "temporal_std"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,6 +39,10 @@ class MotionPoints:
     def __len__(self) -> int:
         return int(self.points.shape[0])
 
+    @classmethod
+    def empty(cls) -> MotionPoints:
+        return cls(np.zeros((0, 3)), np.zeros(0, int), np.zeros((0, 2)), np.zeros(0))
+
 
 def grey_frames(frames: Sequence[np.ndarray] | np.ndarray, name: str) -> np.ndarray:
     """The frames of an interval as one (t, h, w) uint8 grey stack; ValueError naming ``name`` otherwise."""
@@ -56,6 +60,16 @@ def grey_frames(frames: Sequence[np.ndarray] | np.ndarray, name: str) -> np.ndar
     if len(shapes) != 1:
         raise ValueError(f"{name} frames differ in size: {sorted(shapes)}")
     return np.stack(grey)
+
+
+def interval_shape(frames: np.ndarray, rig: StereoRig) -> tuple[int, int, int]:
+    """(t, h, w) of an interval's grey stack; ValueError unless it has 2 frames or more of the rig's size."""
+    t, h, w = frames.shape
+    if t < 2:
+        raise ValueError(f"an interval needs at least 2 frames to measure motion, got {t}")
+    if (w, h) != tuple(rig.image_size):
+        raise ValueError(f"frames are {w}x{h} but the rig's images are {rig.image_size[0]}x{rig.image_size[1]}")
+    return t, h, w
 
 
 def temporal_std(frames: np.ndarray) -> np.ndarray:
@@ -131,11 +145,7 @@ def harris_motion_points(
     right = grey_frames(right_frames, "right_frames")
     if left.shape != right.shape:
         raise ValueError(f"left_frames and right_frames must have the same shape, got {left.shape} and {right.shape}")
-    t, h, w = left.shape
-    if t < 2:
-        raise ValueError(f"an interval needs at least 2 frames to measure motion, got {t}")
-    if (w, h) != tuple(rig.image_size):
-        raise ValueError(f"frames are {w}x{h} but the rig's images are {rig.image_size[0]}x{rig.image_size[1]}")
+    t, h, w = interval_shape(left, rig)
     if not rectified:
         pairs = [rig.rectify(left[i], right[i]) for i in range(t)]
         left = np.stack([p[0] for p in pairs])
@@ -158,7 +168,7 @@ def harris_motion_points(
     d_hi = int(np.ceil(fb / min_depth_m + offset)) + 1
     n_disp = d_hi - d_lo + 1
     half = patch_px // 2
-    empty = MotionPoints(np.zeros((0, 3)), np.zeros(0, int), np.zeros((0, 2)), np.zeros(0))
+    empty = MotionPoints.empty()
     if not dynamic_l.any():
         return empty
 

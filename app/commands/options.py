@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -214,6 +215,18 @@ def _endpoint(text: str) -> str:
     return text
 
 
+_ROS_NAME = re.compile(r"^/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*$")
+
+
+def ros_name(text: str) -> str:
+    """A ROS 2 topic name or namespace (letters, digits and underscores in tokens that do not start with a digit,
+    separated by ``/``): what becomes part of a Zenoh key, checked when the command line is parsed."""
+    if text and not _ROS_NAME.match(text):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a ROS topic name: tokens of letters, digits and _ "
+                                         "separated by /, e.g. /camera/camera/color/image_raw")
+    return text
+
+
 def _domain(text: str) -> int:
     if not text.isdigit() or int(text) > 232:
         raise argparse.ArgumentTypeError(f"{text!r} is not a ROS 2 domain id (0-232)")
@@ -229,7 +242,7 @@ def add_bus_arguments(p: argparse.ArgumentParser) -> None:
                    help="connect to this Zenoh endpoint: a robot, a router (repeatable)")
     g.add_argument("--bus-config", type=Path, metavar="FILE",
                    help="a Zenoh configuration file (JSON5) for everything else: TLS, access control, ...")
-    g.add_argument("--bus-namespace", default="", metavar="NS", help="the ROS namespace of every topic")
+    g.add_argument("--bus-namespace", type=ros_name, default="", metavar="NS", help="the ROS namespace of every topic")
     g.add_argument("--ros-keys", choices=CONVENTIONS, default=DEFAULT_CONVENTION,
                    help="ROS 2 key convention: rmw_zenoh (native ROS 2 on Zenoh, with the graph's liveliness tokens; "
                         "default) or bridge (zenoh-bridge-ros2dds's)")
@@ -248,7 +261,8 @@ def add_ros_topic_arguments(p: argparse.ArgumentParser) -> None:
                        ("camera_info", "the colour camera's CameraInfo (unless --rig has a stereo section)"),
                        ("audio", "audio_common's AudioDataStamped (S16LE)"), ("audio_info", "audio_common's AudioInfo")):
         flag = "--" + name.replace("_", "-") + "-topic"
-        g.add_argument(flag, default=getattr(d, name), metavar="TOPIC", help=f"{what} (default {getattr(d, name)})")
+        g.add_argument(flag, type=ros_name, default=getattr(d, name), metavar="TOPIC",
+                       help=f"{what} (default {getattr(d, name)})")
 
 
 def ros_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:

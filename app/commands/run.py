@@ -15,7 +15,7 @@ from app.console import Console
 from app.errors import UserError
 from app.sources.live import LiveConfig
 from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_camera_argument,
-                                  add_ros_topic_arguments, ros_source,
+                                  add_ros_topic_arguments, ros_name, ros_source,
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
                                   wants_bodies)
@@ -78,11 +78,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     run.add_argument("--source", default="sim:S2",
                      help="sim:S1..S5|calibration, replay:FOLDER, live, bus (a robot's `avhear sensors`) or ros (a "
                           "ROS 2 robot's camera and microphone topics)")
-    run.add_argument("--left-key", default=None, metavar="TOPIC",
+    run.add_argument("--left-key", type=ros_name, default=None, metavar="TOPIC",
                      help="bus: ROS topic of the left camera (sensor_msgs/CompressedImage, rectified; relative to "
                           "--bus-namespace unless it starts with /; default: avhear sensors')")
-    run.add_argument("--right-key", default=None, metavar="TOPIC", help="bus: ROS topic of the right camera")
-    run.add_argument("--audio-key", default=None, metavar="TOPIC",
+    run.add_argument("--right-key", type=ros_name, default=None, metavar="TOPIC",
+                     help="bus: ROS topic of the right camera")
+    run.add_argument("--audio-key", type=ros_name, default=None, metavar="TOPIC",
                      help="bus: ROS topic of the audio (avhear_msgs/AudioBlock)")
     run.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
     run.add_argument("--rig", default=None,

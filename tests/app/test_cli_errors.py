@@ -106,6 +106,11 @@ def test_a_viewer_that_stops_answering_cannot_hang_the_exit() -> None:
     (["calibrate", "signal", "-o", "x.wav", "--seed", "-1"], "--seed"),
     (["demo", "--mics", "nao5"], "--mics"),
     (["eval", "scenarios", "--mics", "kinect"], "--mics"),
+    (["run", "--source", "ros", "--colour-topic", "cam/**/x#y"], "--colour-topic"),
+    (["record", "--source", "ros", "-o", "x", "--depth-topic", "/camera/2depth"], "--depth-topic"),
+    (["run", "--source", "bus", "--left-key", "left image"], "--left-key"),
+    (["sensors", "--bus-namespace", "robot/*"], "--bus-namespace"),
+    (["run", "--ros-domain", "300"], "--ros-domain"),
 ])
 def test_out_of_range_options_are_refused_when_parsed(argv: list[str], option: str,
                                                       capsys: pytest.CaptureFixture[str]) -> None:
