@@ -4,7 +4,7 @@
 ```
 source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] --+
                                                                          +--q--> [fusion: TimeFrame -> inference]
-source.audio()  --> [audio]   --q--> [ITD worker: ItdStream] ------------+            --> on_result (Rerun, ...)
+source.audio()  --> [audio]   --q--> [ITD worker: PairsItdStream] -------+            --> on_result (Rerun, ...)
 ```
 
 Every queue is a :class:`~app.queues.DropOldestQueue`: producers never block (a slow consumer loses the oldest
@@ -33,7 +33,8 @@ from app.hearing import Vision, hearing_mode
 from app.queues import DropOldestQueue
 from app.result import Result
 from avcore.faces import FaceDetector
-from avcore.itd import FrameBins, ItdStream, ItdTrack, PairsItdStream, geometry_options
+from avcore.geometry import MicArray
+from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
 from avcore.tracking import NearestTracker
@@ -150,6 +151,13 @@ class ClockMessage:
 
 
 FusionMessage = Vision | ItdMessage | FrameItdsMessage | ClockMessage
+
+
+def _array(source: Any) -> MicArray:
+    """The source's microphones as an array: its ``array``, or its pair on its two ``channels`` as an array of one
+    pair (one path for one pair or many)."""
+    array = getattr(source, "array", None)
+    return array if array is not None else MicArray.from_pair(source.mics, tuple(source.channels))
 
 
 def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
@@ -384,10 +392,8 @@ class Pipeline:
     def _itd_loop(self) -> None:
         c = self.config
         src = self.source
-        left, right = src.channels
-        array = getattr(src, "array", None)
-        extra = geometry_options(c.itd_method, src.mics.distance_m, src.mics.speed_of_sound)
-        stream: ItdStream | PairsItdStream | None = None
+        array = _array(src)
+        stream: PairsItdStream | None = None
         frame_itds = self.mode.frame_itds
         start_s = expected_s = 0.0
         n = 0
@@ -396,8 +402,7 @@ class Pipeline:
             self._wait_for_vision(block.stamp_s)
             t0 = time.perf_counter()
             samples = np.asarray(block.samples, dtype=np.float64)
-            need = max(left, right) if array is None else max(array.channels)
-            if samples.ndim != 2 or samples.shape[1] <= need:
+            if samples.ndim != 2 or samples.shape[1] <= max(array.channels):
                 self.stats.bad_audio_blocks += 1
                 continue
             if not np.all(np.isfinite(samples)):
@@ -407,40 +412,27 @@ class Pipeline:
                 # first block, or samples were lost (an overflow, a dropped block): restart at this block's clock
                 if stream is not None:
                     self.stats.audio_gaps += 1
-                options = dict(method=c.itd_method, window_s=c.window_s, hop_s=c.hop_s,
-                               energy_threshold=c.energy_threshold, frame_itds=frame_itds)
-                stream = (ItdStream(src.samplerate_hz, max_itd_s=1.2 * src.mics.max_itd_s, **options, **extra)
-                          if array is None else PairsItdStream(array, src.samplerate_hz, frame_bins=frame_itds,
-                                                               **options))
+                # the bins' look (avcore.speaking.bin_shares) asks every pair at once; it was measured with arrays
+                stream = PairsItdStream(array, src.samplerate_hz, method=c.itd_method, window_s=c.window_s,
+                                        hop_s=c.hop_s, energy_threshold=c.energy_threshold, frame_itds=frame_itds,
+                                        frame_bins=frame_itds and array.n_pairs > 1)
                 start_s = block.stamp_s
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
-            if array is None:
-                self._pass_itds(stream.push(samples[:, left], samples[:, right]), stream, start_s, frame_itds)
-            else:
-                self._pass_itd_vectors(stream.push(samples), stream, start_s, frame_itds)
+            self._pass_itds(stream.push(samples), stream, start_s, frame_itds)
             # the audio clock: windows centred before this time are all extracted
             self._offer(self._q_fusion, ClockMessage(expected_s - c.window_s / 2))
             n += 1
             self.stats.audio_blocks = n
             self._timed("itd", t0, n)
 
-    def _pass_itds(self, track: ItdTrack, stream: ItdStream, start_s: float, frame_itds: bool) -> None:
-        """One pair: the frames' ITDs (before the windows' ITDs, which complete vision frames: frames run ahead of
-        windows), then the windows' ITDs, to the fusion thread."""
+    def _pass_itds(self, windows: tuple[np.ndarray, np.ndarray], stream: PairsItdStream, start_s: float,
+                   frame_itds: bool) -> None:
+        """The frames' ITDs, their bands and bins (before the windows' ITDs, which complete vision frames: frames run
+        ahead of windows), then the windows' ITD vectors, to the fusion thread."""
         if frame_itds:
             frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
-            if len(frames):
-                self._offer(self._q_fusion, FrameItdsMessage(start_s, frames, bands))
-        for t, itd in zip(track.times_s, track.itds_s):
-            self._offer(self._q_fusion, ItdMessage(start_s + float(t), float(itd)))
-        self.stats.itds += len(track)
-
-    def _pass_itd_vectors(self, windows: tuple[np.ndarray, np.ndarray], stream: PairsItdStream, start_s: float,
-                          frame_itds: bool) -> None:
-        """:meth:`_pass_itds` with several pairs: one vector per window, frame and band row, and the frames' bins."""
-        if frame_itds:
-            frames, bands, bins = stream.pop_frame_itds(), stream.pop_band_itds(), stream.pop_frame_bins()
-            if len(frames[0]) or len(bins):
+            bins = stream.pop_frame_bins() if stream.frame_bins else None
+            if len(frames[0]) or (bins is not None and len(bins)):
                 self._offer(self._q_fusion, FrameItdsMessage(start_s, _vectors(*frames), _vectors(*bands), bins))
         times, itds = windows
         for t, itd in zip(times, itds):
@@ -464,10 +456,8 @@ class Pipeline:
             time.sleep(0.005)
 
     def _fusion_loop(self) -> None:
-        mics = self.source.mics
         sync = self._sync = self.mode.time_frame()
-        array = getattr(self.source, "array", None)
-        hearing = self.mode.hearing(array if array is not None else mics)
+        hearing = self.mode.hearing(_array(self.source))
         tracker = NearestTracker()
         while True:
             if self._stop.is_set():
@@ -515,9 +505,7 @@ class Pipeline:
         t0 = time.perf_counter()
         stamp, frame = vision.stamp_s, vision.frame
         times = np.array([t for t, _ in itds], dtype=np.float64)
-        a = np.array([v for _, v in itds], dtype=np.float64)  # (K,), or (K, P) with several pairs
-        if hearing.array is not None:
-            a = a.reshape(times.size, hearing.array.n_pairs)
+        a = np.array([v for _, v in itds], dtype=np.float64).reshape(times.size, hearing.array.n_pairs)  # (K, P)
         output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
         ids = tracker.update(self.mode.people_xyz(vision, output), vision.stamp_s)
         result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,

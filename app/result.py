@@ -44,7 +44,7 @@ class Result:
     index : its frame number. image : the left image (h, w[, 3]) uint8. boxes : (N, 4) face boxes in pixels (None
     when motion-guided). xyz : (N, 3) metres, the faces (face-guided) or the HM3D points (motion-guided).
     itds_s : (K, P) the ITDs of its time frame, one row per window and one column per pair (NaN: the pair has
-    none); (K,) with one pair. output : the method's FaceGuidedOutput or MotionGuidedOutput. latency_s : result time
+    none); one column with one pair. output : the method's FaceGuidedOutput or MotionGuidedOutput. latency_s : result time
     minus capture stamp (nan for a source replayed as fast as possible). person_ids : (N,) stable ids of the people
     of ``output``. depth_m : an RGB-D camera's depth aligned to ``image``, metres (NaN: none), or None.
     """

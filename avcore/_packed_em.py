@@ -60,18 +60,32 @@ def _starts(sizes: np.ndarray) -> np.ndarray:
 
 
 def e_step(x: np.ndarray, sizes: np.ndarray, wg: np.ndarray, mu: np.ndarray, var: np.ndarray, wo: np.ndarray,
-           u: float, indicator: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           u: float | np.ndarray, indicator: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Class densities pi_n P(x | n) of packed models.
 
-    Returns ``dens_g`` (B, S), ``dens_o`` (C,) (the same for every x) and ``total`` (B, C) = p(x; Theta_c).
+    x : (B,) values with mu, var (S,) and u the outlier density; or (B, P) vectors, one value per microphone pair
+    (NaN where a pair has none), with mu, var (S, P) and u (P,): a Gaussian's density is the product over the
+    pairs a vector has, and so is the outlier's (the model of :func:`avcore.mixture.fit_pairs_em`).
+    Returns ``dens_g`` (B, S), ``dens_o`` ((C,) for values, the same for every x; (B, C) for vectors) and
+    ``total`` (B, C) = p(x; Theta_c).
     """
-    dens = x[:, None] - mu[None, :]
-    dens *= dens
-    dens *= -0.5 / var
+    if x.ndim == 1:
+        dens = x[:, None] - mu[None, :]
+        dens *= dens
+        dens *= -0.5 / var
+        scale = wg / np.sqrt(_TWO_PI * var)
+        dens_o = wo * u
+    else:
+        seen = np.isfinite(x)[:, None, :]
+        d = np.where(seen, x[:, None, :] - mu[None, :, :], 0.0)
+        d *= d
+        d *= -0.5 / var
+        dens = d.sum(axis=2)
+        scale = wg / np.where(seen, np.sqrt(_TWO_PI * var)[None, :, :], 1.0).prod(axis=2)
+        dens_o = wo[None, :] * np.where(seen[:, 0, :], u[None, :], 1.0).prod(axis=1)[:, None]
     np.maximum(dens, -0.5 * _Z2_CLIP, out=dens)
     np.exp(dens, out=dens)
-    dens *= wg / np.sqrt(_TWO_PI * var)
-    dens_o = wo * u
+    dens *= scale
     if dens.shape[0]:
         total = dens @ (_indicator(sizes) if indicator is None else indicator)
     else:
@@ -99,17 +113,21 @@ ALL = Updates()
 
 def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.ndarray, mu_old: np.ndarray,
            var_old: np.ndarray, var_floor: float, min_wo: float, indicator: np.ndarray | None = None,
-           updates: Updates = ALL) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           updates: Updates = ALL, gamma: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                                           np.ndarray]:
     """Closed-form M-step from the responsibility-weighted sums.
 
-    g_sums : (S, 3) sums of r, r x, r x^2 per Gaussian slot; o_counts : (C,) outlier responsibilities.
+    g_sums : (S, 3) sums of r, r x, r x^2 per Gaussian slot, or (S, P, 3) per slot and pair for vectors (r where
+    the pair has a value); gamma : (S,) each slot's responsibilities, by default ``g_sums[:, 0]`` (values);
+    o_counts : (C,) outlier responsibilities.
     The outlier prior is kept >= ``min_wo`` with the other priors proportional to their gamma: the exact
     maximiser of sum_n gamma_n log pi_n under that constraint, so EM stays monotone. With a fixed mean the
     variance's maximiser is the second moment about that mean; a variance bounded to [floor, ceiling] is
     clipped, the maximiser of its (unimodal) term under the bounds.
     Returns wg, mu, var, wo.
     """
-    gamma = g_sums[:, 0]
+    if gamma is None:
+        gamma = g_sums[:, 0]
     wg = gamma / w_total
     wo = o_counts / w_total
     if wo.min() < min_wo:
@@ -120,10 +138,11 @@ def m_step(g_sums: np.ndarray, o_counts: np.ndarray, w_total: float, sizes: np.n
         wo = np.where(low, min_wo, wo)
     if not (updates.means or updates.variances):
         return wg, mu_old, var_old, wo
-    alive = gamma > 1e-10  # an empty component keeps its mean and variance
+    mass = g_sums[..., 0]
+    alive = mass > 1e-10  # an empty component keeps its mean and variance (on a pair: where it has no value)
     every = bool(alive.all())  # the common case: every component holds some data
-    safe = gamma if every else np.where(alive, gamma, 1.0)
-    m1, m2 = g_sums[:, 1] / safe, g_sums[:, 2] / safe
+    safe = mass if every else np.where(alive, mass, 1.0)
+    m1, m2 = g_sums[..., 1] / safe, g_sums[..., 2] / safe
     if updates.means:
         mu = m1 if every else np.where(alive, m1, mu_old)
         var = m2 - mu * mu
@@ -147,7 +166,7 @@ class _Live:
     def __init__(self, p: Packed) -> None:
         self.p = p
         self.idx = np.arange(p.sizes.size)
-        self.slots = np.arange(p.mu.size)
+        self.slots = np.arange(p.mu.shape[0])
         self._load()
 
     def _load(self) -> None:
@@ -171,14 +190,15 @@ class _Live:
 
 
 def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.ndarray], np.ndarray],
-             sums: Callable[[_Live, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]], w_total: float, *,
+             sums: Callable[[_Live, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray | None]],
+             w_total: float, *,
              max_iter: int, tol: float, var_floor: float, min_wo: float, history: list[np.ndarray] | None,
              updates: Updates = ALL) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
     """The EM loop, written once for both EMs: E-step on ``x``, convergence of ``objective``, M-step.
 
     objective(live, total) -> (C_live,) the quantity EM must not lower, from the E-step's densities;
-    sums(live, resp, resp_outlier) -> ((S_live, 3) sums of r, r x, r x^2 per Gaussian slot, (C_live,) outlier
-    counts), from the responsibilities of ``x``. Returns the models, the final objective (C,), n_iter (C,) and
+    sums(live, resp, resp_outlier) -> (:func:`m_step`'s ``g_sums``, its ``o_counts`` (C_live,), its ``gamma`` or
+    None), from the responsibilities of ``x``. Returns the models, the final objective (C,), n_iter (C,) and
     converged (C,); ``history`` receives the objective of every model at every E-step (nan once it has left).
     """
     p = p.copy()
@@ -204,34 +224,46 @@ def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.
         if done.any():
             n_iter[lv.idx[done]] = it
             slot_keep = lv.drop(done)
-            dens, dens_o, total = dens[:, slot_keep], dens_o[~done], total[:, ~done]
+            dens, dens_o, total = dens[:, slot_keep], dens_o[..., ~done], total[:, ~done]
         inv_total = 1.0 / total
         dens *= np.repeat(inv_total, lv.sizes, axis=1)  # each model's 1 / p(x) on its slots
-        g_sums, o_counts = sums(lv, dens, dens_o * inv_total)
+        g_sums, o_counts, gamma = sums(lv, dens, dens_o * inv_total)
         lv.wg, lv.mu, lv.var, lv.wo = m_step(g_sums, o_counts, w_total, lv.sizes, lv.mu, lv.var, var_floor, min_wo,
-                                             lv.indicator, updates)
+                                             lv.indicator, updates, gamma)
     lv.store()
     return p, value, n_iter, converged
 
 
-def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float, *, max_iter: int, tol: float, var_floor: float,
-           min_wo: float, history: list[np.ndarray] | None = None, updates: Updates = ALL
+def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float | np.ndarray, *, max_iter: int, tol: float,
+           var_floor: float, min_wo: float, history: list[np.ndarray] | None = None, updates: Updates = ALL
            ) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
-    """Standard EM (eq. alpha_m and its M-step) on weighted 1-D data (bins with exact stats) for packed models.
+    """Standard EM (eq. alpha_m and its M-step) on weighted data for packed models.
 
-    x : (B,) where responsibilities are evaluated; stats : (B, 3) count, sum x, sum x^2 per bin. ``updates``
-    restricts the M-step (:class:`Updates`).
+    Values: x (B,) where responsibilities are evaluated, stats (B, 3) count, sum x, sum x^2 per bin (exact stats of
+    binned data). Vectors (several pairs, see :func:`e_step`): x (B, P), stats (B, P, 3), each pair's 1 (0 where it
+    has no value), value and square, every vector counting once. ``updates`` restricts the M-step
+    (:class:`Updates`).
     Returns the fitted models, their final log-likelihood (C,), n_iter (C,), converged (C,). ``history`` receives
     the log-likelihood of every model before each M-step (np.nan for models that have left the batch).
     """
     c = p.sizes.size
     if x.size == 0 or c == 0:
         return p.copy(), np.zeros(c), np.zeros(c, dtype=np.int64), np.ones(c, dtype=bool)
-    cnt = stats[:, 0]
+    if x.ndim == 1:
+        cnt = stats[:, 0]
+        sums = lambda lv, resp, resp_o: (resp.T @ stats, cnt @ resp_o, None)  # noqa: E731
+    else:
+        cnt = np.ones(x.shape[0])
+        flat = stats.reshape(x.shape[0], -1)
+        complete = bool(np.isfinite(x).all())  # then a slot's r on the first pair is all of its r
+
+        def sums(lv: _Live, resp: np.ndarray, resp_o: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            g = (resp.T @ flat).reshape(-1, *stats.shape[1:])
+            return g, cnt @ resp_o, g[:, 0, 0] if complete else cnt @ resp
     return _em_loop(
         p, x, u,
         objective=lambda lv, total: cnt @ np.log(total),
-        sums=lambda lv, resp, resp_o: (resp.T @ stats, cnt @ resp_o),
+        sums=sums,
         w_total=float(cnt.sum()), max_iter=max_iter, tol=tol, var_floor=var_floor, min_wo=min_wo, history=history,
         updates=updates,
     )
@@ -279,7 +311,8 @@ def run_fusion(vis_g: np.ndarray, vis_o: np.ndarray, m_total: float, a: np.ndarr
     fused, _, n_iter, converged = _em_loop(
         p, a, u,
         objective=lambda lv, total: fixed_q(vis_g, vis_o, lv, u) + np.log(total).sum(axis=0),
-        sums=lambda lv, resp, resp_o: (vis_g[lv.slots] + resp.T @ a_stats, vis_o[lv.idx] + resp_o.sum(axis=0)),
+        sums=lambda lv, resp, resp_o: (vis_g[lv.slots] + resp.T @ a_stats, vis_o[lv.idx] + resp_o.sum(axis=0),
+                                       None),
         w_total=w_total, max_iter=max_iter, tol=tol, var_floor=var_floor, min_wo=min_wo, history=history,
     )
     return fused, n_iter, converged

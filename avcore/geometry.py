@@ -201,9 +201,10 @@ class MicArray:
             MicPair(pos[i], pos[j], self.speed_of_sound, c1, c0) for (i, j), c1, c0 in zip(pairs, self.c1, self.c0)))
 
     @classmethod
-    def from_pair(cls, mics: MicPair) -> MicArray:
-        """The one-pair array of a :class:`MicPair` (same positions, speed of sound and correction)."""
-        return cls((mics.left, mics.right), ((0, 1),), mics.speed_of_sound, (mics.c1,), (mics.c0,))
+    def from_pair(cls, mics: MicPair, channels: tuple[int, int] = (0, 1)) -> MicArray:
+        """The one-pair array of a :class:`MicPair` (same positions, speed of sound and correction), its left and
+        right microphones on ``channels`` of the input stream."""
+        return cls((mics.left, mics.right), ((0, 1),), mics.speed_of_sound, (mics.c1,), (mics.c0,), tuple(channels))
 
     @classmethod
     def preset(cls, name: str, *, rotation: object = None, translation_m: object = None,

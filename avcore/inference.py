@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from avcore._packed_em import Packed, Updates, class_sums, e_step, log_likelihoods, run_em, run_fusion
+from avcore._packed_em import Packed, class_sums, log_likelihoods, run_em, run_fusion
 from avcore._validate import as_points, as_samples
 from avcore.geometry import MicArray, MicPair
 from avcore.mixture import (
@@ -187,12 +187,12 @@ class MotionGuidedHearing:
         if not isinstance(mics, (MicPair, MicArray)):
             raise TypeError(f"mics must be a MicPair or a MicArray, got {type(mics).__name__}")
         self.params = params if params is not None else MotionGuidedParams()
-        # several pairs: the people are found and located on the first pair (the paper's Algorithm 1), and who
+        # the people are found and located on the first pair (the paper's Algorithm 1); with several pairs, who
         # speaks is decided on every pair by the model of avcore.mixture.fit_pairs_em anchored at their positions
-        self.array = mics if isinstance(mics, MicArray) and mics.n_pairs > 1 else None
-        self.mics = mics.pair(0) if isinstance(mics, MicArray) else mics
+        self.array = mics if isinstance(mics, MicArray) else MicArray.from_pair(mics)
+        self.mics = self.array.pair(0)
         self._pairs = (FaceGuidedHearing(self.array, FaceGuidedParams(speaking=self.params.speaking))
-                       if self.array is not None else None)
+                       if self.array.n_pairs > 1 else None)
         self.support = self.mics.itd_interval()
         self.previous_: Mixture1D | None = None
         self._candidates: Packed | None = None
@@ -256,17 +256,14 @@ class MotionGuidedHearing:
         """One interval of Algorithm 1.
 
         points_xyz : (M, 3) float, metres, HM3D points in the scene frame.
-        itds_s : (K,) float, seconds; with a :class:`MicArray`, (K, P) vectors or P arrays (as
+        itds_s : (K, P) float, seconds, one vector per window, or P arrays; (K,) with one pair (as
             :meth:`FaceGuidedHearing.step`).
         """
         pts = as_points(points_xyz, "points_xyz")
-        if self._pairs is None:
-            return self._step(pts, as_samples(itds_s, "itds_s"))
-        assert self.array is not None
         vectors = _itd_vectors(itds_s, self.array.n_pairs, "itds_s")
         first = vectors[:, 0]
         out = self._step(pts, first[np.isfinite(first)])
-        if out.positions.shape[0] == 0:
+        if self._pairs is None or out.positions.shape[0] == 0:
             return out
         pairs = self._pairs.step(out.positions, vectors)
         return replace(out, speaking=pairs.speaking, probability=pairs.probability)
@@ -301,7 +298,8 @@ class MotionGuidedHearing:
             positions, cov, abar, beta = positions[keep], cov[keep], abar[keep], beta[:, keep]
         self.previous_ = model
         bbar = beta.sum(axis=0)
-        speaking, prob, tau = p.speaking.decide(beta, a, model)
+        speaking, prob, tau = p.speaking.decide(beta, a[:, None], model.means[:, None], model.variances[:, None],
+                                                np.array([self.support]))
         return MotionGuidedOutput(positions, cov, speaking, prob, model.means.copy(), bbar, abar, model, bic, n_sel,
                                   tau)
 
@@ -465,9 +463,11 @@ class FaceGuidedOutput:
 
 
 def _itd_vectors(itds: object, n_pairs: int, name: str) -> np.ndarray:
-    """ITDs of several pairs as (K, P) vectors, NaN where a pair has none: a (K, P) array is one vector per window
-    (the pairs' ITDs of one window, aligned); a sequence of P one-dimensional arrays gives each value alone (its
-    pair only: not aligned)."""
+    """ITDs as (K, P) vectors, NaN where a pair has none: a (K, P) array is one vector per window (the pairs' ITDs
+    of one window, aligned); a sequence of P one-dimensional arrays gives each value alone (its pair only: not
+    aligned); with one pair, (K,) values are its column."""
+    if n_pairs == 1 and np.ndim(itds) == 1:  # type: ignore[arg-type]
+        return as_samples(itds, name)[:, None]
     if isinstance(itds, np.ndarray) and itds.ndim == 2:
         if itds.shape[1] != n_pairs:
             raise ValueError(f"{name} must have one column per pair ({n_pairs}), got shape {itds.shape}")
@@ -492,90 +492,51 @@ class FaceGuidedHearing:
     N is the number of faces; the means start at the mapped faces (eq. final_av_mapping) with sigma^2 = 1e-9 s^2;
     EM runs on the ITDs only (eq. beta_kn and the M-step restricted to the auditory data); speaking states follow
     eq. (audio_act). With no ITD nobody speaks (probability 0); with no face there is nothing to decide.
+
+    A :class:`MicPair` is an array of one pair: ITDs are vectors, one value per pair, and every face maps to one
+    ITD per pair (the model of :func:`avcore.mixture.fit_pairs_em`, the paper's with P = 1).
     """
 
     def __init__(self, mics: MicPair | MicArray, params: FaceGuidedParams | None = None) -> None:
-        if isinstance(mics, MicArray) and mics.n_pairs == 1:
-            mics = mics.pair(0)
         if not isinstance(mics, (MicPair, MicArray)):
             raise TypeError(f"mics must be a MicPair or a MicArray, got {type(mics).__name__}")
         self.params = params if params is not None else FaceGuidedParams()
-        # several pairs: the model of avcore.mixture.fit_pairs_em, each face one ITD per pair
-        self.array = mics if isinstance(mics, MicArray) else None
-        self.mics = mics.pair(0) if isinstance(mics, MicArray) else mics
+        self.array = mics if isinstance(mics, MicArray) else MicArray.from_pair(mics)
+        self.mics = self.array.pair(0)
         self.support = self.mics.itd_interval()
-        # Algorithm 2's EM is the standard EM of section 4.1 on the ITDs alone (the engine of avcore.mixture, in
-        # microseconds), with the means anchored or free and the variances fixed or kept in the params' range
+        self._supports = self.array.itd_intervals()
         p = self.params
-        self._u_us = 1.0 / ((self.support[1] - self.support[0]) * US)
-        self._em_kw = dict(max_iter=p.em.max_iter, tol=p.em.tol, var_floor=p.var_min_s2 * US * US,
-                           min_wo=p.em.min_outlier_weight,
-                           updates=Updates(not p.anchor_means, p.update_variances, p.var_max_s2 * US * US))
+        self._em = replace(p.em, var_floor_s2=p.var_min_s2)
 
     def step(self, faces_xyz: object, itds_s: object, itd_offsets_s: object = None,
              frame_itds_s: object = None, band_itds_s: object = None, frame_bins: FrameBins | None = None
              ) -> FaceGuidedOutput:
-        """faces_xyz : (N, 3) float, metres. itds_s : (K,) float, seconds. itd_offsets_s : (K,) seconds, each ITD
-        window's centre minus the frame's stamp, for ``params.decision_window_s`` (None: every ITD decides).
-        frame_itds_s : (M,) seconds, the single frames' ITDs of the same time for the speaking test's second look
+        """faces_xyz : (N, 3) float, metres. itds_s : (K, P) float, seconds, one vector per window (NaN where a
+        pair has none), or P arrays (each pair's values alone, not aligned); (K,) with one pair.
+        itd_offsets_s : (K,) seconds, each ITD window's centre minus the frame's stamp, for
+        ``params.decision_window_s`` (None: every ITD decides).
+        frame_itds_s : the single frames' ITDs of the same time (as ``itds_s``), for the speaking test's second look
         (:class:`SpeakingTest` ``frame_rescue``; EM does not see them); None: none.
-        band_itds_s : (L,) seconds, the peaks of those frames' frequency bands, the third look; None: none.
-        frame_bins : with a microphone array, the frames' bins on every pair (``PairsItdStream(frame_bins=True)``),
-        the fourth look (:func:`avcore.speaking.bin_shares`); None: none. One pair ignores it."""
+        band_itds_s : the peaks of those frames' frequency bands (as ``itds_s``), the third look; None: none.
+        frame_bins : the frames' bins on every pair (``PairsItdStream(frame_bins=True)``), the fourth look
+        (:func:`avcore.speaking.bin_shares`); None: none."""
         faces = as_points(faces_xyz, "faces_xyz")
-        if self.array is not None:
-            return self._step_pairs(faces, itds_s, itd_offsets_s, frame_itds_s, band_itds_s, frame_bins)
-        a = as_samples(itds_s, "itds_s")
-        present = None
-        if itd_offsets_s is not None and self.params.decision_window_s is not None:
-            offsets = np.asarray(itd_offsets_s, dtype=np.float64).reshape(-1)
-            if offsets.shape != a.shape:
-                raise ValueError(f"itd_offsets_s must give one time per ITD: {offsets.size} times for {a.size} ITDs")
-            present = np.abs(offsets) <= self.params.decision_window_s
-        p = self.params
-        n = faces.shape[0]
-        mu = self.mics.itd(faces)
-        n_iter = 0
-        start = Packed(np.array([n]), np.full(n, (1.0 - p.init_outlier_weight) / max(n, 1)), mu * US,
-                       np.full(n, p.sigma2_init_s2 * US * US), np.array([p.init_outlier_weight if n else 1.0]))
-        a_us = a * US
-        if n and a.size:
-            start, _, iters, converged = run_em(a_us, np.stack([np.ones(a.size), a_us, a_us * a_us], axis=1), start,
-                                                self._u_us, **self._em_kw)
-            n_iter = int(iters[0])
-            if not converged[0]:
-                warn_not_converged("the face-guided EM", p.em)
-        dens, dens_o, total = e_step(a_us, start.sizes, start.wg, start.mu, start.var, start.wo, self._u_us)
-        beta = np.append(dens, dens_o[None, :] * np.ones((a.size, 1)), axis=1) / total
-        model = unpack(start, 0, self.support) if n else Mixture1D.outliers_only(self.support)
-        bbar = beta[:, :-1].sum(axis=0)
-        frame_itds = None if frame_itds_s is None else as_samples(frame_itds_s, "frame_itds_s")
-        band_itds = None if band_itds_s is None else as_samples(band_itds_s, "band_itds_s")
-        speaking, prob, tau = p.speaking.decide(beta[:, :-1], a, model, present, frame_itds, band_itds)
-        return FaceGuidedOutput(speaking, prob, model.means.copy(), bbar, model, tau, n_iter)
-
-    def _step_pairs(self, faces: np.ndarray, itds_s: object, itd_offsets_s: object, frame_itds_s: object,
-                    band_itds_s: object, frame_bins: FrameBins | None) -> FaceGuidedOutput:
-        """:meth:`step` with several pairs: the EM of :func:`avcore.mixture.fit_pairs_em` on the ITD vectors, the
-        speaking test of :meth:`SpeakingTest.decide_pairs`. ``model`` shows the first pair."""
         p, array = self.params, self.array
-        assert array is not None
         n_pairs = array.n_pairs
         x = _itd_vectors(itds_s, n_pairs, "itds_s")
         present = None
         if itd_offsets_s is not None and p.decision_window_s is not None:
             offsets = np.asarray(itd_offsets_s, dtype=np.float64).reshape(-1)
             if offsets.shape != (x.shape[0],):
-                raise ValueError(f"itd_offsets_s must give one time per ITD vector: {offsets.size} times for "
-                                 f"{x.shape[0]} vectors")
+                raise ValueError(f"itd_offsets_s must give one time per ITD: {offsets.size} times for "
+                                 f"{x.shape[0]} ITDs")
             present = np.abs(offsets) <= p.decision_window_s
         n = faces.shape[0]
-        supports = array.itd_intervals()
         means = array.itd(faces).reshape(n, n_pairs)
         w = np.append(np.full(n, (1.0 - p.init_outlier_weight) / max(n, 1)), p.init_outlier_weight if n else 1.0)
-        fit = fit_pairs_em(x, w, means, np.full((n, n_pairs), p.sigma2_init_s2), supports,
-                           settings=replace(p.em, var_floor_s2=p.var_min_s2), update_means=not p.anchor_means,
-                           update_variances=p.update_variances, max_variance_s2=p.var_max_s2)
+        fit = fit_pairs_em(x, w, means, np.full((n, n_pairs), p.sigma2_init_s2), self._supports, settings=self._em,
+                           update_means=not p.anchor_means, update_variances=p.update_variances,
+                           max_variance_s2=p.var_max_s2)
         if not fit.converged:
             warn_not_converged("the face-guided EM", p.em)
         beta = fit.beta if n else np.zeros((x.shape[0], 1))
@@ -586,8 +547,8 @@ class FaceGuidedHearing:
             if frame_bins.bins.shape[1] != n_pairs:
                 raise ValueError(f"frame_bins must hold the array's {n_pairs} pairs, got {frame_bins.bins.shape[1]}")
             share = bin_shares(frame_bins.bins, frame_bins.freqs_hz, means, p.speaking.bin_agreement)
-        speaking, prob, tau = p.speaking.decide_pairs(beta[:, :-1], x, fit.means, fit.variances, supports, present,
-                                                      frames, bands, share)
+        speaking, prob, tau = p.speaking.decide(beta[:, :-1], x, fit.means, fit.variances, self._supports, present,
+                                                frames, bands, share)
         model = Mixture1D.unchecked(fit.weights, fit.means[:, 0].copy(), fit.variances[:, 0].copy(), self.support)
         return FaceGuidedOutput(speaking, prob, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model, tau,
-                                fit.n_iter, fit.means.copy())
+                                fit.n_iter, fit.means.copy() if n_pairs > 1 else None)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avcore._packed_em import _Z2_CLIP, Packed, Updates, run_em, run_fusion
+from avcore._packed_em import _Z2_CLIP, Packed, Updates, e_step, run_em, run_fusion
 from avcore._validate import as_samples
 
 __all__ = [
@@ -666,15 +666,6 @@ class PairsFit:
     converged: bool
 
 
-def _pairs_log_densities(x: np.ndarray, seen: np.ndarray, means: np.ndarray, variances: np.ndarray,
-                         log_u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """log prod_p N(x_kp; mu_np, sigma_np^2) over the pairs each vector has (K, N), and log prod_p U_p (K,)."""
-    d = np.where(seen[:, None, :], x[:, None, :] - means[None, :, :], 0.0)
-    z2 = np.minimum(d * d / variances[None, :, :], _Z2_CLIP)
-    log_g = -0.5 * (z2 + np.log(2.0 * np.pi * variances)[None, :, :])
-    return (log_g * seen[:, None, :]).sum(axis=2), seen @ log_u
-
-
 def fit_pairs_em(
     itds_s: np.ndarray,
     weights: np.ndarray,
@@ -715,46 +706,23 @@ def fit_pairs_em(
                          f"{var.shape}, {sup.shape}")
     if w.shape != (mu.shape[0] + 1,):
         raise ValueError(f"weights must have N + 1 = {mu.shape[0] + 1} entries, got {w.shape}")
+    k, n = x.shape[0], mu.shape[0]
+    if k == 0 or n == 0:
+        return PairsFit(w, mu, var, np.ones((k, 1)) if n == 0 else np.zeros((k, w.size)), 0.0, 0, True)
+    # the engine of Algorithm 1 (avcore._packed_em, microseconds) with one model and vectors
     seen = np.isfinite(x)
-    log_u = -np.log(sup[:, 1] - sup[:, 0])
-    k = x.shape[0]
-    min_wo = settings.min_outlier_weight
-    prev = -np.inf
-    beta = np.zeros((k, w.size))
-    ll, n_iter, converged = 0.0, 0, True
-    if k == 0 or mu.shape[0] == 0:
-        return PairsFit(w, mu, var, np.ones((k, 1)) if mu.shape[0] == 0 else beta, 0.0, 0, True)
-    for it in range(settings.max_iter + 1):
-        log_g, log_o = _pairs_log_densities(x, seen, mu, var, log_u)
-        log_d = np.concatenate([log_g + np.log(np.maximum(w[:-1], 1e-300))[None, :],
-                                (log_o + np.log(max(w[-1], 1e-300)))[:, None]], axis=1)
-        top = log_d.max(axis=1, keepdims=True)
-        dens = np.exp(log_d - top)
-        tot = dens.sum(axis=1, keepdims=True)
-        beta = dens / tot
-        ll = float((np.log(tot) + top).sum())
-        if abs(ll - prev) < settings.tol * k:
-            break
-        if it == settings.max_iter:
-            converged = False
-            break
-        prev = ll
-        gamma = beta.sum(axis=0)
-        w = gamma / k
-        if w[-1] < min_wo:
-            w[:-1] *= (1.0 - min_wo) / max(w[:-1].sum(), 1e-300)
-            w[-1] = min_wo
-        n_iter += 1
-        if not (update_means or update_variances):
-            continue
-        r = beta[:, :-1, None] * seen[:, None, :]  # (K, N, P): responsibilities where the pair has an ITD
-        g = r.sum(axis=0)
-        alive = g > 1e-10
-        safe = np.where(alive, g, 1.0)
-        xs = np.where(seen, x, 0.0)[:, None, :]
-        if update_means:
-            mu = np.where(alive, (r * xs).sum(axis=0) / safe, mu)
-        if update_variances:
-            d = np.where(seen[:, None, :], xs - mu[None, :, :], 0.0)
-            var = np.where(alive, np.clip((r * d * d).sum(axis=0) / safe, settings.var_floor_s2, max_variance_s2), var)
-    return PairsFit(w / w.sum(), mu, var, beta, ll, n_iter, converged)
+    x_us = x * US
+    xs = np.where(seen, x_us, 0.0)
+    stats = np.stack([seen.astype(np.float64), xs, xs * xs], axis=2)
+    u = 1.0 / ((sup[:, 1] - sup[:, 0]) * US)
+    start = Packed(np.array([n]), w[:-1], mu * US, var * US * US, w[-1:])
+    fit, _, n_iter, converged = run_em(
+        x_us, stats, start, u, max_iter=settings.max_iter, tol=settings.tol,
+        var_floor=settings.var_floor_s2 * US * US, min_wo=settings.min_outlier_weight,
+        updates=Updates(update_means, update_variances, max_variance_s2 * US * US))
+    dens, dens_o, total = e_step(x_us, fit.sizes, fit.wg, fit.mu, fit.var, fit.wo, u)
+    beta = np.append(dens, dens_o, axis=1) / total
+    ll = float(np.log(total).sum() + seen.sum() * np.log(US))
+    weights_out = np.append(fit.wg, fit.wo)
+    return PairsFit(weights_out / weights_out.sum(), fit.mu / US, fit.var / (US * US), beta, ll, int(n_iter[0]),
+                    bool(converged[0]))

@@ -6,8 +6,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avcore.mixture import Mixture1D
-
 __all__ = ["COUNT_BY", "SpeakingTest", "SpeakingVote", "bin_shares", "speaking_threshold", "vote_speaking"]
 
 
@@ -134,105 +132,38 @@ class SpeakingTest:
         if not 0 < self.frame_quantile < 1:
             raise ValueError(f"frame_quantile must be in (0, 1), got {self.frame_quantile!r}")
 
-    def decide(self, beta: np.ndarray, itds: np.ndarray, model: Mixture1D, present: np.ndarray | None = None,
-               frame_itds: np.ndarray | None = None, band_itds: np.ndarray | None = None
-               ) -> tuple[np.ndarray, np.ndarray, float]:
-        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
-
-        beta : (K, N) the auditory posteriors of the N persons (eq. beta_kn, outlier column dropped).
-        present : (K,) bool, the ITDs the decision counts (K and tau_A are theirs); None: all.
-        frame_itds : (M,) the ITDs of the single frames of the same time (``ItdStream.pop_frame_itds``), for
-            ``frame_rescue``; None: the window ITDs alone decide.
-        band_itds : (L,) the peaks of the frames' frequency bands (``ItdStream.pop_band_itds``), a third look with
-            the same test and a spread of ``band_spread_s``; None: not used.
-        """
-        if present is not None:
-            beta, itds = beta[present], itds[present]
-        beta_counts = beta.sum(axis=0)
-        n, k = beta_counts.size, itds.size
-        tau = speaking_threshold(k, n)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            prob = np.where(beta_counts + tau > 0, beta_counts / (beta_counts + tau), 0.0)
-        speaking = beta_counts > tau
-        if self.outlier_aware and n:
-            half = self.window_sd * np.maximum(np.sqrt(model.variances), self.min_sd_s)
-            inside = np.abs(itds[:, None] - model.means[None, :]) <= half[None, :]
-            counts = (self._shares(beta, itds, model.means) * inside).sum(axis=0)
-            lam = self.outlier_share * k * np.minimum(2.0 * half * model.outlier_density, 1.0)
-            speaking, prob = self._count_test(counts, lam)
-            if self.frame_rescue and frame_itds is not None and len(frame_itds):
-                speaking, prob = self._rescue(speaking, prob, np.asarray(frame_itds, dtype=np.float64), model,
-                                              self.frame_spread_s)
-            if self.frame_rescue and band_itds is not None and len(band_itds):
-                # two people talking at once put the bands they share at a phantom between them: nobody lying
-                # between two speaking people is called speaking on the bands
-                means = model.means
-                between = ((speaking[None, :] & (means[None, :] < means[:, None])).any(axis=1)
-                           & (speaking[None, :] & (means[None, :] > means[:, None])).any(axis=1))
-                found, found_prob = self._rescue(speaking, prob, np.asarray(band_itds, dtype=np.float64), model,
-                                                 self.band_spread_s)
-                speaking = np.where(between, speaking, found)
-                prob = np.where(between, prob, found_prob)
-        return speaking, prob, tau
-
     def _count_test(self, counts: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The window test: a count must exceed the chance quantile of Poisson(lam) and reach ``min_itds`` (the
         1e-9 makes "reach" a strict test)."""
         thr = np.maximum(_poisson_quantile(self.quantile, lam) + 1.0, self.min_itds) - 1e-9
         return counts > thr, counts / (counts + thr)
 
-    def _shares(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray) -> np.ndarray:
-        """(K, N): how much each ITD counts for each person (``count_by``)."""
-        if self.count_by == "posterior":
-            return beta  # an ITD between two people counts for each as much as its posterior says
-        if self.count_by == "nearest":  # the ITD's posterior of being someone's, all for the nearest person
-            d = np.abs(itds[:, None] - means[None, :])
-            return beta.sum(axis=1, keepdims=True) * (d == d.min(axis=1, keepdims=True))
-        return np.ones_like(beta)
+    def decide(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray, variances: np.ndarray,
+               supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
+               band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None
+               ) -> tuple[np.ndarray, np.ndarray, float]:
+        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
 
-    def _rescue(self, speaking: np.ndarray, prob: np.ndarray, frame_itds: np.ndarray, model: Mixture1D,
-                b: float) -> tuple[np.ndarray, np.ndarray]:
-        """The second look at the single frames: a person also speaks when more frame ITDs lie within
-        ``frame_within_s`` of their mean, and nearer to it than to any other person's, than chance allows. Chance
-        is a Poisson count (above its ``frame_quantile`` and at least ``frame_min``) whose mean adds the frames
-        that stray uniformly over the ITD interval (a share ``outlier_share`` of the M) and those that the other
-        people's frames spill over to this person (frame ITD errors Laplacian, of scale ``b``)."""
-        means = model.means
-        delta = self.frame_within_s
-        d = np.abs(frame_itds[:, None] - means[None, :])
-        counts = ((d <= delta) & (d == d.min(axis=1, keepdims=True))).sum(axis=0)
-        lam = np.full(means.size, self.outlier_share * frame_itds.size * min(2.0 * delta * model.outlier_density, 1.0))
-        if means.size > 1:
-            # a source at distance g sends a frame within delta of this person, and nearer it than to the source,
-            # with P(max(g / 2, g - delta) < e < g + delta) = (exp(-lo / b) - exp(-hi / b)) / 2 for e ~ Laplace(b)
-            gap = np.abs(means[:, None] - means[None, :])  # (source, person)
-            lo, hi = np.maximum(gap / 2, gap - delta), gap + delta
-            spill = 0.5 * (np.exp(-lo / b) - np.exp(-hi / b))
-            np.fill_diagonal(spill, 0.0)
-            sources = counts / (1.0 - np.exp(-delta / b))  # each person's frames, from those counted within delta
-            lam += sources @ spill
-        thr = np.maximum(_poisson_quantile(self.frame_quantile, lam) + 1.0, self.frame_min) - 1e-9
-        return speaking | (counts > thr), np.maximum(prob, counts / (counts + thr))
-
-    def decide_pairs(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray, variances: np.ndarray,
-                     supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
-                     band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None
-                     ) -> tuple[np.ndarray, np.ndarray, float]:
-        """:meth:`decide` for several microphone pairs: the same three looks, in the space of ITD vectors.
-
+        One microphone pair is an array of one pair: ITDs are vectors, one value per pair.
+        beta : (K, N) the auditory posteriors of the N persons (eq. beta_kn, outlier column dropped).
         itds : (K, P) one vector per window (NaN where a pair has none); means, variances : (N, P) each person's
-        Gaussian on each pair; supports : (P, 2) each pair's ITD interval; frame_itds (M, P) and band_itds (L, P)
-        likewise (a band's peaks are not matched across pairs, so a band row has one pair). A person's window is
-        the box of +-``window_sd`` sigma on every pair a vector has, and a vector counts for the person it lies
-        nearest to (summed squares over its pairs). Chance is the same Poisson count with each interval's share
-        replaced by the box's, bounded by its tightest pair: the smallest of the pairs' shares, and for the
-        spill-over from another person the smallest of the per-pair spills. The product (independent pairs) would
-        be far too small: the ITDs of one sound on every pair follow from one direction (two degrees of freedom),
-        so a reflection or a stray sound is as consistent across the pairs as a talker. Rows with different pairs
-        count separately, and their counts and Poisson means add up. With P = 1 this is :meth:`decide`.
+        Gaussian on each pair; supports : (P, 2) each pair's ITD interval.
+        present : (K,) bool, the ITDs the decision counts (K and tau_A are theirs); None: all.
+        frame_itds : (M, P) the ITDs of the single frames of the same time (``ItdStream.pop_frame_itds``), for
+            ``frame_rescue``; None: the window ITDs alone decide.
+        band_itds : (L, P) the peaks of the frames' frequency bands (``ItdStream.pop_band_itds``; a band's peaks
+            are not matched across pairs, so a band row has one pair), a third look with the same test and a spread
+            of ``band_spread_s``; None: not used.
+        bin_share : (N,) each person's :func:`bin_shares` over the same time, the fourth look (confirm and claim,
+            see the class); None: not used.
 
-        bin_share : (N,) each person's :func:`bin_shares` over the same time, the fourth look (confirm and claim, see
-        the class); None: not used.
+        With several pairs a person's window is the box of +-``window_sd`` sigma on every pair a vector has, and a
+        vector counts for the person it lies nearest to (summed squares over its pairs). Chance is the same
+        Poisson count with each interval's share replaced by the box's, bounded by its tightest pair: the smallest
+        of the pairs' shares, and for the spill-over from another person the smallest of the per-pair spills. The
+        product (independent pairs) would be far too small: the ITDs of one sound on every pair follow from one
+        direction (two degrees of freedom), so a reflection or a stray sound is as consistent across the pairs as
+        a talker. Rows with different pairs count separately, and their counts and Poisson means add up.
         """
         x = np.asarray(itds, dtype=np.float64).reshape(len(beta), means.shape[1])
         if present is not None:
@@ -262,9 +193,11 @@ class SpeakingTest:
             lam += self.outlier_share * rows.sum() * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).min(axis=1)
         speaking, prob = self._count_test(counts, lam)
         if self.frame_rescue and frame_itds is not None and len(frame_itds):
-            speaking, prob = self._rescue_pairs(speaking, prob, np.asarray(frame_itds, dtype=np.float64), means, u,
-                                                self.frame_spread_s)
+            speaking, prob = self._rescue(speaking, prob, np.asarray(frame_itds, dtype=np.float64), means, u,
+                                          self.frame_spread_s)
         if self.frame_rescue and band_itds is not None and len(band_itds):
+            # two people talking at once put the bands they share at a phantom between them: nobody lying
+            # between two speaking people (on every pair) is called speaking on the bands
             lo = means[None, :, :] < means[:, None, :]  # (person, other, pair): the other is below
             hi = means[None, :, :] > means[:, None, :]
             between = np.zeros(n, dtype=bool)
@@ -273,8 +206,8 @@ class SpeakingTest:
                     for b2 in np.flatnonzero(speaking):
                         if (lo[i, a] & hi[i, b2]).all() or (hi[i, a] & lo[i, b2]).all():
                             between[i] = True
-            found, found_prob = self._rescue_pairs(speaking, prob, np.asarray(band_itds, dtype=np.float64), means,
-                                                   u, self.band_spread_s)
+            found, found_prob = self._rescue(speaking, prob, np.asarray(band_itds, dtype=np.float64), means, u,
+                                             self.band_spread_s)
             speaking = np.where(between, speaking, found)
             prob = np.where(between, prob, found_prob)
         if bin_share is not None:
@@ -293,10 +226,16 @@ class SpeakingTest:
         by_share = np.where(out, np.maximum(by_share, 0.5 + 1e-9), np.minimum(by_share, 0.5))
         return out, np.where(out == speaking, prob, by_share)
 
-    def _rescue_pairs(self, speaking: np.ndarray, prob: np.ndarray, obs: np.ndarray, means: np.ndarray,
-                      u: np.ndarray, b: float) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_rescue` with vectors: within ``frame_within_s`` on every pair a row has, nearest, against the
-        per-group Poisson chance (uniform strays in the box, and the other people's spill, products over pairs)."""
+    def _rescue(self, speaking: np.ndarray, prob: np.ndarray, obs: np.ndarray, means: np.ndarray, u: np.ndarray,
+                b: float) -> tuple[np.ndarray, np.ndarray]:
+        """The second look at the single frames: a person also speaks when more frame ITDs lie within
+        ``frame_within_s`` of their mean (on every pair a row has), and nearer to it than to any other person's,
+        than chance allows. Chance is a Poisson count (above its ``frame_quantile`` and at least ``frame_min``)
+        whose mean adds the frames that stray uniformly over the ITD interval (a share ``outlier_share`` of the M;
+        the box's tightest pair) and those that the other people's frames spill over to this person (frame ITD
+        errors Laplacian, of scale ``b``; the smallest spill over the pairs): a source at distance g sends a frame
+        within delta of this person, and nearer it than to the source, with P(max(g / 2, g - delta) < e < g +
+        delta) = (exp(-lo / b) - exp(-hi / b)) / 2 for e ~ Laplace(b)."""
         delta = self.frame_within_s
         n = means.shape[0]
         counts, lam = np.zeros(n), np.zeros(n)

@@ -381,7 +381,7 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
 
     def keep(result: Result) -> None:
         if result.xyz.shape[0] == 1:
-            for itd in result.itds_s:
+            for itd in result.itds_s[:, 0]:  # the source's pair, the first
                 faces.append(result.xyz[0])
                 itds.append(float(itd))
 

@@ -1,5 +1,5 @@
 """ITDs on every pair of a microphone array, streamed: one :class:`ItdStream` per pair, their windows joined into
-vectors.
+vectors. A single microphone pair is an array of one pair (``MicArray.from_pair``).
 
 Every pair's stream cuts the same windows (sample ``k * hop`` of the stream) and frames, so a window's ITDs on the
 P pairs are one vector, the input of :func:`avcore.mixture.fit_pairs_em`. A pair whose energy gate rejected the
@@ -76,17 +76,18 @@ class PairsItdStream:
     scaled by ``max_itd_scale``)."""
 
     def __init__(self, array: MicArray, samplerate: float, method: str = "correlogram", *,
-                 max_itd_scale: float = 1.2, frame_itds: bool = False, all_bands: bool = False,
-                 **options: Any) -> None:
+                 max_itd_scale: float = 1.2, frame_itds: bool = False, frame_bins: bool = False,
+                 all_bands: bool = False, **options: Any) -> None:
         self.array = array
         self.all_bands = all_bands
+        self.frame_bins = frame_bins
         self.columns = [(array.channels[i], array.channels[j]) for i, j in array.pairs]  # type: ignore[index]
         self._streams = []
         for p in range(array.n_pairs):
             pair = array.pair(p)
             extra = geometry_options(method, pair.distance_m, pair.speed_of_sound)
             self._streams.append(ItdStream(samplerate, method=method, max_itd_s=max_itd_scale * pair.max_itd_s,
-                                           frame_itds=frame_itds, **options, **extra))
+                                           frame_itds=frame_itds, frame_bins=frame_bins, **options, **extra))
 
     @property
     def n_pairs(self) -> int:

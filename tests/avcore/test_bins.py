@@ -78,9 +78,9 @@ def test_bins_spare_the_phantom_between_two_talkers_that_the_peaks_fall_on() -> 
     beta[:, 2] = 0.95
     supports = NAO.itd_intervals()
     var = np.full(means.shape, 1e-9)
-    peaks_only, _, _ = test.decide_pairs(beta, phantom, means, var, supports)
+    peaks_only, _, _ = test.decide(beta, phantom, means, var, supports)
     assert peaks_only.tolist() == [False, False, True]
-    with_bins, prob, _ = test.decide_pairs(beta, phantom, means, var, supports, bin_share=share)
+    with_bins, prob, _ = test.decide(beta, phantom, means, var, supports, bin_share=share)
     assert with_bins.tolist() == [True, True, False]
     assert np.array_equal(prob > 0.5, with_bins)
 

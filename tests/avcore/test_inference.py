@@ -117,7 +117,7 @@ def test_motion_guided_bad_inputs() -> None:
         mg.step(np.zeros((5, 2)), np.zeros(2))
     with pytest.raises(ValueError, match="NaN"):
         mg.step(np.array([[0.0, 0.0, np.nan]]), np.zeros(2))
-    with pytest.raises(ValueError, match="itds_s must be a 1-D array"):
+    with pytest.raises(ValueError, match=r"itds_s must have one column per pair \(1\)"):
         mg.step(np.zeros((5, 3)), np.zeros((3, 2)))
     with pytest.raises(TypeError, match="MicPair"):
         MotionGuidedHearing("mics")  # type: ignore[arg-type]
