@@ -8,8 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avcore.evaluation import FrameTruth
-
 __all__ = ["AudioBlock", "StereoFrame"]
 
 
@@ -19,8 +17,9 @@ class StereoFrame:
 
     index : frame number from 0; stamp_s, right_stamp_s : capture times of the left and right images, seconds on the
     stream clock; left, right : (h, w, 3) uint8 BGR images (rectified for the simulator; as recorded otherwise);
-    truth : the ground truth of the instant, when known; depth_m : an RGB-D camera's depth aligned to ``left`` (its
-    colour image), (h, w) float32 metres, NaN where it has none; ``right`` is None then.
+    depth_m : an RGB-D camera's depth aligned to ``left`` (its colour image), (h, w) float32 metres, NaN where it
+    has none; ``right`` is None then. Ground truth is not the camera's: a source that knows it answers
+    ``source.truth(index)`` (the simulator, a recording with ``truth.csv``).
     """
 
     index: int
@@ -28,7 +27,6 @@ class StereoFrame:
     left: np.ndarray
     right: np.ndarray | None
     right_stamp_s: float
-    truth: FrameTruth | None = None
     depth_m: np.ndarray | None = None
 
 

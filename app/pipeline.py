@@ -34,6 +34,7 @@ from app.queues import DropOldestQueue
 from app.result import Result
 from avcore.faces import FaceDetector
 from avcore.geometry import MicArray
+from avcore.inference import FaceGuidedParams
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
@@ -112,8 +113,7 @@ class PipelineConfig:
         for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
-        if self.decision_window_s is not None and not self.decision_window_s > 0:
-            raise ValueError(f"decision_window_s must be > 0 seconds or None, got {self.decision_window_s!r}")
+        FaceGuidedParams(decision_window_s=self.decision_window_s)  # the hearing's own check, here at once
         least = max(self.frame_window_s, self.interval_s) + self.window_s + self.hop_s
         if self.max_audio_lead_s <= least:
             raise ValueError(f"max_audio_lead_s must exceed the time frame plus a window ({least:g} s), got "

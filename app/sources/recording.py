@@ -129,8 +129,9 @@ class RecordingWriter:
         self.audio_start_s: float | None = None
         self._closed = False
 
-    def add_frame(self, frame: StereoFrame) -> None:
-        """Append one frame (its images, or an RGB-D camera's colour and depth; its stamps and truth if any)."""
+    def add_frame(self, frame: StereoFrame, truth: FrameTruth | None = None) -> None:
+        """Append one frame (its images, or an RGB-D camera's colour and depth; its stamps) and its ground truth
+        when known."""
         if frame.index != self.n_frames:
             log.debug("frame %d written as frame %d (frames are renumbered in order)", frame.index, self.n_frames)
         w, h = self.rig_config.stereo.image_size  # type: ignore[union-attr]
@@ -157,8 +158,8 @@ class RecordingWriter:
                 raise ValueError(f"the depth image must be ({h}, {w}) as the rig says, got {frame.depth_m.shape}")
             self._write_png("depth", depth_millimetres(frame.depth_m))
         self._frames.writerow([self.n_frames, repr(float(frame.stamp_s)), repr(float(frame.right_stamp_s))])
-        if frame.truth is not None:
-            self._write_truth(self.n_frames, frame.stamp_s, frame.truth)
+        if truth is not None:
+            self._write_truth(self.n_frames, frame.stamp_s, truth)
         self.n_frames += 1
 
     def _write_png(self, side: str, img: np.ndarray) -> None:
@@ -254,7 +255,7 @@ def write_recording(folder: str | Path, source: ReplayStream, *, video: str = "a
             if stop is not None and stop.is_set():
                 break
             if isinstance(item, StereoFrame):
-                writer.add_frame(item)
+                writer.add_frame(item, source.truth(item.index))
                 if progress:
                     progress(writer.n_frames, source.n_frames)
             else:

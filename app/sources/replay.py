@@ -154,8 +154,7 @@ class ReplayStream:
                 _sleep_until(clock0 + frame_due - self.start_s)
             left, right = self._images(k)
             self.stats.frames += 1
-            yield StereoFrame(k, frame_due, left, right, float(self.right_stamps_s[k]), self.truth(k),
-                              self._depth(k, left))
+            yield StereoFrame(k, frame_due, left, right, float(self.right_stamps_s[k]), self._depth(k, left))
             k += 1
 
 

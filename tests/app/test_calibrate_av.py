@@ -148,7 +148,7 @@ def test_no_face_in_view(recording, measured_rig, tmp_path):
     with RecordingWriter(folder, rig=rig, fps=10, samplerate_hz=16000, n_channels=2) as writer:
         grey = np.full((h, w, 3), 128, np.uint8)
         for k in range(10):
-            writer.add_frame(StereoFrame(k, k / 10, grey, grey, k / 10, None))
+            writer.add_frame(StereoFrame(k, k / 10, grey, grey, k / 10))
         noise = (0.1 * rng.standard_normal((16000, 2))).astype(np.float32)
         writer.add_audio(AudioBlock(0, 0, 0.0, noise, 16000))
     assert open_recording(folder).n_frames == 10

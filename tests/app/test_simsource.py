@@ -66,7 +66,7 @@ def test_stream_delivers_frames_and_blocks_in_order_on_one_clock(s2):
     # separate frame and audio iterators give the same items
     assert [f.stamp_s for f in s2.frames()] == [f.stamp_s for f in frames]
     assert [b.first_sample for b in s2.audio_blocks(block_size=400)] == [b.first_sample for b in blocks]
-    assert all(f.truth is not None and f.truth.positions_m.shape == (3, 3) for f in frames)
+    assert all(s2.truth(f.index) is not None and s2.truth(f.index).positions_m.shape == (3, 3) for f in frames)
 
 
 @settings(max_examples=15, deadline=None)
@@ -183,7 +183,7 @@ def test_an_rgbd_camera_gives_colour_and_depth_and_the_pipeline_finds_the_faces(
     frames = list(source.frames(realtime=False))
     assert all(f.right is None and f.depth_m.dtype == np.float32 and f.depth_m.shape == f.left.shape[:2]
                for f in frames)
-    truth = {f.index: f.truth for f in frames}
+    truth = {f.index: source.truth(f.index) for f in frames}
     errors = []
 
     def keep(result) -> None:

@@ -32,14 +32,14 @@ def test_simulate_writes_a_recording_that_the_front_ends_read(tmp_path, capsys):
     for f in frames[::4]:
         faces = locate_faces(f.left, f.right, rec.stereo)
         assert len(faces) >= 1  # the detector may add a false positive on the background; the person is there
-        errors.append(np.min(np.linalg.norm(faces.points - f.truth.positions_m[0], axis=1)))
+        errors.append(np.min(np.linalg.norm(faces.points - rec.truth(f.index).positions_m[0], axis=1)))
     assert np.median(errors) < 0.1
     # ITDs of the replayed audio are those of the person while they speak (section 5.1)
     audio = np.concatenate([b.samples for b in blocks]).astype(np.float64)
     track = extract_itds(audio[:, rec.channels["left"]], audio[:, rec.channels["right"]], rec.samplerate_hz,
                          method="gcc-phat")
     assert len(track) >= 10
-    truth_itd = frames[0].truth.itds_s[0]
+    truth_itd = rec.truth(frames[0].index).itds_s[0]
     assert abs(np.median(track.itds_s) - truth_itd) < 40e-6
 
 
