@@ -448,8 +448,8 @@ class FaceGuidedOutput:
     speaking : (N,) bool, eq. (audio_act). probability : (N,) in [0, 1], above 0.5 exactly when speaking.
     itd_means : (N,) seconds. itd_counts : (N,) beta_bar_n. model : the fitted 1-D model (for display).
     tau_a : K / (N + 2). n_iter : EM iterations run.
-    pair_itd_means : (N, P) seconds, each person's mean on each pair, with several pairs (``itd_means`` and
-    ``model`` are then the first pair's); None with one pair.
+    pair_itd_means : (N, P) seconds, each person's mean on each pair (``itd_means`` and ``model`` are the first
+    pair's); None only in outputs built by hand.
     """
 
     speaking: np.ndarray
@@ -551,4 +551,4 @@ class FaceGuidedHearing:
                                                 frames, bands, share)
         model = Mixture1D.unchecked(fit.weights, fit.means[:, 0].copy(), fit.variances[:, 0].copy(), self.support)
         return FaceGuidedOutput(speaking, prob, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model, tau,
-                                fit.n_iter, fit.means.copy() if n_pairs > 1 else None)
+                                fit.n_iter, fit.means.copy())

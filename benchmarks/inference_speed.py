@@ -5,7 +5,7 @@
 Prints, on one core (BLAS threads pinned to 1):
 * MotionGuidedHearing.step on the synthetic DynCon sequence (M ~ 2,000 points, K ~ 20 ITDs, N_max = 10), both
   variants: median and 90th percentile wall time, CPU time, peak memory of one step;
-* FaceGuidedHearing.step with 3 faces and 20 ITDs;
+* FaceGuidedHearing.step with 3 faces and 20 ITDs, on a pair and on NAO's four microphones (6 pairs);
 * the same 1-D data fitted for N = 1..10 by scikit-learn's GaussianMixture (default settings: tol 1e-3,
   k-means init, one init) against our batched EM for all N (visual EM + fusion EM + BIC), and the ratio.
 
@@ -29,7 +29,7 @@ import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from avcore.geometry import MicPair  # noqa: E402
+from avcore.geometry import MicArray, MicPair  # noqa: E402
 from avcore.inference import FaceGuidedHearing, MotionGuidedHearing, MotionGuidedParams  # noqa: E402
 from sim.synthetic import generate_sequence  # noqa: E402
 
@@ -58,17 +58,23 @@ def bench_motion(mics: MicPair, intervals: list, params: MotionGuidedParams, lab
     return float(np.median(wall))
 
 
-def bench_face(mics: MicPair, repeats: int) -> float:
+def bench_face(mics: MicPair | MicArray, repeats: int) -> float:
+    """Three faces, 20 ITD windows (16 from the first face, 4 stray), on a pair or on every pair of an array."""
     rng = np.random.default_rng(0)
     faces = np.array([[-0.8, 0.0, 2.0], [0.0, 0.1, 2.5], [0.9, -0.1, 2.2]])
-    itds = np.concatenate([rng.normal(mics.itd(faces[0]), 25e-6, 16), rng.uniform(-350e-6, 350e-6, 4)])
+    talker = np.atleast_1d(mics.itd(faces[0]))
+    itds = np.concatenate([rng.normal(talker, 25e-6, (16, talker.size)),
+                           rng.uniform(-350e-6, 350e-6, (4, talker.size))])
+    if talker.size == 1:
+        itds = itds[:, 0]  # one pair's ITDs may also be given as values
     fg = FaceGuidedHearing(mics)
     times = []
     for _ in range(repeats):
         t0 = time.perf_counter()
         fg.step(faces, itds)
         times.append(time.perf_counter() - t0)
-    print(f"FaceGuidedHearing.step 3 faces, 20 ITDs:              {_stats(times)}")
+    pairs = f"{talker.size} pairs" if talker.size > 1 else "1 pair "
+    print(f"FaceGuidedHearing.step 3 faces, 20 ITDs, {pairs}:      {_stats(times)}")
     return float(np.median(times))
 
 
@@ -134,6 +140,7 @@ def main() -> None:
     bench_motion(mics, intervals, MotionGuidedParams(), "avhear")
     bench_motion(mics, intervals, MotionGuidedParams.paper(), "paper")
     bench_face(mics, args.repeats)
+    bench_face(MicArray.preset("nao"), args.repeats)
     bench_sklearn(mics, intervals, args.sklearn_runs)
     print("paper: Face-Guided pipeline 17 FPS on NAO; Motion-Guided not real time. "
           "targets: motion <= 10 ms, face <= 0.2 ms, >= 20x scikit-learn")

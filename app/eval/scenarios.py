@@ -27,7 +27,8 @@ from app.sources.open import StreamAdapter, open_source
 from avcore.calibration import fit_av_calibration_report
 from avcore.evaluation import TAU_LOC_M, match_clusters
 from avcore.geometry import MicPair
-from avcore.itd import extract_itds, geometry_options
+from avcore.evaluation import FrameTruth
+from avcore.itd import ItdTrack, extract_itds, geometry_options
 from sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
@@ -441,6 +442,27 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
 # scoring
 
 
+@dataclass(frozen=True)
+class TruthTable:
+    """The scenario's ground truth at every instant the scoring looks at, asked of the scenario once: the camera
+    frames, the results (motion-guided results are stamped at interval centres, between frames), the middle of each
+    spoken number and the ITD windows in which one person speaks. ``at(t)`` answers for those instants only."""
+
+    times_s: np.ndarray
+    truths: tuple[FrameTruth, ...]
+
+    @classmethod
+    def of(cls, scenario: Scenario, *times_s: Sequence[float] | np.ndarray) -> TruthTable:
+        t = np.unique(np.concatenate([np.asarray(x, dtype=np.float64).reshape(-1) for x in times_s]))
+        return cls(t, tuple(scenario.truth(float(v)) for v in t))
+
+    def at(self, t_s: float) -> FrameTruth:
+        i = int(np.searchsorted(self.times_s, t_s))
+        if i == self.times_s.size or self.times_s[i] != t_s:
+            raise KeyError(f"the truth table has no instant {t_s!r} s (build it with every instant to score)")
+        return self.truths[i]
+
+
 @dataclass
 class _Judged:
     """What the results said per interval (K) and person (N): frames found and judged speaking, results with a
@@ -471,18 +493,17 @@ def _truth_per_interval(truths: list, frame_interval: np.ndarray, n_intervals: i
     return vis_votes > half, speak_votes > half, speak_votes > 0, frames_per
 
 
-def _judge(scenario: Scenario, fused: Sequence[Result], n_intervals: int, score: ScenarioScore,
+def _judge(table: TruthTable, n_people: int, fused: Sequence[Result], n_intervals: int, score: ScenarioScore,
            face_figures: bool, positions_at: Positions | None = None) -> _Judged:
     """Match every result's people to the truth of its instant (the faces, or ``positions_at(stamp)``); with
     ``face_figures``, also the per-frame visual figures (the F3D faces) into ``score``."""
-    n_people = len(scenario.actors)
     ordered = sorted(fused, key=lambda f: f.stamp_s)
     out = _Judged(np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people)), np.zeros(n_intervals),
                   np.zeros(n_intervals), np.full((len(ordered), n_people), -1),
                   np.array([r.stamp_s for r in ordered]))
     for j, r in enumerate(ordered):
         k = min(int(r.stamp_s / INTERVAL_S + 1e-9), n_intervals - 1)
-        tr = scenario.truth(r.stamp_s)
+        tr = table.at(r.stamp_s)
         xyz, judged_speaking = r.positions, r.speaking
         truth_xyz = tr.positions_m if positions_at is None else positions_at(r.stamp_s)
         match = match_clusters(xyz, truth_xyz, tau_loc=TAU_LOC_M)
@@ -527,10 +548,14 @@ def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, sa
     score = ScenarioScore(scenario.name, config.inference, [scenario.seed], float(scenario.duration_s))
     n_intervals = math.ceil(scenario.duration_s / INTERVAL_S - 1e-9)
     score.n_intervals = n_intervals
-    truths = [scenario.truth(float(t)) for t in frame_stamps_s]
+    track, one_talker = _itd_windows(scenario, audio, samplerate_hz, mics, config)
+    speech = [e for e in scenario.events if e.kind == "speech"]
+    table = TruthTable.of(scenario, frame_stamps_s, [r.stamp_s for r in fused],
+                          [0.5 * (e.start_s + e.end_s) for e in speech], [track.times_s[i] for i, _ in one_talker])
+    truths = [table.at(float(t)) for t in frame_stamps_s]
     frame_interval = np.minimum((np.asarray(frame_stamps_s) / INTERVAL_S + 1e-9).astype(int), n_intervals - 1)
     visible, speaking, spoke, frames_per = _truth_per_interval(truths, frame_interval, n_intervals, n_people)
-    j = _judge(scenario, fused, n_intervals, score, face_figures=not motion, positions_at=positions_at)
+    j = _judge(table, n_people, fused, n_intervals, score, face_figures=not motion, positions_at=positions_at)
     score.counts = _interval_counts(visible, speaking, spoke, j.found, j.judged, j.false_speaking, j.results_per)
     score.identity = identity_counts(j.id_matches, j.n_true, j.n_found)
     # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends
@@ -543,9 +568,13 @@ def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, sa
                                               frames_per)
     frame_period_s = float(np.median(np.diff(frame_stamps_s))) if len(frame_stamps_s) > 1 else 1 / 30
     half_span = INTERVAL_S / 2 if motion else frame_period_s / 2  # the time one result stands for
-    score.utterances, missed, false_stretches = _utterance_counts(scenario, j.stamps, j.states, half_span)
+    score.utterances, missed, false_stretches = _utterance_counts(speech, table, j.stamps, j.states, half_span)
     score.timeline = Timeline(scenario, j.stamps, j.states, half_span, tuple(missed), tuple(false_stretches))
-    score.itd_errors_s, score.itd_true_s, score.n_itds = _itd_errors(scenario, audio, samplerate_hz, mics, config)
+    # the ITD accuracy: eq. (itd) at the talker's mouth, with the pair's correction
+    score.itd_true_s = [mics.c1 * float(table.at(float(track.times_s[i])).itds_s[actor]) + mics.c0
+                        for i, actor in one_talker]
+    score.itd_errors_s = [float(track.itds_s[i]) - true for (i, _), true in zip(one_talker, score.itd_true_s)]
+    score.n_itds = len(track.itds_s)
     return score
 
 
@@ -581,18 +610,18 @@ def _interval_counts(visible: np.ndarray, speaking: np.ndarray, spoke: np.ndarra
     return c
 
 
-def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarray,
+def _utterance_counts(speech: Sequence[Any], table: TruthTable, stamps_s: np.ndarray, states: np.ndarray,
                       half_span_s: float) -> tuple[UtteranceCounts, list[tuple[int, float, float]],
                                                    list[tuple[int, float, float]]]:
-    """Count per spoken number (see :class:`UtteranceCounts`). stamps_s : (R,) result stamps; states : (R, N) -1 not
+    """Count per spoken number (see :class:`UtteranceCounts`). speech : the scenario's speech events, in order;
+    stamps_s : (R,) result stamps; states : (R, N) -1 not
     found, 0 judged silent, 1 judged speaking; each result covers +- ``half_span_s`` around its stamp. Also returns
     the missed numbers and the false stretches, each as (person, start, end) seconds."""
     out = UtteranceCounts()
     missed: list[tuple[int, float, float]] = []
     false_stretches: list[tuple[int, float, float]] = []
-    speech = [e for e in scenario.events if e.kind == "speech"]
     for e in speech:
-        if not scenario.visible(0.5 * (e.start_s + e.end_s))[e.actor]:
+        if not table.at(0.5 * (e.start_s + e.end_s)).visible[e.actor]:
             continue
         during = (stamps_s + half_span_s > e.start_s) & (stamps_s - half_span_s < e.end_s)
         st = states[during, e.actor]
@@ -621,23 +650,18 @@ def _utterance_counts(scenario: Scenario, stamps_s: np.ndarray, states: np.ndarr
     return out, missed, false_stretches
 
 
-def _itd_errors(scenario: Scenario, audio: np.ndarray, samplerate_hz: float, mics: MicPair,
-                config: PipelineConfig) -> tuple[list[float], list[float], int]:
-    """Extracted minus true ITD and the true ITD (seconds) of every window in which exactly one person sounds, and it
-    is speech; and the number of ITDs extracted in all. Same extractor and settings as the pipeline's ITD worker."""
+def _itd_windows(scenario: Scenario, audio: np.ndarray, samplerate_hz: float, mics: MicPair,
+                 config: PipelineConfig) -> tuple[ItdTrack, list[tuple[int, int]]]:
+    """The ITDs of the pair's signals (the extractor and settings of the pipeline's ITD worker), and the windows in
+    which exactly one person sounds, and it is speech: (window index, that person)."""
     extra = geometry_options(config.itd_method, mics.distance_m, mics.speed_of_sound)
     track = extract_itds(audio[:, 0], audio[:, 1], samplerate_hz, method=config.itd_method,
                          window_s=config.window_s, hop_s=config.hop_s, energy_threshold=config.energy_threshold,
                          max_itd_s=1.2 * mics.max_itd_s, **extra)
-    errors: list[float] = []
-    trues: list[float] = []
     half = config.window_s / 2
-    for t, itd in zip(track.times_s, track.itds_s):
+    windows = []
+    for i, t in enumerate(track.times_s):
         events = [e for e in scenario.events if e.start_s < t + half and e.end_s > t - half]
-        if len({e.actor for e in events}) != 1 or any(e.kind != "speech" for e in events):
-            continue
-        true = scenario.truth(float(t)).itds_s[events[0].actor]  # eq. (itd), identity correction
-        mapped = mics.c1 * float(true) + mics.c0
-        errors.append(float(itd) - mapped)
-        trues.append(mapped)
-    return errors, trues, len(track.itds_s)
+        if len({e.actor for e in events}) == 1 and all(e.kind == "speech" for e in events):
+            windows.append((i, events[0].actor))
+    return track, windows
