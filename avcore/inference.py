@@ -184,13 +184,11 @@ class MotionGuidedHearing:
     """
 
     def __init__(self, mics: MicPair | MicArray, params: MotionGuidedParams | None = None) -> None:
-        if not isinstance(mics, (MicPair, MicArray)):
-            raise TypeError(f"mics must be a MicPair or a MicArray, got {type(mics).__name__}")
+        self.array = _as_array(mics)
+        self.mics = self.array.pair(0)
         self.params = params if params is not None else MotionGuidedParams()
         # the people are found and located on the first pair (the paper's Algorithm 1); with several pairs, who
         # speaks is decided on every pair by the model of avcore.mixture.fit_pairs_em anchored at their positions
-        self.array = mics if isinstance(mics, MicArray) else MicArray.from_pair(mics)
-        self.mics = self.array.pair(0)
         self._pairs = (FaceGuidedHearing(self.array, FaceGuidedParams(speaking=self.params.speaking))
                        if self.array.n_pairs > 1 else None)
         self.support = self.mics.itd_interval()
@@ -462,6 +460,15 @@ class FaceGuidedOutput:
     pair_itd_means: np.ndarray | None = None
 
 
+def _as_array(mics: object) -> MicArray:
+    """The hearing's microphones as an array: a :class:`MicPair` is an array of one pair."""
+    if isinstance(mics, MicArray):
+        return mics
+    if isinstance(mics, MicPair):
+        return MicArray.from_pair(mics)
+    raise TypeError(f"mics must be a MicPair or a MicArray, got {type(mics).__name__}")
+
+
 def _itd_vectors(itds: object, n_pairs: int, name: str) -> np.ndarray:
     """ITDs as (K, P) vectors, NaN where a pair has none: a (K, P) array is one vector per window (the pairs' ITDs
     of one window, aligned); a sequence of P one-dimensional arrays gives each value alone (its pair only: not
@@ -498,11 +505,9 @@ class FaceGuidedHearing:
     """
 
     def __init__(self, mics: MicPair | MicArray, params: FaceGuidedParams | None = None) -> None:
-        if not isinstance(mics, (MicPair, MicArray)):
-            raise TypeError(f"mics must be a MicPair or a MicArray, got {type(mics).__name__}")
-        self.params = params if params is not None else FaceGuidedParams()
-        self.array = mics if isinstance(mics, MicArray) else MicArray.from_pair(mics)
+        self.array = _as_array(mics)
         self.mics = self.array.pair(0)
+        self.params = params if params is not None else FaceGuidedParams()
         self.support = self.mics.itd_interval()
         self._supports = self.array.itd_intervals()
         p = self.params
