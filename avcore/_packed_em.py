@@ -66,8 +66,8 @@ def e_step(x: np.ndarray, sizes: np.ndarray, wg: np.ndarray, mu: np.ndarray, var
     x : (B,) values with mu, var (S,) and u the outlier density; or (B, P) vectors, one value per microphone pair
     (NaN where a pair has none), with mu, var (S, P) and u (P,): a Gaussian's density is the product over the
     pairs a vector has, and so is the outlier's (the model of :func:`avcore.mixture.fit_pairs_em`).
-    Returns ``dens_g`` (B, S), ``dens_o`` ((C,) for values, the same for every x; (B, C) for vectors) and
-    ``total`` (B, C) = p(x; Theta_c).
+    Returns ``dens_g`` (B, S), ``dens_o`` ((C,), the same for every x, unless some vectors lack a pair: (B, C))
+    and ``total`` (B, C) = p(x; Theta_c).
     """
     if x.ndim == 1:
         dens = x[:, None] - mu[None, :]
@@ -76,13 +76,18 @@ def e_step(x: np.ndarray, sizes: np.ndarray, wg: np.ndarray, mu: np.ndarray, var
         scale = wg / np.sqrt(_TWO_PI * var)
         dens_o = wo * u
     else:
-        seen = np.isfinite(x)[:, None, :]
-        d = np.where(seen, x[:, None, :] - mu[None, :, :], 0.0)
+        seen = np.isfinite(x)
+        complete = bool(seen.all())  # the common case: every vector has every pair
+        d = x[:, None, :] - mu[None, :, :] if complete else np.where(seen[:, None, :], x[:, None, :] - mu[None], 0.0)
         d *= d
         d *= -0.5 / var
         dens = d.sum(axis=2)
-        scale = wg / np.where(seen, np.sqrt(_TWO_PI * var)[None, :, :], 1.0).prod(axis=2)
-        dens_o = wo[None, :] * np.where(seen[:, 0, :], u[None, :], 1.0).prod(axis=1)[:, None]
+        if complete:
+            scale = wg / np.sqrt(_TWO_PI * var).prod(axis=1)
+            dens_o = wo * u.prod()
+        else:
+            scale = wg / np.where(seen[:, None, :], np.sqrt(_TWO_PI * var)[None, :, :], 1.0).prod(axis=2)
+            dens_o = wo[None, :] * np.where(seen, u[None, :], 1.0).prod(axis=1)[:, None]
     np.maximum(dens, -0.5 * _Z2_CLIP, out=dens)
     np.exp(dens, out=dens)
     dens *= scale
@@ -193,13 +198,16 @@ def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.
              sums: Callable[[_Live, np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray | None]],
              w_total: float, *,
              max_iter: int, tol: float, var_floor: float, min_wo: float, history: list[np.ndarray] | None,
-             updates: Updates = ALL) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
+             updates: Updates = ALL, last: list[np.ndarray] | None = None
+             ) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
     """The EM loop, written once for both EMs: E-step on ``x``, convergence of ``objective``, M-step.
 
     objective(live, total) -> (C_live,) the quantity EM must not lower, from the E-step's densities;
     sums(live, resp, resp_outlier) -> (:func:`m_step`'s ``g_sums``, its ``o_counts`` (C_live,), its ``gamma`` or
     None), from the responsibilities of ``x``. Returns the models, the final objective (C,), n_iter (C,) and
-    converged (C,); ``history`` receives the objective of every model at every E-step (nan once it has left).
+    converged (C,); ``history`` receives the objective of every model at every E-step (nan once it has left);
+    ``last`` receives the final E-step's ``dens_g, dens_o, total`` (:func:`e_step`), those of the models still in
+    the batch then: every model's for a batch of one, whose posteriors they give without another E-step.
     """
     p = p.copy()
     c = p.sizes.size
@@ -220,6 +228,8 @@ def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.
         # a model leaving the batch (or the loop ending) at iteration ``it`` has had ``it`` M-steps
         if it == max_iter or done.all():
             n_iter[lv.idx] = it
+            if last is not None:
+                last[:] = [dens, dens_o, total]
             break
         if done.any():
             n_iter[lv.idx[done]] = it
@@ -235,8 +245,8 @@ def _em_loop(p: Packed, x: np.ndarray, u: float, objective: Callable[[_Live, np.
 
 
 def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float | np.ndarray, *, max_iter: int, tol: float,
-           var_floor: float, min_wo: float, history: list[np.ndarray] | None = None, updates: Updates = ALL
-           ) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
+           var_floor: float, min_wo: float, history: list[np.ndarray] | None = None, updates: Updates = ALL,
+           last: list[np.ndarray] | None = None) -> tuple[Packed, np.ndarray, np.ndarray, np.ndarray]:
     """Standard EM (eq. alpha_m and its M-step) on weighted data for packed models.
 
     Values: x (B,) where responsibilities are evaluated, stats (B, 3) count, sum x, sum x^2 per bin (exact stats of
@@ -244,7 +254,8 @@ def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float | np.ndarray, *
     has no value), value and square, every vector counting once. ``updates`` restricts the M-step
     (:class:`Updates`).
     Returns the fitted models, their final log-likelihood (C,), n_iter (C,), converged (C,). ``history`` receives
-    the log-likelihood of every model before each M-step (np.nan for models that have left the batch).
+    the log-likelihood of every model before each M-step (np.nan for models that have left the batch); ``last``
+    the final E-step's densities (:func:`_em_loop`).
     """
     c = p.sizes.size
     if x.size == 0 or c == 0:
@@ -265,7 +276,7 @@ def run_em(x: np.ndarray, stats: np.ndarray, p: Packed, u: float | np.ndarray, *
         objective=lambda lv, total: cnt @ np.log(total),
         sums=sums,
         w_total=float(cnt.sum()), max_iter=max_iter, tol=tol, var_floor=var_floor, min_wo=min_wo, history=history,
-        updates=updates,
+        updates=updates, last=last,
     )
 
 

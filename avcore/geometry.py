@@ -199,6 +199,9 @@ class MicArray:
         # each pair validates its own speed of sound and correction
         object.__setattr__(self, "_pairs", tuple(
             MicPair(pos[i], pos[j], self.speed_of_sound, c1, c0) for (i, j), c1, c0 in zip(pairs, self.c1, self.c0)))
+        # for itd: every microphone's distance once, then each pair's difference (as MicPair.itd computes it)
+        object.__setattr__(self, "_positions", np.asarray(pos, dtype=np.float64))
+        object.__setattr__(self, "_ends", (np.array([i for i, _ in pairs]), np.array([j for _, j in pairs])))
 
     @classmethod
     def from_pair(cls, mics: MicPair, channels: tuple[int, int] = (0, 1)) -> MicArray:
@@ -248,7 +251,12 @@ class MicArray:
 
     def itd(self, points: object) -> np.ndarray:
         """Eq. (itd_up) for every pair, each with its own ``c1, c0``: ``(..., 3)`` metres -> ``(..., P)`` seconds."""
-        return np.stack([p.itd(points) for p in self._pairs], axis=-1)  # type: ignore[attr-defined]
+        pts = np.asarray(points, dtype=np.float64)
+        if pts.shape[-1:] != (3,):
+            raise ValueError(f"points must be an array of shape (..., 3) in metres, got shape {pts.shape}")
+        dist = np.linalg.norm(pts[..., None, :] - self._positions, axis=-1)  # type: ignore[attr-defined]
+        i, j = self._ends  # type: ignore[attr-defined]
+        return np.asarray(self.c1) * ((dist[..., i] - dist[..., j]) / self.speed_of_sound) + np.asarray(self.c0)
 
     def itd_intervals(self) -> np.ndarray:
         """``(P, 2)``: each pair's reachable ITD interval (:meth:`MicPair.itd_interval`), seconds."""

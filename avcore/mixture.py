@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avcore._packed_em import _Z2_CLIP, Packed, Updates, e_step, run_em, run_fusion
+from avcore._packed_em import _Z2_CLIP, Packed, Updates, run_em, run_fusion
 from avcore._validate import as_samples
 
 __all__ = [
@@ -697,9 +697,9 @@ def fit_pairs_em(
     supports : (P, 2) each pair's ITD interval.
     """
     x = np.asarray(itds_s, dtype=np.float64)
-    mu = np.array(means_s, dtype=np.float64)
-    var = np.array(variances_s2, dtype=np.float64)
-    w = np.array(weights, dtype=np.float64)
+    mu = np.asarray(means_s, dtype=np.float64)
+    var = np.asarray(variances_s2, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
     sup = np.asarray(supports, dtype=np.float64).reshape(-1, 2)
     if x.ndim != 2 or mu.ndim != 2 or x.shape[1] != mu.shape[1] or var.shape != mu.shape or sup.shape[0] != mu.shape[1]:
         raise ValueError(f"need itds (K, P), means and variances (N, P), supports (P, 2); got {x.shape}, {mu.shape}, "
@@ -709,20 +709,30 @@ def fit_pairs_em(
     k, n = x.shape[0], mu.shape[0]
     if k == 0 or n == 0:
         return PairsFit(w, mu, var, np.ones((k, 1)) if n == 0 else np.zeros((k, w.size)), 0.0, 0, True)
-    # the engine of Algorithm 1 (avcore._packed_em, microseconds) with one model and vectors
+    # the engine of Algorithm 1 (avcore._packed_em, microseconds) with one model and vectors; vectors of one pair
+    # that all have it are values, the engine's cheaper form of the same sums
     seen = np.isfinite(x)
+    p = x.shape[1]
     x_us = x * US
-    xs = np.where(seen, x_us, 0.0)
-    stats = np.stack([seen.astype(np.float64), xs, xs * xs], axis=2)
     u = 1.0 / ((sup[:, 1] - sup[:, 0]) * US)
     start = Packed(np.array([n]), w[:-1], mu * US, var * US * US, w[-1:])
-    fit, _, n_iter, converged = run_em(
+    if p == 1 and seen.all():
+        x_us, u = x_us[:, 0], float(u[0])
+        start.mu, start.var = start.mu[:, 0], start.var[:, 0]
+        stats = np.stack([np.ones(k), x_us, x_us * x_us], axis=1)
+    else:
+        xs = np.where(seen, x_us, 0.0)
+        stats = np.stack([seen.astype(np.float64), xs, xs * xs], axis=2)
+    last: list[np.ndarray] = []
+    fit, ll_us, n_iter, converged = run_em(
         x_us, stats, start, u, max_iter=settings.max_iter, tol=settings.tol,
         var_floor=settings.var_floor_s2 * US * US, min_wo=settings.min_outlier_weight,
-        updates=Updates(update_means, update_variances, max_variance_s2 * US * US))
-    dens, dens_o, total = e_step(x_us, fit.sizes, fit.wg, fit.mu, fit.var, fit.wo, u)
-    beta = np.append(dens, dens_o, axis=1) / total
-    ll = float(np.log(total).sum() + seen.sum() * np.log(US))
+        updates=Updates(update_means, update_variances, max_variance_s2 * US * US), last=last)
+    dens, dens_o, total = last  # the posteriors of the parameters returned
+    beta = np.empty((k, n + 1))
+    beta[:, :n], beta[:, n:] = dens, dens_o
+    beta /= total
+    ll = float(ll_us[0]) + float(seen.sum()) * np.log(US)  # the last E-step's, in 1/s densities
     weights_out = np.append(fit.wg, fit.wo)
-    return PairsFit(weights_out / weights_out.sum(), fit.mu / US, fit.var / (US * US), beta, ll, int(n_iter[0]),
-                    bool(converged[0]))
+    return PairsFit(weights_out / weights_out.sum(), fit.mu.reshape(n, p) / US, fit.var.reshape(n, p) / (US * US),
+                    beta, ll, int(n_iter[0]), bool(converged[0]))

@@ -67,8 +67,8 @@ def _poisson_quantile(q: float, lam: np.ndarray) -> np.ndarray:
     lam = np.atleast_1d(np.asarray(lam, dtype=np.float64))
     k_max = int(min(400, lam.max(initial=0.0) + 10.0 * np.sqrt(lam.max(initial=0.0)) + 20))
     k = np.arange(k_max + 1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_pmf = k[None, :] * np.log(lam[:, None]) - lam[:, None] - _LOG_FACT[None, : k_max + 1]
+    log_lam = np.log(np.maximum(lam, 1e-300))[:, None]  # lam = 0 is set below: its quantile is 0
+    log_pmf = k[None, :] * log_lam - lam[:, None] - _LOG_FACT[None, : k_max + 1]
     cdf = np.cumsum(np.exp(log_pmf), axis=1)
     cdf[lam == 0] = 1.0
     return (cdf < q).sum(axis=1).astype(np.float64)
@@ -171,8 +171,8 @@ class SpeakingTest:
         beta_counts = beta.sum(axis=0)
         n, k = beta_counts.size, x.shape[0]
         tau = speaking_threshold(k, n)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            prob = np.where(beta_counts + tau > 0, beta_counts / (beta_counts + tau), 0.0)
+        denominator = beta_counts + tau
+        prob = np.divide(beta_counts, denominator, out=np.zeros(n), where=denominator > 0)
         speaking = beta_counts > tau
         if not (self.outlier_aware and n):
             return speaking, prob, tau
@@ -180,7 +180,8 @@ class SpeakingTest:
         half = self.window_sd * np.maximum(np.sqrt(variances), self.min_sd_s)  # (N, P)
         counts, lam = np.zeros(n), np.zeros(n)
         for rows, pairs in _groups(x):
-            d = x[rows][:, None, pairs] - means[None, :, pairs]
+            xr = x[rows]
+            d = xr[:, None, pairs] - means[None, :, pairs]
             inside = (np.abs(d) <= half[None, :, pairs]).all(axis=2)
             b = beta[rows]
             if self.count_by == "posterior":
@@ -190,7 +191,7 @@ class SpeakingTest:
             else:
                 share = np.ones_like(b)
             counts += (share * inside).sum(axis=0)
-            lam += self.outlier_share * rows.sum() * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).min(axis=1)
+            lam += self.outlier_share * len(xr) * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).min(axis=1)
         speaking, prob = self._count_test(counts, lam)
         if self.frame_rescue and frame_itds is not None and len(frame_itds):
             speaking, prob = self._rescue(speaking, prob, np.asarray(frame_itds, dtype=np.float64), means, u,
@@ -242,10 +243,12 @@ class SpeakingTest:
         gap = np.abs(means[:, None, :] - means[None, :, :])  # (source, person, pair)
         lo, hi = np.maximum(gap / 2, gap - delta), gap + delta
         spill = 0.5 * (np.exp(-lo / b) - np.exp(-hi / b))
-        for rows, pairs in _groups(obs.reshape(-1, means.shape[1])):
-            d = obs.reshape(-1, means.shape[1])[rows][:, None, pairs] - means[None, :, pairs]
+        rows_p = obs.reshape(-1, means.shape[1])
+        for rows, pairs in _groups(rows_p):
+            xr = rows_p[rows]
+            d = xr[:, None, pairs] - means[None, :, pairs]
             c = ((np.abs(d) <= delta).all(axis=2) & _nearest(d)).sum(axis=0)
-            lam_g = np.full(n, self.outlier_share * rows.sum() * np.minimum(2.0 * delta * u[pairs], 1.0).min())
+            lam_g = np.full(n, self.outlier_share * len(xr) * np.minimum(2.0 * delta * u[pairs], 1.0).min())
             if n > 1:
                 sp = spill[:, :, pairs].min(axis=2)
                 np.fill_diagonal(sp, 0.0)
@@ -256,10 +259,12 @@ class SpeakingTest:
         return speaking | (counts > thr), np.maximum(prob, counts / (counts + thr))
 
 
-def _groups(x: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Rows of ``x`` (K, P) grouped by which pairs they have (finite entries): ``(rows, pairs)`` masks, empty rows
-    (no pair) left out."""
+def _groups(x: np.ndarray) -> list[tuple[np.ndarray | slice, np.ndarray | slice]]:
+    """Rows of ``x`` (K, P) grouped by which pairs they have (finite entries): ``(rows, pairs)`` masks (or slices
+    when every row has every pair), empty rows (no pair) left out."""
     seen = np.isfinite(x)
+    if x.shape[0] and seen.all():  # the common case: every row has every pair (slices: views, no copies)
+        return [(slice(None), slice(None))]
     patterns, inverse = np.unique(seen, axis=0, return_inverse=True)
     inverse = np.asarray(inverse).reshape(-1)
     return [(inverse == g, pat) for g, pat in enumerate(patterns) if pat.any()]

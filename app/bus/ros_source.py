@@ -213,5 +213,5 @@ class RosSource(ReceivedSource):
         if depth_m.shape != image.shape[:2]:
             raise ValueError(f"the depth image is {depth_m.shape[::-1]}, the colour image {image.shape[1::-1]}: "
                              "is the depth aligned to the colour image (align_depth.enable:=true)?")
-        return StereoFrame(index, stamp, image, None, stamp, None, depth_m)
+        return StereoFrame(index, stamp, image, None, stamp, depth_m=depth_m)
 
