@@ -21,6 +21,7 @@ from avcore.depth import locate_faces_depth, motion_points_depth
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import gives_frame_itds
+from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
 from avcore.speaking import SpeakingVote
 from avcore.sync import TimeFrame
@@ -79,10 +80,12 @@ class FaceGuided:
         return FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
 
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
-        """The faces of this frame, from the stereo pair or an RGB-D camera's depth (ValueError: a frame F3D
-        cannot use)."""
+        """The faces of this frame, from the stereo pair, an RGB-D camera's depth, or with one camera their size
+        in the image (ValueError: a frame F3D cannot use)."""
         if frame.depth_m is not None:
             faces = locate_faces_depth(frame.left, frame.depth_m, rig, detector=detector)
+        elif frame.right is None:
+            faces = locate_faces_mono(frame.left, rig, detector=detector)
         else:
             faces = locate_faces(frame.left, frame.right, rig, detector=detector)
         return Vision(frame.stamp_s, frame, faces.boxes, faces.points)
@@ -133,6 +136,9 @@ class MotionGuided:
         interval.append(frame)
         if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
             return None
+        if interval[0].depth_m is None and interval[0].right is None:
+            self._interval = []
+            raise ValueError("Algorithm 1 needs depth for its moving points: one camera has none")
         if interval[0].depth_m is not None:  # an RGB-D camera: the points' depth is measured, not matched
             points = motion_points_depth([f.left for f in interval], [f.depth_m for f in interval], rig).points
         else:

@@ -532,12 +532,12 @@ class Pipeline:
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:
-    """A usable frame: two uint8 images of the rig's size, or an RGB-D camera's uint8 colour image and a float
-    depth image of that size."""
+    """A usable frame: two uint8 images of the rig's size, an RGB-D camera's uint8 colour image and a float depth
+    image of that size, or one camera's uint8 image (no right image, no depth)."""
     size = tuple(rig.image_size)
     depth = getattr(frame, "depth_m", None)
     second = depth if depth is not None else getattr(frame, "right", None)
-    for img in (getattr(frame, "left", None), second):
+    for img in (getattr(frame, "left", None), second) if second is not None else (getattr(frame, "left", None),):
         if not isinstance(img, np.ndarray) or img.ndim not in (2, 3) or img.shape[1::-1] != size:
             return False
         if img.dtype != (np.float32 if img is depth else np.uint8):

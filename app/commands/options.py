@@ -115,11 +115,12 @@ def add_mics_argument(p: argparse.ArgumentParser) -> None:
 
 
 def add_camera_argument(p: argparse.ArgumentParser) -> None:
-    """``--camera``: the simulated robot's camera, a stereo pair or an RGB-D camera."""
-    p.add_argument("--camera", default="stereo", choices=["stereo", "rgbd"],
+    """``--camera``: the simulated robot's camera, a stereo pair, an RGB-D camera or one camera."""
+    p.add_argument("--camera", default="stereo", choices=["stereo", "rgbd", "mono"],
                    help="the simulated robot's camera: stereo (default, the paper's pair; faces and motion points "
-                        "located by stereo matching) or rgbd (a RealSense-like colour and depth camera in the left "
-                        "camera's place, with its noise and holes: located by their depth)")
+                        "located by stereo matching), rgbd (a RealSense-like colour and depth camera in the left "
+                        "camera's place, with its noise and holes: located by their depth) or mono (the left camera "
+                        "alone: faces located by their size in the image; face-guided only)")
 
 
 def add_bodies_argument(p: argparse.ArgumentParser) -> None:
@@ -152,6 +153,9 @@ def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline im
                                 latency=args.latency, face_model=args.face_model)
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if config.inference == "motion" and getattr(args, "camera", "stereo") == "mono":
+        raise UserError("--motion (Algorithm 1) needs depth for its moving points: use --camera stereo or rgbd, or "
+                        "leave --motion out with one camera")
     if config.face_detector == "blazeface" and config.inference == "face":
         from app.hearing import face_detector
 

@@ -196,7 +196,11 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
 
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
-    meta = getattr(getattr(source, "stream", None), "meta", None)
+    stream = getattr(source, "stream", None)
+    if config.inference == "motion" and getattr(stream, "camera", "stereo") == "mono":
+        raise UserError(f"--motion (Algorithm 1) needs depth for its moving points and {spec} has one camera: leave "
+                        "--motion out (faces are located by their size)")
+    meta = getattr(stream, "meta", None)
     if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
               f"{meta.get('speech')} speech", file=sys.stderr, flush=True)

@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
         return 130
     elapsed = time.perf_counter() - t0
     fps = source.n_frames / max(time.perf_counter() - t1, 1e-9)
-    kind = "colour and depth" if args.camera == "rgbd" else "stereo"
+    kind = {"rgbd": "colour and depth", "mono": "one camera"}.get(args.camera, "stereo")
     print(f"wrote {args.output}: {source.n_frames} {kind} frames at {source.fps:g} FPS, "
           f"{source.n_samples / source.samplerate_hz:g} s of {source.n_channels}-channel audio at "
           f"{source.samplerate_hz} Hz, ground truth; {elapsed:.1f} s "

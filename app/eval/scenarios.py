@@ -251,6 +251,7 @@ class ScenarioScore:
     visible_faces: int = 0
     faces_found: int = 0
     f3d_errors_m: list[float] = field(default_factory=list, repr=False)
+    f3d_depths_m: list[tuple[float, float]] = field(default_factory=list, repr=False)  # (true, found) depth per face
     people_errors_m: list[float] = field(default_factory=list, repr=False)  # every result's matched people
     identity: IdentityCounts = field(default_factory=lambda: IdentityCounts())
     itd_errors_s: list[float] = field(default_factory=list, repr=False)
@@ -271,6 +272,13 @@ class ScenarioScore:
     @property
     def f3d_median_m(self) -> float:
         return float(np.median(self.f3d_errors_m)) if self.f3d_errors_m else math.nan
+
+    @property
+    def depth_error_1_3m(self) -> float:
+        """Median |found - true| / true depth of the faces found 1 to 3 m away (the one-camera target's range)."""
+        d = np.asarray(self.f3d_depths_m, dtype=np.float64).reshape(-1, 2)
+        near = (d[:, 0] >= 1.0) & (d[:, 0] <= 3.0)
+        return float(np.median(np.abs(d[near, 1] - d[near, 0]) / d[near, 0])) if near.any() else math.nan
 
     @property
     def people_ale_m(self) -> float:
@@ -306,6 +314,7 @@ class ScenarioScore:
         for name in ("n_intervals", "n_frames", "frames_all_found", "visible_faces", "faces_found", "n_itds"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
         self.f3d_errors_m += other.f3d_errors_m
+        self.f3d_depths_m += other.f3d_depths_m
         self.people_errors_m += other.people_errors_m
         self.identity.add(other.identity)
         self.itd_errors_s += other.itd_errors_s
@@ -325,6 +334,7 @@ class ScenarioScore:
             "frames_all_faces_found": _clean(self.all_found_share),
             "face_recall": _clean(self.face_recall),
             "f3d_median_error_m": _clean(self.f3d_median_m),
+            "f3d_depth_error_1_3m": _clean(self.depth_error_1_3m),
             "people_ale_m": _clean(self.people_ale_m),
             "identity": self.identity.as_dict(),
             "itd_windows_one_talker": len(self.itd_errors_s),
@@ -529,6 +539,7 @@ def _judge(table: TruthTable, n_people: int, fused: Sequence[Result], n_interval
             score.faces_found += sum(int(g in hit) for g in vis)
             score.frames_all_found += int(all(g in hit for g in vis))
             score.f3d_errors_m += [float(e) for (g, _), e in zip(match.pairs, match.errors_m) if tr.visible[g]]
+            score.f3d_depths_m += [(float(truth_xyz[g, 2]), float(xyz[d, 2])) for g, d in match.pairs if tr.visible[g]]
     return out
 
 

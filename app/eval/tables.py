@@ -210,13 +210,14 @@ def _front_end_lines(scores: list[ScenarioScore]) -> list[str]:
         ("Front end per scenario, per fused frame: faces = frames with every visible face found; recall = visible "
          f"faces found; ITD = ITDs within {ITD_TOLERANCE_S * 1e6:.0f} us of the talker's true ITD (windows with one "
          "talker); bias = median extracted - true; pull = median pull towards 0 of talkers off to the side "
-         "(|ITD| >= 50 us)."),
-        (f"{'Scen.':6s} {'frames':>7s} {'faces':>7s} {'recall':>7s} {'F3D med [m]':>12s} {'ITD windows':>12s} "
-         f"{'ITD +-40us':>10s} {'bias [us]':>10s} {'pull [us]':>10s}"),
+         "(|ITD| >= 50 us); depth = median relative depth error of the faces 1-3 m away."),
+        (f"{'Scen.':6s} {'frames':>7s} {'faces':>7s} {'recall':>7s} {'F3D med [m]':>12s} {'depth':>7s} "
+         f"{'ITD windows':>12s} {'ITD +-40us':>10s} {'bias [us]':>10s} {'pull [us]':>10s}"),
     ]
     for s in scores:
         lines.append(f"{s.scenario:6s} {s.n_frames:7d} {_pct1(s.all_found_share):>7s} {_pct1(s.face_recall):>7s} "
-                     f"{_num(s.f3d_median_m, '.3f'):>12s} {len(s.itd_errors_s):12d} {_pct1(s.itd_accuracy):>10s} "
+                     f"{_num(s.f3d_median_m, '.3f'):>12s} {_pct1(s.depth_error_1_3m):>7s} {len(s.itd_errors_s):12d} "
+                     f"{_pct1(s.itd_accuracy):>10s} "
                      f"{_num(s.itd_bias_s * 1e6, '+.1f'):>10s} {_num(s.itd_pull_s * 1e6, '+.1f'):>10s}")
     return lines
 

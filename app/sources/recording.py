@@ -13,7 +13,8 @@ documented in ``recordings/FORMAT.md``. One folder per recording::
                                   captured at audio_start_s, sample i at audio_start_s + i / samplerate
       recording.json    optional  {"format": "avhear-raw-recording", "version": 1, "audio_start_s": 0.0,
                                   "channels": {"left": 0, "right": 1}, "fps": 30.0, "source": {...}}
-                                  defaults: audio_start_s 0, channels left 0 / right 1, fps from frames.csv
+                                  defaults: audio_start_s 0, channels left 0 / right 1, fps from frames.csv;
+                                  "camera": "mono" for one camera (left alone, no right)
       truth.csv         optional  ground truth per frame and person: frame,time_s,person,name,x_m,y_m,z_m,
                                   visible,speaking,sounding,itd_s,box_x,box_y,box_w,box_h (scene frame, metres)
       events.csv        optional  the sound events: person,name,kind,start_s,end_s,label (seconds, same clock)
@@ -112,6 +113,7 @@ class RecordingWriter:
         self.video = video
         self.jpeg_quality = int(jpeg_quality)
         self.channels = dict(channels or {"left": 0, "right": 1})
+        self.camera = "stereo"  # or "mono", from the frames written
         self.meta = dict(meta or {})
         save_rig(self.folder / "rig.yaml", rig)
         self._frames_file = open(self.folder / "frames.csv", "w", newline="", encoding="utf-8")
@@ -135,7 +137,9 @@ class RecordingWriter:
         if frame.index != self.n_frames:
             log.debug("frame %d written as frame %d (frames are renumbered in order)", frame.index, self.n_frames)
         w, h = self.rig_config.stereo.image_size  # type: ignore[union-attr]
-        sides = [("left", frame.left)] if frame.depth_m is not None else [("left", frame.left), ("right", frame.right)]
+        sides = [("left", frame.left)] if frame.right is None else [("left", frame.left), ("right", frame.right)]
+        if frame.right is None and frame.depth_m is None:
+            self.camera = "mono"  # one camera: its images alone (recording.json says so)
         for side, img in sides:
             if not isinstance(img, np.ndarray) or img.shape != (h, w, 3) or img.dtype != np.uint8:
                 got = f"{img.dtype} {img.shape}" if isinstance(img, np.ndarray) else type(img).__name__
@@ -223,6 +227,8 @@ class RecordingWriter:
                 "n_channels": self.n_channels, "audio_start_s": float(self.audio_start_s or 0.0),
                 "channels": self.channels, "video": self.video, "n_frames": self.n_frames,
                 "n_samples": self.n_samples, "source": self.meta}
+        if self.camera == "mono":
+            info["camera"] = "mono"
         (self.folder / "recording.json").write_text(json.dumps(info, indent=2) + "\n", encoding="utf-8")
 
     def __enter__(self) -> RecordingWriter:
@@ -375,7 +381,12 @@ class Recording(ReplayStream):
         self.fps = float(fps)
         # an RGB-D camera's recording: the colour camera as "left" and a depth/ folder of 16-bit PNG millimetres
         self.depth_files = self._depth_files()
-        sides = ("left",) if self.depth_files is not None else ("left", "right")
+        # one camera's recording: recording.json's "camera": "mono", and the left camera alone
+        self.camera = str(self.info.get("camera", "stereo"))
+        if self.camera not in ("stereo", "mono"):
+            raise RecordingError(f"{self.folder / 'recording.json'}: 'camera' must be \"stereo\" or \"mono\", got "
+                                 f"{self.camera!r}")
+        sides = ("left",) if self.depth_files is not None or self.camera == "mono" else ("left", "right")
         self._video = {side: self._find_video(side) for side in sides}
         wav = self.folder / "audio.wav"
         if not wav.is_file():

@@ -60,7 +60,7 @@ LISTENING_GESTURE_M = 0.03  # and a listener's: people with bodies are never qui
 GESTURE_RAMP_S = 0.25  # how long the hands take to go from one to the other
 MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
 MIN_SIMULATED_S = 1.0  # and one second at least (sim.scenario's bound)
-CAMERAS = ("stereo", "rgbd")  # the simulated rig's stereo pair, or an RGB-D camera in its left camera's place
+CAMERAS = ("stereo", "rgbd", "mono")  # the rig's stereo pair; an RGB-D camera, or its left camera alone, in its place
 
 
 def check_simulated_duration(duration_s: float | None) -> None:
@@ -210,7 +210,7 @@ class SimSource(ReplayStream):
             right = cv2.add(right, self._noise[(2 * k + 1 + self.scenario.seed) % n], dtype=cv2.CV_8U)
         else:
             left, right = left.copy(), right.copy()
-        return (left, None) if self._depth_renderer is not None else (left, right)
+        return (left, right) if self.camera == "stereo" else (left, None)
 
     def _depth(self, k: int, colour: np.ndarray) -> np.ndarray | None:
         if self._depth_renderer is None:

@@ -134,6 +134,16 @@ def test_simulator_options_on_a_real_source_are_one_line(flag: list[str], messag
     assert message in err and "Traceback" not in err
 
 
+@pytest.mark.parametrize("command", ["demo", "run"])
+def test_motion_with_one_camera_is_one_line(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    """Algorithm 1 needs depth for its moving points: asked of one camera, it says so before any work."""
+    argv = [command] + (["--source", "sim:S1"] if command == "run" else []) + ["--camera", "mono", "--motion",
+                                                                                "--headless"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--motion (Algorithm 1) needs depth" in err and "Traceback" not in err and "preparing" not in err
+
+
 def test_sensors_refuse_simulated_microphones_on_a_real_source(tmp_path: Path,
                                                                capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sensors", "--source", f"replay:{tmp_path}", "--mics", "nao"]) == 2

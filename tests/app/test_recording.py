@@ -233,3 +233,37 @@ def test_an_rgbd_recording_keeps_the_depth(tmp_path):
     again = open_recording(folder)
     frame = next(x for x in again.stream() if isinstance(x, StereoFrame))
     assert frame.depth_m is None and frame.right is not None
+
+
+def test_one_cameras_recording_replays_one_camera(tmp_path, capsys):
+    """One camera's recording: its images alone and "camera": "mono" in recording.json; it replays the same images
+    with no right image and no depth, the face-guided pipeline places the faces within 25 % of their true depth (drawn
+    faces here, whose Haar boxes are wider than a real face's: tests/avcore/test_mono.py measures real ones), and a
+    motion-guided run is refused in one line (Algorithm 1 needs depth)."""
+    from app.cli import main
+    from app.pipeline import Pipeline, PipelineConfig
+    from app.sources.open import StreamAdapter
+
+    missing = tmp_path / "no-shared-data"
+    source = SimSource.from_preset("S1", duration_s=1.0, seed=2, fps=10, data_dir=missing, camera="mono")
+    folder = write_recording(tmp_path / "mono", source, video="png")
+    assert json.loads((folder / "recording.json").read_text())["camera"] == "mono"
+    assert not (folder / "right").exists() and not (folder / "depth").exists()
+    rec = open_recording(folder)
+    a = [x for x in source.stream() if isinstance(x, StereoFrame)]
+    b = [x for x in rec.stream() if isinstance(x, StereoFrame)]
+    assert len(a) == len(b) == 10 and all(y.right is None and y.depth_m is None for y in b)
+    assert all(np.array_equal(x.left, y.left) for x, y in zip(a, b))
+    errors = []
+
+    def keep(result) -> None:
+        truth = rec.truth(result.index)
+        for xyz in result.xyz:
+            true = truth.positions_m[np.argmin(np.linalg.norm(truth.positions_m - xyz, axis=1))]
+            errors.append(abs(xyz[2] - true[2]) / true[2])
+
+    stats = Pipeline(StreamAdapter(rec, realtime=False), PipelineConfig(), keep).run()
+    assert stats.bad_frames == 0 and len(errors) >= 10 and np.median(errors) < 0.25
+    assert main(["run", "--source", f"replay:{folder}", "--motion", "--headless", "--fast"]) == 2
+    err = capsys.readouterr().err
+    assert "needs depth" in err and "Traceback" not in err
