@@ -119,6 +119,9 @@ _NAO_HEAD = {"front": (0.0489, 0.0, 0.076), "rear": (-0.046, 0.0, 0.0814),
 ARRAY_PRESETS: dict[str, dict[str, object]] = {
     "pair": {"positions": [(-0.06, 0.0, 0.0), (0.06, 0.0, 0.0)], "channels": (0, 1),
              "about": "today's pair: two microphones 12 cm apart on the cameras' baseline"},
+    "laptop": {"positions": [(-0.05, 0.0, 0.0), (0.05, 0.0, 0.0)], "channels": (0, 1),
+               "about": "a laptop's two microphones on the screen's top edge, either side of the webcam, 10 cm "
+                        "apart (measure yours: --mic-spacing)"},
     "nao": {"positions": [_head_to_scene(*_NAO_HEAD[k]) for k in ("front", "rear", "left", "right")],
             "channels": (0, 1, 2, 3), "about": "NAO's head: front, rear, left, right (band 300 Hz-8 kHz)"},
     "respeaker4": {"positions": _ring(0.0405, 4, 45.0), "channels": (0, 1, 2, 3),

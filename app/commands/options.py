@@ -104,14 +104,18 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                         "centred on it (odd; default 9, 0.3 s at 30 FPS); 1: each frame decides alone")
 
 
-def add_mics_argument(p: argparse.ArgumentParser) -> None:
-    """``--mics``: the simulated robot's microphones, one of the array presets."""
+def add_mics_argument(p: argparse.ArgumentParser, *, webcam: bool = False) -> None:
+    """``--mics``: the simulated robot's microphones (or a webcam's), one of the array presets; with ``webcam``
+    the default is None, resolved by the source (the simulated room's pair, a webcam's laptop pair)."""
     from avcore.geometry import ARRAY_PRESETS
 
-    p.add_argument("--mics", default="pair", choices=list(ARRAY_PRESETS),
-                   help="the simulated robot's microphones: pair (default, the paper's 12 cm pair), nao (NAO's "
-                        "four), respeaker4, respeaker-usb, respeaker6, ps3eye, uma8; with several, the face-guided "
-                        "fusion uses every pair")
+    p.add_argument("--mics", default=None if webcam else "pair", choices=list(ARRAY_PRESETS),
+                   help="the simulated robot's microphones" + (" (or, with --source webcam, the computer's)" if webcam
+                                                                else "") +
+                        ": pair (the paper's 12 cm pair, the simulated room's default), laptop (two microphones 10 "
+                        "cm apart either side of the camera" + (", the webcam's default" if webcam else "") +
+                        "), nao (NAO's four), respeaker4, respeaker-usb, respeaker6, ps3eye, uma8; with several, "
+                        "the face-guided fusion uses every pair")
 
 
 def add_camera_argument(p: argparse.ArgumentParser) -> None:
@@ -169,7 +173,8 @@ def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline im
 def add_device_arguments(p: argparse.ArgumentParser, *, recording: bool = False) -> None:
     """The live devices' options, the same for ``run``, ``record`` and ``sensors``."""
     p.add_argument("--cameras", nargs="+", default=["0", "1"],
-                   help="live: two camera indices/paths, or one with --side-by-side")
+                   help="live: two camera indices/paths, or one with --side-by-side; webcam: the first (default 0); "
+                        "avhear devices lists them")
     p.add_argument("--side-by-side", action="store_true", help="live: one camera with both images side by side")
     p.add_argument("--audio-device", default=None, help="live: sounddevice input (index or name)")
     p.add_argument("--audio-channels", type=count(1, 64), default=2,
@@ -183,10 +188,15 @@ def _device(text: str) -> int | str:
     return int(text) if text.isdigit() else text
 
 
-def live_config(args: argparse.Namespace, **extra: Any) -> LiveConfig:
-    """The :class:`LiveConfig` of :func:`add_device_arguments`' options (``extra``: fps, samplerate_hz ...); a bad
-    combination is a :class:`UserError`."""
+def live_config(args: argparse.Namespace, *, one_camera: bool = False, **extra: Any) -> LiveConfig:
+    """The :class:`LiveConfig` of :func:`add_device_arguments`' options (``extra``: fps, samplerate_hz ...); with
+    ``one_camera`` the first of ``--cameras`` alone (a webcam; default 0). A bad combination is a
+    :class:`UserError`."""
     cams = [_device(c) for c in args.cameras]
+    if one_camera:
+        if args.side_by_side:
+            raise UserError("--side-by-side is a stereo camera's; a webcam is one camera")
+        cams = [cams[0], None]
     channels = tuple(args.mic_channels)
     pair = channels if len(channels) == 2 else (0, 1)
     array_channels = channels if len(channels) != 2 else None  # several: one per microphone of the rig's array

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 from contextlib import ExitStack
+from functools import partial
 import signal
 import sys
 import threading
@@ -18,12 +19,13 @@ from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_ar
                                   add_ros_topic_arguments, ros_name, ros_source,
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
-                                  wants_bodies)
+                                  positive, wants_bodies)
 from app.commands.paths import distinct_outputs, output_file
 from app.pipeline import Pipeline, PipelineConfig, PipelineStats
 from app.sinks import Sinks
 from app.sinks.bus import ResultPublisher
 from app.sinks.results_file import ResultsWriter
+from app.sources.live import DEFAULT_FOV_DEG
 from app.sources.open import open_source
 from app.sources.sim import check_simulated_duration
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
@@ -32,10 +34,11 @@ from sim.scenario import PRESETS
 DEMO_RRD = Path("recordings/demo.rrd")
 
 
-def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: float = MAX_DURATION_S) -> None:
+def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: float = MAX_DURATION_S,
+            webcam: bool = False) -> None:
     p.add_argument("--duration", type=duration(max_duration_s), default=None, metavar="SECONDS", help=duration_help)
     add_method_arguments(p)
-    add_mics_argument(p)
+    add_mics_argument(p, webcam=webcam)
     add_bodies_argument(p)
     add_camera_argument(p)
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
@@ -76,8 +79,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                          "and microphone topics (ros). Results go to the Rerun console, a results file "
                          "(--results-jsonl) and the bus (--publish). Ctrl-C stops and keeps everything.")
     run.add_argument("--source", default="sim:S2",
-                     help="sim:S1..S5|calibration, replay:FOLDER, live, bus (a robot's `avhear sensors`) or ros (a "
-                          "ROS 2 robot's camera and microphone topics)")
+                     help="sim:S1..S5|calibration, replay:FOLDER, live, webcam (one camera and the computer's "
+                          "microphones, no calibration), bus (a robot's `avhear sensors`) or ros (a ROS 2 robot's "
+                          "camera and microphone topics)")
+    run.add_argument("--fov", type=_fov, default=None, metavar="DEGREES",
+                     help=f"webcam: the camera's horizontal field of view (default {DEFAULT_FOV_DEG:g}; a laptop's is "
+                          "typically 65-80), for its intrinsics without a calibration (--rig with a stereo section "
+                          "gives them instead)")
+    run.add_argument("--mic-spacing", type=partial(positive, maximum=1.0, what="a distance in metres"), default=None,
+                     metavar="METRES",
+                     help="webcam with --mics laptop: the distance between the two microphones (default 0.10)")
     run.add_argument("--left-key", type=ros_name, default=None, metavar="TOPIC",
                      help="bus: ROS topic of the left camera (sensor_msgs/CompressedImage, rectified; relative to "
                           "--bus-namespace unless it starts with /; default: avhear sensors')")
@@ -92,8 +103,16 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_device_arguments(run)
     add_ros_topic_arguments(run)
     _common(run, duration_help="stop after this many seconds of stream (default: the whole source; a live source "
-                               "until Ctrl-C)")
+                               "until Ctrl-C)", webcam=True)
     run.set_defaults(func=run_source)
+
+
+def _fov(text: str) -> float:
+    """A horizontal field of view, degrees (10 to 170)."""
+    value = positive(text, maximum=170.0, what="a field of view in degrees")
+    if value < 10.0:
+        raise argparse.ArgumentTypeError(f"{text} is less than the 10 degrees allowed")
+    return value
 
 
 def run_demo(args: argparse.Namespace) -> int:
@@ -102,7 +121,7 @@ def run_demo(args: argparse.Namespace) -> int:
 
 
 def run_source(args: argparse.Namespace) -> int:
-    live = live_config(args) if args.source == "live" else None
+    live = live_config(args, one_camera=args.source == "webcam") if args.source in ("live", "webcam") else None
     return _run(args.source, args, _target(args, demo=False), live=live)
 
 
@@ -127,9 +146,18 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
     if args.bodies is not None and not spec.startswith("sim:"):
         flag = "--bodies" if args.bodies else "--no-bodies"
         raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")
-    if args.mics != "pair" and not spec.startswith("sim:"):
-        raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {spec} brings its own (one "
-                        "pair from the rig file or the recording)")
+    webcam = spec == "webcam"
+    if args.mics not in (None, "pair") and not (spec.startswith("sim:") or webcam):
+        raise UserError(f"--mics {args.mics} chooses the simulated room's (or a webcam's) microphones; {spec} brings "
+                        "its own (one pair from the rig file or the recording)")
+    for flag, value in (("--fov", getattr(args, "fov", None)), ("--mic-spacing", getattr(args, "mic_spacing", None))):
+        if value is not None and not webcam:
+            raise UserError(f"{flag} describes a webcam without calibration; it goes with --source webcam")
+    if getattr(args, "mic_spacing", None) is not None and (args.mics or "laptop") != "laptop":
+        raise UserError(f"--mic-spacing sets the laptop's two microphones apart; --mics {args.mics} has its own shape")
+    if webcam and args.motion:
+        raise UserError("--motion (Algorithm 1) needs depth for its moving points and a webcam is one camera: leave "
+                        "--motion out (faces are located by their size)")
     if args.camera != "stereo" and not spec.startswith("sim:"):
         raise UserError(f"--camera {args.camera} chooses the simulated room's camera; {spec} brings its own")
     distinct_outputs(("--save", target.save), ("--results-jsonl", args.results_jsonl),
@@ -161,9 +189,13 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         elif spec == "ros":
             source = ros_source(session, options, args)
         else:
+            fov = getattr(args, "fov", None)
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
-                                 mics=args.mics, bodies=wants_bodies(args), camera=args.camera,
+                                 mics=args.mics or ("laptop" if spec == "webcam" else "pair"),
+                                 bodies=wants_bodies(args), camera=args.camera,
+                                 fov_deg=DEFAULT_FOV_DEG if fov is None else fov,
+                                 mic_spacing_m=getattr(args, "mic_spacing", None),
                                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
         return _run_checked(spec, args, target, config, source, results, publisher,

@@ -1,4 +1,5 @@
-"""The live source: two OpenCV cameras (or one side-by-side stereo camera) and a `sounddevice` input stream.
+"""The live source: two OpenCV cameras (or one side-by-side stereo camera, or one camera alone: a webcam) and a
+`sounddevice` input stream.
 
 Frames are stamped with ``time.monotonic()`` when grabbed (both cameras are grabbed before either is decoded, so
 their stamps differ by the grab time only; two separate cameras are paired by ApproximateTime), rectified with the
@@ -29,7 +30,9 @@ from avcore.sync import ApproximateTime
 
 log = logging.getLogger(__name__)
 
-__all__ = ["LiveConfig", "LiveSource"]
+__all__ = ["DEFAULT_FOV_DEG", "LiveConfig", "LiveSource", "camera_size", "webcam_rig"]
+
+DEFAULT_FOV_DEG = 70.0  # a laptop webcam's horizontal field of view: typically 65-80 degrees
 
 
 @dataclass(frozen=True)
@@ -37,7 +40,8 @@ class LiveConfig:
     """Devices of a live run.
 
     left, right : OpenCV camera indices or paths/URLs of the two cameras; ``right=None`` with ``side_by_side``
-        means one camera delivering both images side by side (left half, right half).
+        means one camera delivering both images side by side (left half, right half); ``right=None`` alone, one
+        camera (faces located by their size: :mod:`avcore.mono`).
     fps : the frame rate asked of the cameras.
     audio_device : a sounddevice input device (index or name substring); None for the default input.
     samplerate_hz, n_channels : the input stream; channels : the (left, right) microphone channels (0-based);
@@ -63,8 +67,12 @@ class LiveConfig:
     max_failed_reads: int = 30
     max_silent_s: float = 5.0
 
+    @property
+    def one_camera(self) -> bool:
+        return self.right is None and not self.side_by_side
+
     def __post_init__(self) -> None:
-        if self.side_by_side == (self.right is not None):
+        if self.side_by_side and self.right is not None:
             raise ValueError("give two cameras (left and right) or one side-by-side camera (right=None, "
                              "side_by_side=True)")
         if self.array_channels is not None and (len(set(self.array_channels)) != len(self.array_channels)
@@ -123,7 +131,7 @@ class LiveSource(SourceBase):
 
     def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
         cfg = self.config
-        caps = [self._open(cfg.left)] if cfg.side_by_side else [self._open(cfg.left), self._open(cfg.right)]
+        caps = [self._open(cfg.left)] if cfg.right is None else [self._open(cfg.left), self._open(cfg.right)]
         pair = ApproximateTime(2, queue_size=4, max_interval_s=0.5 / cfg.fps)
         index = 0
         failed = 0
@@ -144,7 +152,9 @@ class LiveSource(SourceBase):
                     stop.wait(0.01)
                     continue
                 failed = 0
-                if cfg.side_by_side:
+                if cfg.one_camera:
+                    pairs = [(stamps[0], images[0], None)]
+                elif cfg.side_by_side:
                     half = images[0].shape[1] // 2
                     pairs = [(stamps[0], images[0][:, :half], images[0][:, half:])]
                 else:  # two cameras: ApproximateTime pairs their frames by stamp
@@ -158,8 +168,9 @@ class LiveSource(SourceBase):
                                         "(calibrate at the size the cameras deliver)", left.shape[1::-1],
                                         tuple(self.rig.image_size))
                         left = cv2.resize(left, tuple(self.rig.image_size))
-                        right = cv2.resize(right, tuple(self.rig.image_size))
-                    left, right = self.rig.rectify(left, right)
+                        right = None if right is None else cv2.resize(right, tuple(self.rig.image_size))
+                    if right is not None:  # one camera's image stays as taken: its faces' pixels are rectified
+                        left, right = self.rig.rectify(left, right)
                     yield StereoFrame(index, stamp, left, right, stamp)
                     index += 1
         finally:
@@ -209,3 +220,29 @@ class LiveSource(SourceBase):
                 n_blocks += 1
                 first_sample += samples.shape[0]
         self.overflows += blocks.dropped
+
+
+def camera_size(device: int | str) -> tuple[int, int]:
+    """(width, height) of the images camera ``device`` delivers (one frame read, then released); DeviceError when it
+    cannot be opened or read."""
+    cap = cv2.VideoCapture(device)
+    try:
+        ok, img = cap.read() if cap.isOpened() else (False, None)
+        if not ok or img is None:
+            raise DeviceError(f"cannot read camera {device!r}: check that it is plugged in and not used by another "
+                              "program (avhear devices lists the cameras)")
+        return int(img.shape[1]), int(img.shape[0])
+    finally:
+        cap.release()
+
+
+def webcam_rig(image_size: tuple[int, int], fov_deg: float) -> StereoRig:
+    """One camera known by its image size and horizontal field of view (no calibration): the focal length
+    ``(w / 2) / tan(fov / 2)`` pixels on both axes, the principal point at the image's centre, no distortion; as a
+    rig whose left camera it is (:meth:`StereoRig.rgbd`: the scene frame is the camera's own)."""
+    if not 10.0 <= fov_deg <= 170.0:
+        raise ValueError(f"the field of view must be between 10 and 170 degrees, got {fov_deg!r}")
+    w, h = image_size
+    f = 0.5 * w / np.tan(np.radians(fov_deg) / 2.0)
+    k = np.array([[f, 0.0, (w - 1) / 2.0], [0.0, f, (h - 1) / 2.0], [0.0, 0.0, 1.0]])
+    return StereoRig.rgbd(k, (w, h))

@@ -1,22 +1,23 @@
-"""Opening a source by name: the simulated room, a recording folder, or live devices (``--source``)."""
+"""Opening a source by name: the simulated room, a recording folder, live devices or a webcam (``--source``)."""
 from __future__ import annotations
 
 import importlib
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 
-from app.config import require_live_rig
+from app.config import load_rig, require_live_rig
 from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
-from app.sources.live import LiveConfig, LiveSource
+from app.sources.live import DEFAULT_FOV_DEG, LiveConfig, LiveSource, camera_size, webcam_rig
 from app.sources.recording import open_recording
 from app.sources.replay import ReplayStream
 from app.sources.sim import SimSource, check_simulated_duration
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from sim.scenario import PRESETS
 
 __all__ = ["StreamAdapter", "open_source"]
@@ -94,12 +95,13 @@ class StreamAdapter(SourceBase):
 
 def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, seed: int = 0,
                 rig_path: str | None = None, live: LiveConfig | None = None, mics: str = "pair",
-                bodies: bool = False, camera: str = "stereo", progress=None  # noqa: ANN001
+                bodies: bool = False, camera: str = "stereo", fov_deg: float = DEFAULT_FOV_DEG,
+                mic_spacing_m: float | None = None, progress=None  # noqa: ANN001
                 ) -> StreamAdapter | LiveSource:
-    """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER`` or ``live`` (with ``rig_path`` and ``live``);
-    ``mics`` names the simulated room's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); ``bodies`` draws its
-    people with arms, hands and a table, ``camera`` is its stereo pair or an RGB-D camera
-    (:class:`app.sources.sim.SimSource`)."""
+    """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER``, ``live`` (with ``rig_path`` and ``live``) or
+    ``webcam`` (:func:`webcam`); ``mics`` names the simulated room's (or the webcam's) microphones
+    (:data:`avcore.geometry.ARRAY_PRESETS`); ``bodies`` draws the simulated people with arms, hands and a table,
+    ``camera`` is the simulated stereo pair, RGB-D camera or one camera (:class:`app.sources.sim.SimSource`)."""
     kind, _, arg = spec.partition(":")
     if kind == "sim":
         try:
@@ -124,4 +126,30 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
             raise UserError("a live run needs the rig calibration: --rig rig.yaml (avhear calibrate stereo makes one)")
         rig = require_live_rig(rig_path)
         return LiveSource(live or LiveConfig(), rig.stereo, rig.microphones, rig.array)
-    raise UserError(f"unknown source {spec!r}: use sim:S2, replay:FOLDER, live or bus")
+    if kind == "webcam":
+        return webcam(live or LiveConfig(right=None), rig_path=rig_path, fov_deg=fov_deg, mics=mics,
+                      mic_spacing_m=mic_spacing_m)
+    raise UserError(f"unknown source {spec!r}: use sim:S2, replay:FOLDER, live, webcam, bus or ros")
+
+
+def webcam(config: LiveConfig, *, rig_path: str | None = None, fov_deg: float = DEFAULT_FOV_DEG,
+           mics: str = "laptop", mic_spacing_m: float | None = None) -> LiveSource:
+    """One camera (``config.left``) and the input device, with no calibration session: the camera's intrinsics from
+    the size of the images it delivers and ``fov_deg`` (:func:`app.sources.live.webcam_rig`), or from the left
+    camera of ``rig_path``'s stereo section; the microphones from ``rig_path`` when it has them, else the preset
+    ``mics`` placed in the camera's frame (``laptop``: two microphones ``mic_spacing_m`` apart, 10 cm by default,
+    either side of the camera)."""
+    rig = load_rig(Path(rig_path)) if rig_path is not None else None
+    if rig is not None and rig.stereo is not None:
+        stereo = rig.stereo
+    else:  # a camera that cannot be read is a DeviceError (one line)
+        stereo = webcam_rig(camera_size(config.left), fov_deg)
+    if rig is not None and (rig.microphones is not None or rig.array is not None):
+        return LiveSource(config, stereo, rig.microphones, rig.array)
+    array = MicArray.preset(mics)
+    if mic_spacing_m is not None:
+        if mics != "laptop":
+            raise UserError(f"--mic-spacing sets the laptop's two microphones apart; --mics {mics} has its own shape")
+        half = mic_spacing_m / 2.0
+        array = MicArray(((-half, 0.0, 0.0), (half, 0.0, 0.0)), channels=array.channels)
+    return LiveSource(config, stereo, None, array)

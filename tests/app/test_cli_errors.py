@@ -122,7 +122,7 @@ def test_out_of_range_options_are_refused_when_parsed(argv: list[str], option: s
 
 
 @pytest.mark.parametrize(("flag", "message"), [
-    (["--mics", "nao"], "--mics nao chooses the simulated room's microphones"),
+    (["--mics", "nao"], "--mics nao chooses the simulated room's (or a webcam's) microphones"),
     (["--bodies"], "--bodies chooses how the simulated room's people are drawn"),
     (["--no-bodies"], "--no-bodies chooses how the simulated room's people are drawn"),
     (["--camera", "rgbd"], "--camera rgbd chooses the simulated room's camera"),
@@ -279,7 +279,7 @@ def test_serve_prints_the_viewers_address_before_the_run(tmp_path: Path) -> None
 
 
 @pytest.mark.parametrize(("argv", "said"), [
-    (["run", "--source", "foo", "--headless"], "use sim:S2, replay:FOLDER, live or bus"),
+    (["run", "--source", "foo", "--headless"], "use sim:S2, replay:FOLDER, live, webcam, bus or ros"),
     (["run", "--vote-frames", "4"], "argument --vote-frames: expected an odd number"),
     (["run", "--source", "replay:README.md", "--headless"], "README.md is a file: a recording is a folder"),
     (["run", "--no-such-option"], "usage: avhear run"),
