@@ -247,3 +247,51 @@ def test_pairs_em_with_one_pair_is_the_standard_em(means: bool, variances: bool)
     assert pairs.means[:, 0] == pytest.approx(one.model_.means, abs=1e-15)
     assert pairs.variances[:, 0] == pytest.approx(one.model_.variances, rel=1e-9)
     assert pairs.n_iter == one.n_iter_ and pairs.log_likelihood == pytest.approx(one.log_likelihood_)
+
+
+def _reference_pairs_em(x: np.ndarray, w: np.ndarray, mu: np.ndarray, var: np.ndarray, sup: np.ndarray,
+                        n_iter: int, min_wo: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The model of fit_pairs_em written out plainly, in seconds and logs: a vector's density is the product over
+    the pairs it has; M-step per pair over the vectors that have it; a fixed number of iterations."""
+    seen = np.isfinite(x)
+    for _ in range(n_iter + 1):
+        d = np.where(seen[:, None, :], x[:, None, :] - mu[None], 0.0)
+        log_g = (-0.5 * (d * d / var[None] + np.log(2 * np.pi * var)[None]) * seen[:, None, :]).sum(axis=2)
+        log_o = (seen * -np.log(sup[:, 1] - sup[:, 0])).sum(axis=1)
+        log_d = np.concatenate([log_g + np.log(w[:-1]), (log_o + np.log(w[-1]))[:, None]], axis=1)
+        beta = np.exp(log_d - log_d.max(axis=1, keepdims=True))
+        beta /= beta.sum(axis=1, keepdims=True)
+        if _ == n_iter:
+            return w, mu, var, beta
+        w = beta.sum(axis=0) / len(x)
+        if w[-1] < min_wo:
+            w[:-1] *= (1 - min_wo) / w[:-1].sum()
+            w[-1] = min_wo
+        r = beta[:, :-1, None] * seen[:, None, :]
+        xs = np.where(seen, x, 0.0)[:, None, :]
+        mu = (r * xs).sum(axis=0) / r.sum(axis=0)
+        var = (r * (xs - mu[None]) ** 2 * seen[:, None, :]).sum(axis=0) / r.sum(axis=0)
+    raise AssertionError("unreachable")
+
+
+def test_pairs_em_with_missing_pairs_is_the_model_written_out() -> None:
+    """Three pairs, a third of the vectors missing one pair, two people and stray vectors: the engine's fit (means and
+    variances free, until the log-likelihood stops changing) equals the model written out plainly in logs, run for
+    as many iterations."""
+    from avcore.mixture import fit_pairs_em
+
+    rng = np.random.default_rng(3)
+    mu0 = np.array([[-1e-4, 5e-5, 2e-4], [1.2e-4, -6e-5, 0.0]])
+    x = np.concatenate([mu0[0] + rng.normal(0, 2e-5, (40, 3)), mu0[1] + rng.normal(0, 2e-5, (30, 3)),
+                        rng.uniform(-3e-4, 3e-4, (15, 3))])
+    x[rng.random(len(x)) < 0.33, rng.integers(0, 3)] = np.nan
+    sup = np.array([[-4e-4, 4e-4], [-3e-4, 3e-4], [-5e-4, 5e-4]])
+    w0, var0 = np.array([0.4, 0.4, 0.2]), np.full((2, 3), 1e-9)
+    settings = EMSettings(max_iter=12, tol=1e-300, var_floor_s2=1e-14)
+    fit = fit_pairs_em(x, w0, mu0 + 1e-5, var0, sup, settings=settings)
+    w, mu, var, beta = _reference_pairs_em(x, w0, mu0 + 1e-5, var0, sup, fit.n_iter, settings.min_outlier_weight)
+    assert fit.n_iter >= 5  # it stops when the log-likelihood no longer changes at all
+    np.testing.assert_allclose(fit.weights, w, rtol=1e-9)
+    np.testing.assert_allclose(fit.means, mu, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(fit.variances, var, rtol=1e-7)
+    np.testing.assert_allclose(fit.beta, beta, atol=1e-9)
