@@ -21,7 +21,9 @@ from avcore.depth import locate_faces_depth, motion_points_depth
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import gives_frame_itds
+from avcore.geometry import MicArray
 from avcore.mono import locate_faces_mono
+from avcore.selfcal import SelfCalibration, SelfCalibrationFit
 from avcore.motion import harris_motion_points
 from avcore.speaking import SpeakingVote
 from avcore.sync import TimeFrame
@@ -32,7 +34,7 @@ if TYPE_CHECKING:
     from app.events import StereoFrame
     from app.pipeline import PipelineConfig
     from avcore.faces import FaceDetector
-    from avcore.geometry import MicArray, MicPair
+    from avcore.geometry import MicPair
     from avcore.stereo import StereoRig
 
 __all__ = ["FaceGuided", "MotionGuided", "Vision", "face_detector", "hearing_mode"]
@@ -76,8 +78,9 @@ class FaceGuided:
         """The detector ``face_detector`` names (:func:`face_detector`)."""
         return face_detector(self.config)
 
-    def hearing(self, mics: MicPair | MicArray) -> FaceGuidedHearing:
-        return FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
+    def hearing(self, mics: MicPair | MicArray) -> FaceGuidedHearing | SelfCalibrating:
+        hearing = FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
+        return SelfCalibrating(hearing) if self.config.self_calibrate else hearing
 
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
         """The faces of this frame, from the stereo pair, an RGB-D camera's depth, or with one camera their size
@@ -154,6 +157,51 @@ class MotionGuided:
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return output.positions
+
+
+class SelfCalibrating:
+    """A face-guided hearing whose correction c1, c0 (eq. itd_up, per pair) is learned as it runs
+    (:mod:`avcore.selfcal`): each result's faces and time frame feed one :class:`SelfCalibration` per pair, and every
+    ``every`` results the pairs whose fit is ready get their correction; the hearing is rebuilt with it (it holds
+    no state from one result to the next). ``state()`` says where each pair stands."""
+
+    def __init__(self, hearing: FaceGuidedHearing, every: int = 30) -> None:
+        self.hearing = hearing
+        self.every = every
+        self._cals = [SelfCalibration(hearing.array.pair(p)) for p in range(hearing.array.n_pairs)]
+        self._fits: list[SelfCalibrationFit | None] = [None] * len(self._cals)
+        self._n = 0
+
+    @property
+    def array(self) -> MicArray:
+        return self.hearing.array
+
+    def step(self, faces_xyz: np.ndarray, itds_s: np.ndarray, *rest: Any) -> Any:
+        out = self.hearing.step(faces_xyz, itds_s, *rest)
+        for p, cal in enumerate(self._cals):
+            cal.push(faces_xyz, itds_s[:, p])
+        self._n += 1
+        if self._n % self.every == 0:
+            self._refit()
+        return out
+
+    def _refit(self) -> None:
+        fits = [cal.fit() for cal in self._cals]
+        if all(f is None for f in fits):
+            return
+        self._fits = [f if f is not None else old for f, old in zip(fits, self._fits)]
+        a = self.hearing.array
+        c1 = tuple(f.c1 if f is not None else c for f, c in zip(self._fits, a.c1))  # type: ignore[arg-type]
+        c0 = tuple(f.c0 if f is not None else c for f, c in zip(self._fits, a.c0))  # type: ignore[arg-type]
+        self.hearing = FaceGuidedHearing(MicArray(a.positions, a.pairs, a.speed_of_sound, c1, c0, a.channels),
+                                         self.hearing.params)
+
+    def state(self) -> list[dict[str, Any]]:
+        """Per pair: c1, c0 in use, and the fit's inliers, observations and confidence (None: not fitted yet)."""
+        a = self.hearing.array
+        return [{"c1": float(c1), "c0_s": float(c0), "inliers": f.inliers if f else 0,
+                 "observations": len(cal), "confidence": f.confidence if f else None}
+                for c1, c0, f, cal in zip(a.c1, a.c0, self._fits, self._cals)]  # type: ignore[arg-type]
 
 
 def face_detector(config: PipelineConfig) -> FaceDetector:

@@ -82,6 +82,8 @@ class PipelineConfig:
         trails, so a result leaves once its last ITD is extracted).
     face_detector : "haar" (OpenCV's cascade, tracked, the default) or "blazeface" (MediaPipe's BlazeFace full-range,
         :mod:`avcore.blazeface`); face_model : the BlazeFace model file (default: the installed package's).
+    self_calibrate : face-guided: learn the correction c1, c0 of every pair while running, from people talking
+        alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
     """
 
     inference: Literal["face", "motion"] = "face"
@@ -95,6 +97,7 @@ class PipelineConfig:
     vote_frames: int = 9
     face_detector: Literal["haar", "blazeface"] = "haar"
     latency: Literal["default", "low"] = "default"
+    self_calibrate: bool = False
     face_model: str | None = None
     interval_s: float = 0.4
     frame_queue: int = 4
@@ -187,6 +190,7 @@ class PipelineStats:
     overflows: int = 0
     late_frames: int = 0
     interrupted: bool = False
+    self_calibration: list[dict[str, Any]] | None = None  # per pair, at the end of a self-calibrating run
 
     @property
     def duration_s(self) -> float:
@@ -212,6 +216,7 @@ class PipelineStats:
             "overflows": self.overflows,
             "late_frames": self.late_frames,
             "interrupted": self.interrupted,
+            "self_calibration": self.self_calibration,
         }
 
     def summary(self) -> str:
@@ -465,11 +470,13 @@ class Pipeline:
                     for name in ("vision", "itd"):
                         self._done[name].wait(self.config.join_timeout_s / 2)
                     self._finish(sync, hearing, tracker)
+                    self.stats.self_calibration = hearing.state() if hasattr(hearing, "state") else None
                 raise _Stop
             message = self._q_fusion.get(timeout=0.05)
             if message is None:
                 if self._done["vision"].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
                     self._finish(sync, hearing, tracker)
+                    self.stats.self_calibration = hearing.state() if hasattr(hearing, "state") else None
                     return
                 continue
             for vision, itds in self._handle(message, sync):

@@ -11,6 +11,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from app.errors import UserError
 from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_method_arguments,
                                   add_mics_argument, count, duration, pipeline_config, wants_bodies)
@@ -27,6 +29,7 @@ from app.eval.scenarios import (
     calibrate_on_preset,
     evaluate_scenario,
 )
+from avcore.geometry import MicPair
 from sim.synthetic import SEQUENCES
 from app.eval.synthetic import (
     FACE_VARIANTS,
@@ -124,6 +127,13 @@ def run_synthetic(args: argparse.Namespace) -> int:
     return 0
 
 
+def _gap_us(state: dict, loudspeaker: MicPair) -> float:
+    """The largest difference, microseconds, between the self-calibrated and the loudspeaker's mappings over the
+    cameras' view (faces within 30 degrees of straight ahead: raw ITDs up to half the pair's maximum)."""
+    x = np.linspace(-0.5, 0.5, 21) * loudspeaker.max_itd_s
+    return float(np.max(np.abs(state["c1"] * x + state["c0_s"] - (loudspeaker.c1 * x + loudspeaker.c0))) * 1e6)
+
+
 def run_scenarios(args: argparse.Namespace) -> int:
     if any(s < 0 for s in args.seed):
         raise UserError(f"--seed takes non-negative integers, got {args.seed}")
@@ -143,18 +153,29 @@ def run_scenarios(args: argparse.Namespace) -> int:
         c = calibration.as_dict()
         _progress(f"c1 = {c['c1']:.4f}, c0 = {signed_us(c['c0_us'])} us, median |residual| "
                   f"{c['median_abs_residual_before_us']:.1f} -> {c['median_abs_residual_after_us']:.1f} us")
+    start_mics = calibration.mics if calibration else None
+    if config.self_calibrate and calibration is not None:
+        # the self-calibration's start: 20 % off in c1 and 30 us off in c0 from the loudspeaker's fit
+        start_mics = calibration.mics.with_correction(1.2 * calibration.mics.c1, calibration.mics.c0 + 30e-6)
+        _progress(f"self-calibration from c1 = {start_mics.c1:.4f}, c0 = {signed_us(start_mics.c0 * 1e6)} us")
     scores: list[ScenarioScore] = []
     for name in args.scenario:
         merged: ScenarioScore | None = None
         for seed in args.seed:
             _progress(f"{name} seed {seed}: simulating and running the {config.inference}-guided pipeline ...")
             t0 = time.perf_counter()
-            score = evaluate_scenario(name, seed, duration_s=args.duration, config=config,
-                                      mics=calibration.mics if calibration else None, mic_array=args.mics,
-                                      bodies=wants_bodies(args), camera=args.camera)
+            score = evaluate_scenario(name, seed, duration_s=args.duration, config=config, mics=start_mics,
+                                      mic_array=args.mics, bodies=wants_bodies(args), camera=args.camera)
             u = score.utterances  # the table's first unit
             _progress(f"{name} seed {seed}: per spoken number TP {u.tp}, FN {u.fn}, FP {u.fp} "
                       f"({time.perf_counter() - t0:.0f} s)")
+            for state in score.self_calibration:
+                if calibration is not None:
+                    state["gap_to_loudspeaker_us"] = _gap_us(state, calibration.mics)
+                _progress(f"{name} seed {seed}: self-calibrated c1 = {state['c1']:.4f}, c0 = "
+                          f"{signed_us(state['c0_s'] * 1e6)} us ({state['inliers']} of {state['observations']} "
+                          "one-source time frames)" + (f", {state['gap_to_loudspeaker_us']:.1f} us from the "
+                                                      "loudspeaker's fit" if calibration is not None else ""))
             if args.timeline is not None and score.timeline is not None:
                 from app.eval.figure import save_timeline
 

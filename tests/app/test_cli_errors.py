@@ -144,6 +144,12 @@ def test_motion_with_one_camera_is_one_line(command: str, capsys: pytest.Capture
     assert "--motion (Algorithm 1) needs depth" in err and "Traceback" not in err and "preparing" not in err
 
 
+def test_self_calibration_with_motion_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo", "--motion", "--self-calibrate", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "--self-calibrate learns from faces" in err and "Traceback" not in err
+
+
 def test_sensors_refuse_simulated_microphones_on_a_real_source(tmp_path: Path,
                                                                capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sensors", "--source", f"replay:{tmp_path}", "--mics", "nao"]) == 2

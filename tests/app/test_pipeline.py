@@ -413,3 +413,19 @@ def test_low_latency_decides_from_the_past_only() -> None:
         itds_at[latency] = (at[0.9].itds_s.shape[0], at[1.4].itds_s.shape[0])
     assert itds_at["default"][0] > 0 and itds_at["low"][0] == 0
     assert itds_at["low"][1] > 0  # later on, the talker is heard
+
+
+def test_a_self_calibrating_run_corrects_a_wrong_start(tmp_path) -> None:  # noqa: ANN001
+    """--self-calibrate: a run that starts 20 % off in c1 and 30 us off in c0 (from the simulated room's correction,
+    about 0.81 and 0, which the calibration preset's loudspeaker fit finds) ends near it, and says where it stands."""
+    from app.sources.open import StreamAdapter
+    from app.sources.sim import SimSource
+
+    source = SimSource.from_preset("S2", duration_s=14.0, seed=0, fps=15, data_dir=tmp_path / "none")
+    source.mics = source.mics.with_correction(0.81 * 1.2, 30e-6)
+    stats = Pipeline(StreamAdapter(source, realtime=False), PipelineConfig(self_calibrate=True),
+                     lambda r: None).run()
+    (state,) = stats.self_calibration
+    assert state["inliers"] >= 30 and state["confidence"] > 0.5
+    assert abs(state["c1"] - 0.81) < 0.08 and abs(state["c0_s"]) < 8e-6
+    assert stats.as_dict()["self_calibration"] == [state]
