@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from app.bus.session import open_session
+from app.config import RigConfig, save_rig
 from app.console import Console
 from app.errors import UserError
 from app.sources.live import LiveConfig
@@ -30,6 +31,7 @@ from app.sources.live import DEFAULT_FOV_DEG
 from app.sources.open import open_source
 from app.sources.sim import check_simulated_duration
 from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
+from avcore.geometry import MicArray
 from sim.scenario import PRESETS
 
 DEMO_RRD = Path("recordings/demo.rrd")
@@ -55,6 +57,9 @@ def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: f
     p.add_argument("--web-port", type=port, default=9090, help="port of the web page of --serve")
     p.add_argument("--stats-json", type=Path, default=None, metavar="FILE",
                    help="write the run's figures (fps, latency_ms_p95, drops, overflows) to this file at exit")
+    p.add_argument("--save-rig", type=Path, default=None, metavar="FILE.yaml",
+                   help="with --self-calibrate: at the end (or on Ctrl-C) write the rig with the correction learned, "
+                        "for the next run's --rig")
     p.add_argument("--fast", action="store_true", help="as fast as possible instead of in real time")
     p.add_argument("--results-jsonl", type=Path, default=None, metavar="FILE",
                    help="write every fused result to FILE as one JSON line, as it is produced (schema: README)")
@@ -161,8 +166,12 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
                         "--motion out (faces are located by their size)")
     if args.camera != "stereo" and not spec.startswith("sim:"):
         raise UserError(f"--camera {args.camera} chooses the simulated room's camera; {spec} brings its own")
+    if args.save_rig is not None:
+        if not args.self_calibrate:
+            raise UserError("--save-rig keeps what --self-calibrate learns: give both")
+        output_file(args.save_rig, "--save-rig")
     distinct_outputs(("--save", target.save), ("--results-jsonl", args.results_jsonl),
-                     ("--stats-json", args.stats_json))
+                     ("--stats-json", args.stats_json), ("--save-rig", args.save_rig))
     if target.save is not None:
         output_file(target.save, "--save")
     if args.stats_json is not None:
@@ -227,6 +236,19 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
         print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
 
 
+def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> None:
+    """The source's cameras and microphones with each pair's self-calibrated c1, c0, as a rig file."""
+    array = getattr(source, "array", None)
+    array = array if array is not None else MicArray.from_pair(source.mics, tuple(source.channels))
+    learned = MicArray(array.positions, array.pairs, array.speed_of_sound, tuple(s["c1"] for s in state),
+                       tuple(s["c0_s"] for s in state), array.channels)
+    rig = RigConfig(source.rig, learned.pair(0), None) if learned.n_pairs == 1 else RigConfig(source.rig, None, learned)
+    fitted = ", ".join(f"c1 {s['c1']:.4f} c0 {s['c0_s'] * 1e6:+.1f} us ({s['inliers']} of {s['observations']} "
+                       "one-source time frames)" for s in state)
+    save_rig(path, rig, header=f"written by avhear run --self-calibrate: {fitted}")
+    print(f"avhear: the self-calibrated rig is in {path} ({fitted}); use it with --rig {path}")
+
+
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
     stream = getattr(source, "stream", None)
@@ -268,6 +290,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
             signal.signal(signal.SIGTERM, previous)
     stats.interrupted = stats.interrupted or terminated.is_set()
     _report(spec, args, target, stats, source, sinks)
+    if args.save_rig is not None and stats.self_calibration:
+        _save_learned_rig(args.save_rig, source, stats.self_calibration)
     if spec in ("bus", "ros") and not source.images_received and not stats.interrupted:
         session.close(keep_serving=False)
         hint = ("start `avhear sensors` there (the same --bus-namespace and --ros-keys), or name its camera topics "

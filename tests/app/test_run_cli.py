@@ -153,3 +153,19 @@ def test_a_replay_stops_after_its_duration(tmp_path: Path) -> None:
                  "--results-jsonl", str(out)]) == 0
     stamps = [json.loads(line)["stamp_s"] for line in out.read_text().splitlines()]
     assert stamps and max(stamps) < 1.5 and len(stamps) >= 12  # 1.5 s of the 4 s, at 10 FPS
+
+
+def test_a_self_calibrated_run_saves_its_rig(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--self-calibrate --save-rig: the rig file the run writes holds the cameras and the learned correction (the
+    simulated room's is about c1 = 0.81, c0 = 0), and the next run reads it with --rig; --save-rig alone is one line."""
+    from app.config import load_rig
+
+    rig_file = tmp_path / "learned.yaml"
+    assert main(["demo", "--duration", "14", "--fast", "--headless", "--self-calibrate", "--save-rig",
+                 str(rig_file)]) == 0
+    assert f"the self-calibrated rig is in {rig_file}" in capsys.readouterr().out
+    rig = load_rig(rig_file)
+    assert rig.stereo is not None and rig.microphones is not None
+    assert abs(rig.microphones.c1 - 0.81) < 0.08 and abs(rig.microphones.c0) < 8e-6
+    assert main(["demo", "--headless", "--save-rig", str(tmp_path / "x.yaml")]) == 2
+    assert "--save-rig keeps what --self-calibrate learns" in capsys.readouterr().err
