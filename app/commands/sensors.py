@@ -42,6 +42,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.source == "bus":
         raise UserError("avhear sensors publishes a source on the bus: give live, sim:S2 or replay:FOLDER")
+    if args.source == "webcam":
+        raise UserError("avhear sensors publishes a stereo pair (or with --ros an RGB-D camera); a webcam's one "
+                        "camera goes with avhear run --source webcam on this computer")
     if args.mics != "pair" and not args.source.startswith("sim:"):
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {args.source} brings its own "
                         "(the rig file's array or pair, or the recording's)")
@@ -56,6 +59,9 @@ def run(args: argparse.Namespace) -> int:
                              seed=args.seed, rig_path=args.rig, live=live, mics=args.mics,
                              camera="rgbd" if args.ros else "stereo",
                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
+        if getattr(getattr(source, "stream", None), "camera", "stereo") == "mono":
+            raise UserError(f"{args.source} has one camera; avhear sensors publishes a stereo pair: replay it with "
+                            f"avhear run --source {args.source}")
         kind = RosDriverPublisher if args.ros else SensorPublisher
         publisher = kind(session, source, convention=options.convention, jpeg_quality=args.jpeg_quality)
         print(f"avhear: publishing {args.source} on the bus ... Ctrl-C stops", file=sys.stderr, flush=True)

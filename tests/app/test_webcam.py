@@ -100,3 +100,16 @@ def test_the_devices_are_listed(monkeypatch: pytest.MonkeyPatch, capsys: pytest.
     out = capsys.readouterr().out
     assert "none found" in out and "1: USB array: 6 channels, 16000 Hz" in out
     assert "2: Laptop mic: 2 channels, 48000 Hz  (default)" in out and "HDMI" not in out
+
+
+def test_the_sensors_command_refuses_one_camera(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """`avhear sensors` publishes a stereo pair (or an RGB-D camera): a webcam or a one-camera recording is one line."""
+    from app.sources.recording import write_recording
+
+    assert main(["sensors", "--source", "webcam"]) == 2
+    assert "a webcam's one camera goes with avhear run --source webcam" in capsys.readouterr().err
+    folder = write_recording(tmp_path / "mono", SimSource.from_preset("S1", duration_s=1.0, fps=5,
+                                                                      data_dir=tmp_path / "none", camera="mono"))
+    assert main(["sensors", "--source", f"replay:{folder}", "--bus-listen", "tcp/127.0.0.1:0"]) == 2
+    err = capsys.readouterr().err
+    assert "has one camera" in err and "Traceback" not in err
