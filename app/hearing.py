@@ -19,12 +19,12 @@ import numpy as np
 
 from avcore.depth import locate_faces_depth, motion_points_depth
 from avcore.faces import TrackingFaceDetector, locate_faces
+from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
 from avcore.itd import gives_frame_itds
-from avcore.geometry import MicArray
 from avcore.mono import locate_faces_mono
-from avcore.selfcal import SelfCalibration, SelfCalibrationFit
 from avcore.motion import harris_motion_points
+from avcore.selfcal import SelfCalibration, SelfCalibrationFit
 from avcore.speaking import SpeakingVote
 from avcore.sync import TimeFrame
 
