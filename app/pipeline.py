@@ -29,7 +29,7 @@ import numpy as np
 from app.sources.contract import Source
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
-from app.hearing import Vision, hearing_mode
+from app.hearing import SelfCalibrating, Vision, hearing_mode
 from app.queues import DropOldestQueue
 from app.result import Result
 from avcore.faces import FaceDetector
@@ -470,13 +470,11 @@ class Pipeline:
                     for name in ("vision", "itd"):
                         self._done[name].wait(self.config.join_timeout_s / 2)
                     self._finish(sync, hearing, tracker)
-                    self.stats.self_calibration = hearing.state() if hasattr(hearing, "state") else None
                 raise _Stop
             message = self._q_fusion.get(timeout=0.05)
             if message is None:
                 if self._done["vision"].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
                     self._finish(sync, hearing, tracker)
-                    self.stats.self_calibration = hearing.state() if hasattr(hearing, "state") else None
                     return
                 continue
             for vision, itds in self._handle(message, sync):
@@ -507,6 +505,7 @@ class Pipeline:
             self._fuse(hearing, tracker, vision, itds)
         for voted in self._vote.flush():
             self._emit_voted(*voted)
+        self.stats.self_calibration = hearing.state() if isinstance(hearing, SelfCalibrating) else None
 
     def _fuse(self, hearing: Any, tracker: NearestTracker, vision: Vision, itds: list[tuple[float, float]]) -> None:
         t0 = time.perf_counter()

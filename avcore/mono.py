@@ -4,18 +4,13 @@ A face of physical size S metres that spans s pixels of a camera of focal length
 (pinhole, the face roughly facing the camera). The size read is the distance between the eyes when the detector
 gives them (BlazeFace's keypoints): adults' interpupillary distance is about 63 mm with a standard deviation of about
 3.5 mm (Dodgson 2004, "Variation and extrema of human interpupillary distance"). A detector with boxes alone (Haar)
-gives the box's width, which spans ``HAAR_BOX_PER_IPD`` interpupillary distances: measured on the labelled
-photographs of ``../shared/data/faces`` (BlazeFace's eyes inside OpenCV's frontal-face boxes, 34 faces: median
-2.64, quartiles 2.54-2.80).
+gives the box's width, which spans ``HAAR_BOX_PER_IPD`` interpupillary distances, a ratio measured on the labelled
+photographs of ``../shared/data/faces`` (BlazeFace's eyes inside OpenCV's boxes; docs/experiments.md, 2026-11-26).
 
-The depth error model (docs/method.md, "One camera"): a relative error that adds
-* the person's own size against the population's: 5.6 % (one sd) with the eyes, more with the box (the box's width
-  against the eyes varies by about 5 % between faces on top);
-* the size's measurement: about a pixel of the eyes' or the box's, against their span (an eye distance of
-  f * 0.063 / z pixels: 12 px at 3 m with a 60-degree 640-pixel camera, so about 8 % there);
-* a head turned by an angle a shows its eyes closer by cos(a): 30 degrees read 15 % further.
-The direction of the face (its pixel) is exact to the detector's box, so the error lies along the line of sight:
-an ITD, which depends on the direction, is barely affected.
+The depth error model is in docs/method.md ("One camera"): the person's own size against the population's, the
+size's measurement in pixels (growing with the distance), and the head's turn (a face turned by a shows its eyes
+closer by cos a). The direction of the face (its pixel) is exact to the detector's box, so the error lies along the
+line of sight: an ITD, which depends on the direction, is barely affected.
 """
 from __future__ import annotations
 

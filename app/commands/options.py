@@ -187,9 +187,9 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
         raise UserError(str(exc)) from None
     if config.self_calibrate and config.inference == "motion":
         raise UserError("--self-calibrate learns from faces: it goes with face-guided runs, not --motion")
-    if config.inference == "motion" and getattr(args, "camera", "stereo") == "mono":
-        raise UserError("--motion (Algorithm 1) needs depth for its moving points: use --camera stereo or rgbd, or "
-                        "leave --motion out with one camera")
+    if config.inference == "motion" and one_camera:
+        raise UserError("--motion (Algorithm 1) needs depth for its moving points and one camera has none: leave "
+                        "--motion out (faces are located by their size), or use a stereo pair or an RGB-D camera")
     if config.face_detector == "blazeface" and config.inference == "face":
         from app.hearing import face_detector
 

@@ -161,9 +161,6 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
             raise UserError(f"{flag} describes a webcam without calibration; it goes with --source webcam")
     if getattr(args, "mic_spacing", None) is not None and (args.mics or "laptop") != "laptop":
         raise UserError(f"--mic-spacing sets the laptop's two microphones apart; --mics {args.mics} has its own shape")
-    if webcam and args.motion:
-        raise UserError("--motion (Algorithm 1) needs depth for its moving points and a webcam is one camera: leave "
-                        "--motion out (faces are located by their size)")
     if args.camera != "stereo" and not spec.startswith("sim:"):
         raise UserError(f"--camera {args.camera} chooses the simulated room's camera; {spec} brings its own")
     if args.save_rig is not None:
