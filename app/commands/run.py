@@ -258,9 +258,10 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
     if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
               f"{meta.get('speech')} speech", file=sys.stderr, flush=True)
-    session = ViewerSession(target)
+    array = getattr(source, "array", None)
+    session = ViewerSession(target, several_pairs=array is not None and array.n_pairs > 1)
     rec = session.recording
-    console = (Console(source.rig, source.mics, recording=rec, array=getattr(source, "array", None))
+    console = (Console(source.rig, source.mics, recording=rec, array=array)
                if rec is not None else None)
     sinks = Sinks(session, console, results, publisher)
     pipeline = sinks.pipeline = Pipeline(source, config, sinks)

@@ -5,8 +5,8 @@ of :mod:`app.console.geometry`. The default layout of these entities is :func:`l
 
 Entity paths (static entities are logged once, when the console is created). The people of a frame are the
 instances of a few batched entities, one instance each, told apart by colour (:func:`~app.console.geometry.
-person_colors`, stable per person id) and label (``"<id>: <probability>"``); such an entity is cleared when its last
-person goes. ``<id>`` is a person id.
+person_colors`, stable per person id) and label (the id; the ``legend`` pane says the rest); such an entity is
+cleared when its last person goes. ``<id>`` is a person id.
 
 In full (every part, and why): docs/architecture.md ("The console").
 """
@@ -60,6 +60,7 @@ ITD_PAIRS_HIST = "itd_pairs/histograms"
 ITD_PAIRS_PEOPLE = "itd_pairs/people"
 _PAIR_ROW = 200.0  # display units (us) between two pairs' rows; a bin of 100 % of a pair's ITDs fills its row
 PEOPLE = "people"
+LEGEND = "legend"  # one line a person (id, state, distance, mean ITD) in each person's colour, shared by every pane
 COUNTS = "counts"
 COUNT_SERIES = ("people", "speakers", "ITDs in the interval")  # the three series of ``counts``, in this order
 DIAGNOSTICS = "diagnostics"
@@ -345,6 +346,7 @@ class Console:
         self._counts_tensor: _CountsTensor | None = None  # set with the first histogram of the part
         self._last_counts: np.ndarray | None = None  # the histogram logged last, and its ITDs off the axis
         self._last_outside = 0
+        self._legend: list[str] | None = None  # the legend's lines logged last
         self.log_static()
 
     # ------------------------------------------------------------------ helpers
@@ -411,7 +413,7 @@ class Console:
         fractions = np.linspace(0.05, top, 4)
         self._log(f"{ITD}/axis/fraction", rr.Points2D(pane.xy(np.full(4, lo_s), fractions), radii=1.0,
                                                       colors=[(120, 120, 120)],
-                                                      labels=[f"{f:g} of ITDs/bin" for f in fractions]),
+                                                      labels=[f"{f:g}" for f in fractions]),
                   static=True)
         self._log(COUNTS, rr.SeriesLines(names=list(COUNT_SERIES), colors=[(40, 40, 40), (214, 39, 40),
                                                                            (31, 119, 180)]), static=True)
@@ -436,7 +438,7 @@ class Console:
         self._set_time(frame)
         ids = [int(i) for i in frame.person_ids]
         colors = geo.pack_rgba(geo.person_colors(frame.person_ids))
-        labels = [f"{pid}: {p:.2f}" for pid, p in zip(ids, frame.probability.tolist(), strict=True)]
+        labels = [str(pid) for pid in ids]  # the rest is in the legend and the bars: short labels do not collide
         discs = geo.pack_rgba(geo.speaking_rgba(frame.probability))
         self._log_events(set(ids))
         if frame.image is not None and self.frames_logged % self.image_every == 0:
@@ -449,6 +451,7 @@ class Console:
         self._log_itd_space(frame, ids, colors)
         self._log_pairs(frame, colors)
         self._log_series(frame, ids, colors)
+        self._log_legend(frame, colors)
         self._log_points(frame.points_xyz)
         self.frames_logged += 1
 
@@ -485,17 +488,18 @@ class Console:
         it a bar as long as the speaking probability; nothing covers the face (its mouth shows who speaks)."""
         if frame.boxes is not None:
             boxes = frame.boxes
-            parts: list[Any] = [rr.Boxes2D(mins=boxes[:, :2], sizes=boxes[:, 2:], colors=colors, labels=labels,
+            parts: list[Any] = [rr.Boxes2D(mins=boxes[:, :2], sizes=boxes[:, 2:], colors=colors,
                                            radii=np.where(frame.speaking, 3.0, 1.5), draw_order=15.0)]
         else:
             centres, radii = geo.head_circles_px(self.rig, frame.faces_xyz, self.head_radius_m)
             boxes = np.concatenate([centres - radii[:, None], 2 * np.repeat(radii[:, None], 2, axis=1)], axis=1)
             parts = [rr.Ellipses2D(centers=centres, half_sizes=np.repeat(radii[:, None], 2, axis=1), colors=colors,
-                                   labels=labels, line_radii=np.where(frame.speaking, 3.0, 1.5), draw_order=15.0)]
+                                   line_radii=np.where(frame.speaking, 3.0, 1.5), draw_order=15.0)]
             if self._had_boxes:  # heads without boxes after faces with boxes: no stale box stays
                 parts.append(rr.Boxes2D.cleared())
         parts.append(rr.LineStrips2D(geo.speaking_bars_px(boxes, frame.probability), colors=colors,
                                      radii=np.where(frame.speaking, 3.0, 2.0), draw_order=20.0))
+        parts.append(rr.Points2D(geo.id_labels_px(boxes), radii=0.1, colors=colors, labels=labels, draw_order=20.0))
         self._had_boxes = frame.boxes is not None
         self._log_people(FACES, frame.n_people, *parts)
 
@@ -527,7 +531,10 @@ class Console:
             xs, ys = geo.histogram_outline(edges, np.minimum(fractions, ITD_CLIP))
             label = f"{k} ITDs" + (f" ({outside} outside the axis)" if outside else "")
             self._log(f"{ITD}/histogram", rr.LineStrips2D(_strips_2d([pane.xy(xs, ys)]), radii=0.8,
-                                                          colors=[(40, 40, 40)], labels=[label]))
+                                                          colors=[(40, 40, 40)]))
+            # the count in the pane's top right corner, away from the axis' labels and the people's
+            self._log(f"{ITD}/histogram/count", rr.Points2D(pane.xy(np.array([pane.range_s[1]]), np.array([ITD_TOP])),
+                                                            radii=0.1, colors=[(40, 40, 40)], labels=[label]))
             self._log_bars(counts)
             self._last_counts, self._last_outside = counts, outside
         if frame.model is None:
@@ -538,11 +545,10 @@ class Console:
         lo_s, hi_s = frame.model.support
         self._log_people(f"{ITD}/outliers", 1,
                          rr.LineStrips2D(_strips_2d([pane.xy(np.array([lo_s, hi_s]), np.full(2, level))]),
-                                         radii=0.5, colors=[(150, 150, 150)], labels=["outliers"]))
+                                         radii=0.5, colors=[(150, 150, 150)]))  # the pane's name explains it
         n = frame.n_people
         curves = geo.gaussian_curves(frame.model, pane.bin_s, clip_s=pane.range_s)
         mapped_s = self.mics.itd(frame.faces_xyz) if n else np.zeros(0)
-        means_us = (frame.model.means * 1e6).tolist()
         peaks = [pane.xy(x[[int(np.argmax(y))]], np.minimum(y[[int(np.argmax(y))]], ITD_CLIP))[0] if y.size
                  else pane.xy(mu, 0.0)[0]
                  for (x, y), mu in zip(curves, frame.model.means, strict=True)]
@@ -553,7 +559,7 @@ class Console:
         # each person's label at the top of their Gaussian, clear of the axis' tick labels
         self._log_people(f"{ITD_GAUSSIANS}/labels", n,
                          rr.Points2D(np.array(peaks).reshape(-1, 2), radii=0.1, colors=colors,
-                                     labels=[f"{pid}: mu {mu:+.0f} us" for pid, mu in zip(ids, means_us, strict=True)]))
+                                     labels=[str(pid) for pid in ids]))  # the means are in the legend
 
     def _log_pairs(self, frame: ConsoleFrame, colors: np.ndarray) -> None:
         """The "ITDs per pair" pane: each pair's histogram, one row per pair (the first at the top), and each
@@ -601,6 +607,20 @@ class Console:
         self._log(COUNTS, rr.Scalars([frame.n_people, np.count_nonzero(frame.speaking), frame.itds_s.size]))
         for key, value in frame.diagnostics.items():
             self._log(f"{DIAGNOSTICS}/{key}", rr.Scalars(float(value)))
+
+    def _log_legend(self, frame: ConsoleFrame, colors: np.ndarray) -> None:
+        """The legend every pane shares: one line a person in the person's colour (:func:`geo.legend_labels`), one
+        row each; logged when a line changes, cleared when nobody is there."""
+        means = None if frame.model is None else frame.model.means
+        lines = geo.legend_labels(frame.person_ids, frame.probability, frame.speaking,
+                                  np.linalg.norm(frame.faces_xyz, axis=1), means)
+        if lines == self._legend:
+            return
+        self._legend = lines
+        n = len(lines)
+        # the labels are written in each person's colour; the points under them are not drawn
+        self._log_people(LEGEND, n, rr.Points2D(np.stack([np.zeros(n), np.arange(n, dtype=np.float64)], 1),
+                                                radii=0.0, colors=colors, labels=lines))
 
     def _log_points(self, points: np.ndarray | None) -> None:
         if points is not None:

@@ -95,6 +95,30 @@ def speaking_bars_px(boxes: np.ndarray, probability: np.ndarray, gap_px: float =
     return np.stack([np.stack([b[:, 0], y], 1), np.stack([b[:, 0] + p * b[:, 2], y], 1)], axis=1)
 
 
+def id_labels_px(boxes: np.ndarray, gap_px: float = 5.0, lift_px: float = 12.0) -> np.ndarray:
+    """Where each person's id is written in the image: above the speaking bar (:func:`speaking_bars_px`), at the
+    box's left edge, clear of the face (a label on the box would sit on the chin and mouth).
+
+    boxes : (N, 4) float, pixels (x, y, w, h)  ->  (N, 2) pixels.
+    """
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    return np.stack([b[:, 0], b[:, 1] - gap_px - lift_px], axis=1)
+
+
+def legend_labels(person_ids: np.ndarray, probability: np.ndarray, speaking: np.ndarray, distance_m: np.ndarray,
+                  means_s: np.ndarray | None) -> list[str]:
+    """One line a person for the console's shared legend: a disc (filled while speaking), id, state, probability,
+    distance and, when a model was fitted, the Gaussian's mean ITD. Fields of fixed width (the viewer centres a
+    label on its point, so equal lengths line up); rounded so that a line changes only when it should."""
+    lines = []
+    for n, pid in enumerate(np.asarray(person_ids).reshape(-1).tolist()):
+        mark, state = ("\u25cf", "speaking") if speaking[n] else ("\u25cb", "silent  ")
+        line = f"{mark} {pid:>3}  {state} {probability[n]:.1f}   {distance_m[n]:4.1f} m"
+        line += f"   mu {means_s[n] * 1e6:+5.0f} us" if means_s is not None else " " * 14
+        lines.append(line)
+    return lines
+
+
 def head_circles_px(rig: StereoRig, points_xyz: np.ndarray, head_radius_m: float) -> tuple[np.ndarray, np.ndarray]:
     """Heads without a detected box (motion-guided output) drawn on the rectified left image.
 

@@ -182,10 +182,11 @@ def _bounded(fn: Callable[[], object], timeout_s: float) -> bool:
 
 
 class ViewerSession:
-    """Opens the recording stream for a :class:`ViewerTarget` (with the default blueprint) and, for ``serve``, the
-    web-viewer server; :meth:`close` flushes the data and, for ``serve``, keeps serving until Ctrl-C."""
+    """Opens the recording stream for a :class:`ViewerTarget` (with the default blueprint; ``several_pairs`` opens
+    its "ITDs per pair" tab) and, for ``serve``, the web-viewer server; :meth:`close` flushes the data and, for
+    ``serve``, keeps serving until Ctrl-C."""
 
-    def __init__(self, target: ViewerTarget) -> None:
+    def __init__(self, target: ViewerTarget, *, several_pairs: bool = False) -> None:
         self.target = target
         self.server: subprocess.Popen | None = None
         self.recording: rr.RecordingStream | None = None
@@ -196,7 +197,7 @@ class ViewerSession:
         if not target.logs:
             return
         rec = rr.RecordingStream(APPLICATION_ID)
-        blueprint = default_blueprint()
+        blueprint = default_blueprint(several_pairs)
         self._blueprint = blueprint
         if target.save is not None:
             target.save.parent.mkdir(parents=True, exist_ok=True)

@@ -365,8 +365,12 @@ def test_face_boxes_and_speaking_bars(recorded: dict, scene: dict) -> None:
     centres = np.stack([x + w / 2, y + h / 2], 1)
     np.testing.assert_allclose(rrd.values(path, "Boxes2D:centers")[0], centres, rtol=1e-6)
     np.testing.assert_allclose(rrd.values(path, "Boxes2D:half_sizes")[0], np.stack([w / 2, h / 2], 1), rtol=1e-6)
-    assert "Points2D:positions" not in rrd.rows[path][0][1]  # nothing is drawn over the faces
-    assert rrd.values(path, "Boxes2D:labels")[0] == [f"{pid}: {p:.2f}" for pid, p in zip((7, 8, 9), out.probability)]
+    # nothing is drawn over the faces: the ids are written above each bar, at the box's left edge
+    assert "Boxes2D:labels" not in rrd.rows[path][0][1]
+    assert rrd.values(path, "Points2D:labels")[0] == ["7", "8", "9"]
+    ids_at = np.array(rrd.values(path, "Points2D:positions")[0])
+    np.testing.assert_allclose(ids_at[:, 0], x, rtol=1e-6)
+    assert (ids_at[:, 1] < y - 10).all()
     assert rrd.values(path, "Boxes2D:radii")[0] == [1.5, 3.0, 1.5]  # the speaker's box is the thick one
     colours = rrd.values(path, "Boxes2D:colors")[0]
     assert colours == geo.pack_rgba(geo.person_colors(np.array([7, 8, 9]))).tolist()
@@ -386,12 +390,11 @@ def test_birdseye_heads_and_3d_heads(recorded: dict, scene: dict) -> None:
     np.testing.assert_allclose(rrd.values(circles, "Ellipses2D:centers")[0], np.stack([xyz[:, 0], -xyz[:, 2]], 1),
                                rtol=1e-6)
     np.testing.assert_allclose(rrd.values(circles, "Ellipses2D:half_sizes")[0], [[0.09, 0.09]] * 3, rtol=1e-6)
-    assert rrd.values(circles, "Ellipses2D:labels")[0] == [f"{pid}: {p:.2f}" for pid, p in zip((7, 8, 9),
-                                                                                               out.probability)]
+    assert rrd.values(circles, "Ellipses2D:labels")[0] == ["7", "8", "9"]  # the legend says the rest
     # person 8 speaks: a solid head; 7 and 9 are wireframes
     np.testing.assert_allclose(rrd.values("/scene/heads/speaking", "Ellipsoids3D:centers")[0], xyz[[1]], rtol=1e-6)
     np.testing.assert_allclose(rrd.values("/scene/heads/silent", "Ellipsoids3D:centers")[0], xyz[[0, 2]], rtol=1e-6)
-    assert rrd.values("/scene/heads/speaking", "Ellipsoids3D:labels")[0] == [f"8: {out.probability[1]:.2f}"]
+    assert rrd.values("/scene/heads/speaking", "Ellipsoids3D:labels")[0] == ["8"]
     solid, wire = (rrd.values(f"/scene/heads/{s}", "Ellipsoids3D:fill_mode")[0] for s in ("speaking", "silent"))
     assert solid == [rr.components.FillMode.Solid.value] and wire == [rr.components.FillMode.MajorWireframe.value]
 
@@ -409,7 +412,11 @@ def test_itd_histogram_and_fitted_gaussians(recorded: dict, scene: dict) -> None
     np.testing.assert_allclose(abscissa[[0, -1]], [-520.0, 520.0])
     mapped_us = MICS.itd(scene["xyz"][1]) * 1e6
     assert abs(abscissa[np.argmax(counts)] - mapped_us) < 60.0  # the histogram peaks at the speaker
-    assert rrd.values("/itd/histogram", "LineStrips2D:labels")[0] == ["18 ITDs (1 outside the axis)"]
+    # the count in the pane's top right corner: clear of the axis' labels
+    assert rrd.values("/itd/histogram/count", "Points2D:labels")[0] == ["18 ITDs (1 outside the axis)"]
+    corner = np.array(rrd.values("/itd/histogram/count", "Points2D:positions")[0][0])
+    pane = geo.ItdPane.for_mics(MICS)
+    np.testing.assert_allclose(corner, [pane.range_s[1] * 1e6, -0.2 * pane.height_per_fraction], rtol=1e-6)
     strip = np.array(rrd.values("/itd/histogram", "LineStrips2D:strips")[0][0])
     assert strip.shape == (2 * counts.size + 2, 2) and np.all(strip[:, 1] <= 0)  # bars drawn upwards
     gaussians = "/itd/faces/gaussians"  # one strip per face, in the frame's order: person 8 is the second
@@ -421,7 +428,7 @@ def test_itd_histogram_and_fitted_gaussians(recorded: dict, scene: dict) -> None
     # each person's label sits at the top of their Gaussian, clear of the axis' tick labels
     label_at = np.array(rrd.values(f"{gaussians}/labels", "Points2D:positions")[0][1])
     np.testing.assert_allclose(label_at, curve[np.argmin(curve[:, 1])], atol=1e-6)
-    assert rrd.values(f"{gaussians}/labels", "Points2D:labels")[0][1] == f"8: mu {out.model.means[1] * 1e6:+.0f} us"
+    assert rrd.values(f"{gaussians}/labels", "Points2D:labels")[0][1] == "8"  # its mean is in the legend
     # the vertical scale: 0.2 of the ITDs per bin rises half the pane's width (a 2:1 pane), so the speaker's
     # Gaussian (about 0.12 per bin) fills most of its height
     lo_s, hi_s = geo.ItdPane.for_mics(MICS).range_s
@@ -450,14 +457,14 @@ def test_time_series_per_person_counts_and_diagnostics(recorded: dict) -> None:
 def test_departed_person_is_gone_everywhere(recorded: dict) -> None:
     rrd = recorded["rrd"]
     # a frame replaces the people of the last one: person 9 (third) is in none of the last frame's instances
-    last = {"/scene/cameras/left/faces": "Boxes2D:labels", "/birdseye/heads/circles": "Ellipses2D:labels",
-            "/itd/faces/gaussians/labels": "Points2D:labels"}
+    last = {"/scene/cameras/left/faces": "Points2D:labels", "/birdseye/heads/circles": "Ellipses2D:labels",
+            "/itd/faces/gaussians/labels": "Points2D:labels", "/legend": "Points2D:labels"}
     for path, column in last.items():
-        ids = [[lb.split(":")[0] for lb in labels] for labels in rrd.values(path, column)]
-        assert ids == [["7", "8", "9"]] * 4 + [["7", "8"]], path
+        ids = [[next(w for w in lb.split() if w.isdigit()) for lb in labels] for labels in rrd.values(path, column)]
+        assert ids[-1] == ["7", "8"] and all(row == ["7", "8", "9"] for row in ids[:-1]), path
     heads = rrd.values("/scene/heads/speaking", "Ellipsoids3D:labels") + rrd.values("/scene/heads/silent",
                                                                                     "Ellipsoids3D:labels")
-    assert sum(lb.startswith("9:") for frame in heads for lb in frame) == 4  # in frames 0..3 only
+    assert sum(lb == "9" for frame in heads for lb in frame) == 4  # in frames 0..3 only
     texts = rrd.values("/events", "TextLog:text")
     assert texts == [["person 7 appeared; person 8 appeared; person 9 appeared"], ["person 9 left"]]
 
@@ -538,7 +545,7 @@ def test_people_leaving_and_repeated_silence(tmp_path: Path) -> None:
     assert rrd.frames("/scene/heads/silent", "Ellipsoids3D:centers") == []  # nobody silent: never logged
     assert rrd.frames("/itd/histogram", "LineStrips2D:strips") == [0, 1]  # frames 2 and 3: the same, not resent
     assert rrd.frames("/itd/bars", "BarChart:values") == [0, 1]
-    assert rrd.values("/itd/histogram", "LineStrips2D:labels")[-1] == ["0 ITDs"]
+    assert rrd.values("/itd/histogram/count", "Points2D:labels")[-1] == ["0 ITDs"]
     assert [v[0] for v in rrd.values("/counts", "Scalars:scalars")] == [1, 0, 0, 0]  # the series go on
 
 
@@ -607,7 +614,7 @@ def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict
     mapped = array.itd(recorded_pairs["xyz"]) * 1e6  # (N, P): one dot per person and pair, at its ITD
     np.testing.assert_allclose(np.sort(dots[:, 0]), np.sort(mapped.T.reshape(-1)), atol=1e-6)
     # the ITD-space pane shows the first pair's ITDs
-    assert rrd.values("/itd/histogram", "LineStrips2D:labels")[-1] == ["20 ITDs"]
+    assert rrd.values("/itd/histogram/count", "Points2D:labels")[-1] == ["20 ITDs"]
 
 
 def test_blueprint_views_look_at_what_the_console_logs(recorded: dict, recorded_pairs: dict, tmp_path: Path) -> None:
@@ -735,3 +742,61 @@ def _views(container):  # noqa: ANN001, ANN202
     """Every view of a blueprint container, depth first."""
     for item in container.contents:
         yield from (_views(item) if hasattr(item, "contents") and not hasattr(item, "origin") else [item])
+
+
+def test_one_legend_for_every_pane(recorded: dict) -> None:
+    """The legend: one line a person in the person's colour (the colour of their box, circle, head, Gaussian and
+    series), the speakers marked with a filled disc and the word, the distance and the Gaussian's mean; logged only
+    when a line changes, and person 9's line gone when they leave."""
+    rrd = recorded["rrd"]
+    frame, out = recorded["logged"][0]
+    lines = rrd.values("/legend", "Points2D:labels")
+    first = lines[0]
+    assert [next(w for w in line.split() if w.isdigit()) for line in first] == ["7", "8", "9"]
+    assert first[1].startswith("\u25cf") and "speaking" in first[1]  # person 8 speaks
+    assert all(line.startswith("\u25cb") and "silent" in line for line in (first[0], first[2]))
+    distance = np.linalg.norm(frame.faces_xyz[1])
+    assert f"{distance:.1f} m" in first[1] and f"mu {out.model.means[1] * 1e6:+5.0f} us" in first[1]
+    assert len({len(line) for line in first}) == 1  # centred labels line up when they are equally long
+    assert rrd.values("/legend", "Points2D:colors")[0] == rrd.values("/scene/cameras/left/faces",
+                                                                      "Boxes2D:colors")[0]
+    assert len(lines) < 5 or lines[-1] != lines[-2]  # an unchanged legend is not logged again
+    assert len(lines[-1]) == 2
+
+
+def test_legend_lines_change_only_when_what_they_say_changes() -> None:
+    speaking, silent = (geo.legend_labels(np.array([3]), np.array([p]), np.array([s]), np.array([2.04]),
+                                          np.array([1.2e-4])) for p, s in ((0.93, True), (0.12, False)))
+    assert speaking == ["\u25cf   3  speaking 0.9    2.0 m   mu  +120 us"]
+    assert silent == ["\u25cb   3  silent   0.1    2.0 m   mu  +120 us"]
+    # a probability that moves in its second decimal writes the same line
+    assert geo.legend_labels(np.array([3]), np.array([0.94]), np.array([True]), np.array([2.04]),
+                             np.array([1.2e-4])) == speaking
+    assert len(geo.legend_labels(np.array([3]), np.array([0.94]), np.array([True]), np.array([2.04]), None)[0]) == \
+        len(speaking[0])  # no model: the line keeps its length
+
+
+def test_the_layout_opens_on_people_the_robot_and_every_pair() -> None:
+    """The 3D view looks from behind and above the robot at the room ahead (the people stand 1-4 m in front: +z in
+    the scene's RDF frame, "up" is -y); the blueprint panel starts collapsed; with several pairs the "ITDs per pair"
+    tab opens in front, with one pair the ITD space."""
+    for several, active in ((False, 0), (True, 2)):
+        blueprint = default_blueprint(several)
+        tabs = [v for v in _containers(blueprint.root_container) if type(v).__name__ == "Tabs"]
+        itd_tabs = next(t for t in tabs if any(getattr(v, "origin", None) == "itd_pairs" for v in t.contents))
+        assert itd_tabs.active_tab == active
+        assert itd_tabs.contents[active].origin == ("itd_pairs" if several else "itd")
+    scene = next(v for v in _views(default_blueprint().root_container) if str(v.origin) == "scene")
+    eye = scene.properties["EyeControls3D"]
+    position = np.array(eye.position.as_arrow_array().to_pylist()[0])
+    target = np.array(eye.look_target.as_arrow_array().to_pylist()[0])
+    assert position[2] < 0 < target[2] and position[1] < 0  # behind the robot, above it, looking ahead
+    assert vars(default_blueprint().blueprint_panel)["state"] == "collapsed"
+
+
+def _containers(container):  # noqa: ANN001, ANN202
+    """Every container of a blueprint, depth first."""
+    for item in container.contents:
+        if hasattr(item, "contents") and not hasattr(item, "origin"):
+            yield item
+            yield from _containers(item)

@@ -38,6 +38,29 @@ def test_demo_writes_the_console_to_an_rrd(tmp_path: Path, capsys: pytest.Captur
     assert any(e.startswith("people/") and e.endswith("speaking_probability") for e in ents)
 
 
+def _active_tab_origins(path: Path) -> set[str]:
+    """The views that the .rrd's blueprint opens in front of their tabs, by origin."""
+    reader = RrdReader(path)
+    (store,) = reader.blueprints()
+    origins, active = {}, set()
+    for chunk in reader.stream(store=store).to_chunks():
+        batch = chunk.to_record_batch()
+        if "ViewBlueprint:space_origin" in batch.schema.names:
+            origins[chunk.entity_path.lstrip("/")] = batch.column("ViewBlueprint:space_origin").to_pylist()[-1][0]
+        if "ContainerBlueprint:active_tab" in batch.schema.names:
+            active.update(v for row in batch.column("ContainerBlueprint:active_tab").to_pylist() for v in row or [])
+    return {origins[v] for v in active if v in origins}
+
+
+@pytest.mark.parametrize(("mics", "front"), [("nao", "itd_pairs"), (None, "itd")])
+def test_the_console_opens_on_every_pairs_itds_with_an_array(tmp_path: Path, mics: str | None, front: str) -> None:
+    rrd = tmp_path / "demo.rrd"
+    assert main(["demo", "--duration", "1", "--fast", "--save", str(rrd), *(["--mics", mics] if mics else [])]) == 0
+    tabs = _active_tab_origins(rrd)
+    assert front in tabs and ({"itd", "itd_pairs"} - {front}).isdisjoint(tabs)
+    assert "legend" in _entities(rrd)
+
+
 def test_run_replays_a_recording(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = tmp_path / "s1"
     assert main(["simulate", "S1", "-o", str(folder), "--duration", "2"]) == 0
