@@ -42,6 +42,12 @@ __all__ = [
 ]
 
 FACE_MARGIN = 1.6  # head texture side / labelled face box side: hair, ears and a little background
+# where a photographed mouth is in its labelled face box: centre x, y and width as fractions of the box's width and
+# height (the face mesh's inner lips and corners on the textures, medians; docs/experiments.md, 2026-11-26)
+MOUTH_IN_FACE_BOX = (0.53, 0.73, 0.37)
+MOUTH_MAX_GAP = 0.5  # the open mouth's gap over its width at full opening (speech spans about 0.1-0.5)
+MOUTH_BGR = (35, 25, 60)  # the mouth's cavity
+TEETH_BGR = (200, 210, 220)
 
 
 @dataclass(frozen=True, eq=False)
@@ -49,12 +55,43 @@ class FaceTexture:
     """A head texture and where the face is in it.
 
     image : (h, w, 3) uint8 BGR; face_box : (x, y, w, h) pixels in ``image``, the labelled face.
-    source : where it came from (file name and box index, or "drawn").
+    source : where it came from (file name and box index, or "drawn"). mouth_in_box : the mouth's centre and width
+    in the face box (fractions), where :meth:`with_mouth` opens it.
     """
 
     image: np.ndarray
     face_box: tuple[float, float, float, float]
     source: str = ""
+    mouth_in_box: tuple[float, float, float] = MOUTH_IN_FACE_BOX
+
+    def with_mouth(self, opening: float) -> np.ndarray:
+        """The texture with its mouth open by ``opening`` in [0, 1]; the texture itself at 0.
+
+        As a jaw drops: the lower lip and the chin below the mouth's line move down by the gap (``opening *
+        MOUTH_MAX_GAP`` of the mouth's width), fading to nothing at the chin and beside the mouth, and the dark
+        cavity shows between the lips."""
+        opening = float(np.clip(opening, 0.0, 1.0))
+        if opening <= 0.0:
+            return self.image
+        bx, by, bw, bh = self.face_box
+        fx, fy, fw = self.mouth_in_box
+        width, cx, cy = fw * bw, bx + fx * bw, by + fy * bh
+        gap = opening * MOUTH_MAX_GAP * width
+        h, w = self.image.shape[:2]
+        ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
+        chin = by + bh + 0.1 * bh
+        down = np.clip((chin - ys) / max(chin - cy, 1.0), 0.0, 1.0) * (ys >= cy)
+        side = np.clip(1.0 - np.abs(xs - cx) / (0.9 * width), 0.0, 1.0)
+        shift = (gap * down * np.minimum(1.0, 2.0 * side)).astype(np.float32)
+        out = cv2.remap(self.image, xs, ys - shift, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        # the cavity: dark inside, the teeth's edges at its top and bottom (an open mouth shows them)
+        cavity = np.zeros((h, w), np.uint8)
+        cv2.ellipse(cavity, (round(cx), round(cy + gap / 2)), (max(1, round(0.4 * width)), max(1, round(gap / 2))),
+                    0, 0, 360, 255, -1, cv2.LINE_AA)
+        teeth = min(0.3 * gap, 0.1 * width)
+        colour = np.where(((ys < cy + teeth) | (ys > cy + gap - 0.6 * teeth))[..., None], TEETH_BGR, MOUTH_BGR)
+        alpha = cavity[..., None].astype(np.float32) / 255.0
+        return (out * (1.0 - alpha) + colour * alpha).astype(np.uint8)
 
 
 def _read_boxes(xml_path: Path) -> list[tuple[str, tuple[int, int, int, int]]]:
@@ -146,7 +183,7 @@ def drawn_face_texture(size_px: int = 96, skin_bgr: tuple[int, int, int] = (150,
     cv2.ellipse(img, (cx, round(cy + 0.29 * s)), (round(0.14 * s), round(0.04 * s)), 0, 0, 360, (60, 60, 150), -1)
     img = cv2.GaussianBlur(img, (0, 0), s / 90)
     box = (cx - 0.42 * s, cy - 0.45 * s, 0.84 * s, 0.84 * s)
-    return FaceTexture(img, box, "drawn")
+    return FaceTexture(img, box, "drawn", mouth_in_box=(0.5, (0.45 + 0.29) / 0.84, 0.28 / 0.84))
 
 
 @lru_cache(maxsize=256)
@@ -176,7 +213,7 @@ class Person:
     forearms and hands, and legs unless a table hides them; without it the body is one flat striped plane.
     gesture_m, gesture_hz : how far (metres) and how fast the hands swing (a talker about 0.15 m, a listener a
     little); the shoulders rock with them. table : a table in front of a seated person hides the lower body (drawn by
-    :meth:`props`).
+    :meth:`props`). mouth_open : in [0, 1], how far the mouth is open (:meth:`FaceTexture.with_mouth`).
     """
 
     face: FaceTexture
@@ -192,6 +229,7 @@ class Person:
     gesture_m: float = 0.0
     gesture_hz: float = 0.8
     table: bool = False
+    mouth_open: float = 0.0
 
     def __post_init__(self) -> None:
         pos = np.asarray(self.position, dtype=np.float64)
@@ -214,7 +252,7 @@ class Person:
     def parts(self, t: float) -> list[tuple[str, np.ndarray, np.ndarray]]:
         """The person's planes at time ``t`` with their names: [(name, corners, texture), ...], body first. A texture
         of four channels carries a binary alpha."""
-        tex = self.face.image
+        tex = self.face.with_mouth(self.mouth_open)
         bx, by, bw, bh = self.face.face_box
         m_per_px = self.face_width_m / bw
         centre = self.face_centre(t)

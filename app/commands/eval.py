@@ -14,8 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import UserError
-from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_method_arguments,
-                                  add_mics_argument, count, duration, pipeline_config, wants_bodies)
+from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_lips_argument,
+                                  add_method_arguments, add_mics_argument, count, duration, pipeline_config,
+                                  wants_bodies, wants_lips)
 from app.eval.tables import (format_face_table, format_scenario_table, format_tables, scenario_targets, signed_us,
                              synthetic_json)
 from app.commands.paths import output_dir
@@ -80,6 +81,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_method_arguments(sce)
     add_mics_argument(sce)
     add_bodies_argument(sce)
+    add_lips_argument(sce)
     add_camera_argument(sce)
     sce.add_argument("--calibrate", action=argparse.BooleanOptionalAction, default=True,
                      help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
@@ -165,7 +167,8 @@ def run_scenarios(args: argparse.Namespace) -> int:
             _progress(f"{name} seed {seed}: simulating and running the {config.inference}-guided pipeline ...")
             t0 = time.perf_counter()
             score = evaluate_scenario(name, seed, duration_s=args.duration, config=config, mics=start_mics,
-                                      mic_array=args.mics, bodies=wants_bodies(args), camera=args.camera)
+                                      mic_array=args.mics, bodies=wants_bodies(args), camera=args.camera,
+                                      lips=wants_lips(args))
             u = score.utterances  # the table's first unit
             _progress(f"{name} seed {seed}: per spoken number TP {u.tp}, FN {u.fn}, FP {u.fp} "
                       f"({time.perf_counter() - t0:.0f} s)")

@@ -18,7 +18,8 @@ from app.sources.sim import MAX_SIMULATED_S
 
 __all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_bus_arguments", "add_device_arguments", "add_method_arguments",
            "bus_options", "bus_source", "count", "duration", "live_config", "odd_count", "pipeline_config", "port",
-           "positive", "wants_bodies", "add_camera_argument", "add_ros_topic_arguments", "ros_source"]
+           "positive", "wants_bodies", "add_lips_argument", "wants_lips", "add_camera_argument",
+           "add_ros_topic_arguments", "ros_source"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
 
@@ -139,6 +140,18 @@ def add_bodies_argument(p: argparse.ArgumentParser) -> None:
                    help="the simulated people have a checked shirt, arms and hands that gesture (most while they "
                         "talk), and the seated ones sit behind a table (default); --no-bodies: flat heads and "
                         "shirts that only nod, the scene of the earlier figures")
+
+
+def add_lips_argument(p: argparse.ArgumentParser) -> None:
+    """``--lips/--no-lips``: whether the simulated people's mouths move (:mod:`sim.mouths`)."""
+    p.add_argument("--lips", action=argparse.BooleanOptionalAction, default=None,
+                   help="the simulated talkers' mouths open with their speech and listeners' now and then without "
+                        "sound (default); --no-lips: still mouths, the faces of the earlier figures")
+
+
+def wants_lips(args: argparse.Namespace) -> bool:
+    """Whether the simulated people's mouths move: yes unless ``--no-lips``."""
+    return args.lips is not False
 
 
 def wants_bodies(args: argparse.Namespace) -> bool:

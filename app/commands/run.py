@@ -18,6 +18,7 @@ from app.console import Console
 from app.errors import UserError
 from app.sources.live import LiveConfig
 from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_camera_argument,
+                                  add_lips_argument, wants_lips,
                                   add_ros_topic_arguments, ros_name, ros_source,
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
@@ -43,6 +44,7 @@ def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: f
     add_method_arguments(p)
     add_mics_argument(p, webcam=webcam)
     add_bodies_argument(p)
+    add_lips_argument(p)
     add_camera_argument(p)
     where = p.add_mutually_exclusive_group()  # one place for the console's data (ViewerTarget holds one)
     where.add_argument("--save", type=Path, default=None, metavar="FILE.rrd",
@@ -149,9 +151,10 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
     """Everything the run will write or reach, checked before the (possibly long) preparation and run."""
     if spec.startswith("sim:"):
         check_simulated_duration(args.duration)
-    if args.bodies is not None and not spec.startswith("sim:"):
-        flag = "--bodies" if args.bodies else "--no-bodies"
-        raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")
+    for name in ("bodies", "lips"):
+        if getattr(args, name, None) is not None and not spec.startswith("sim:"):
+            flag = f"--{name}" if getattr(args, name) else f"--no-{name}"
+            raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")
     webcam = spec == "webcam"
     if args.mics not in (None, "pair") and not (spec.startswith("sim:") or webcam):
         raise UserError(f"--mics {args.mics} chooses the simulated room's (or a webcam's) microphones; {spec} brings "
@@ -200,7 +203,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
             source = open_source(spec, realtime=not args.fast, duration_s=args.duration,
                                  seed=getattr(args, "seed", 0), rig_path=getattr(args, "rig", None), live=live,
                                  mics=args.mics or ("laptop" if spec == "webcam" else "pair"),
-                                 bodies=wants_bodies(args), camera=args.camera,
+                                 bodies=wants_bodies(args), camera=args.camera, lips=wants_lips(args),
                                  fov_deg=DEFAULT_FOV_DEG if fov is None else fov,
                                  mic_spacing_m=getattr(args, "mic_spacing", None),
                                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))

@@ -15,8 +15,8 @@ import time
 from pathlib import Path
 
 from app.errors import UserError
-from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_mics_argument, count,
-                                  duration, positive, wants_bodies)
+from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_lips_argument,
+                                  add_mics_argument, count, duration, positive, wants_bodies, wants_lips)
 from app.commands.paths import output_dir
 from app.sources.recording import write_recording
 from app.signals import stop_on_signals
@@ -48,6 +48,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="replace a recording already in the output folder")
     add_mics_argument(p)
     add_bodies_argument(p)
+    add_lips_argument(p)
     add_camera_argument(p)
     p.set_defaults(func=run)
 
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         source = SimSource.from_preset(args.scenario, duration_s=args.duration, seed=args.seed, fps=args.fps,
                                        data_dir=args.data, rt60_s=args.rt60, mics=args.mics,
-                                       bodies=wants_bodies(args), camera=args.camera,
+                                       bodies=wants_bodies(args), camera=args.camera, lips=wants_lips(args),
                                        progress=lambda msg: print(f"  {msg}", file=out, flush=True))
     except ValueError as exc:
         raise UserError(f"cannot simulate {args.scenario}: {exc}") from None

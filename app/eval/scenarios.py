@@ -376,9 +376,9 @@ class CalibrationFit:
 
 
 def _open(name: str, seed: int, duration_s: float | None, progress: Progress | None,
-          mic_array: str = "pair", bodies: bool = False, camera: str = "stereo") -> StreamAdapter:
+          mic_array: str = "pair", bodies: bool = False, camera: str = "stereo", lips: bool = False) -> StreamAdapter:
     source = open_source(f"sim:{name}", realtime=False, duration_s=duration_s, seed=seed, mics=mic_array,
-                         bodies=bodies, camera=camera, progress=progress)
+                         bodies=bodies, camera=camera, lips=lips, progress=progress)
     assert isinstance(source, StreamAdapter)
     return source
 
@@ -409,7 +409,7 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
 
 def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = None,
                       config: PipelineConfig | None = None, mics: MicPair | None = None,
-                      mic_array: str = "pair", bodies: bool = False, camera: str = "stereo",
+                      mic_array: str = "pair", bodies: bool = False, camera: str = "stereo", lips: bool = False,
                       progress: Progress | None = None) -> ScenarioScore:
     """Simulate scenario ``name`` (S1-S5) with ``seed``, run it through the pipeline and score it (section 7.3).
 
@@ -427,7 +427,7 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     if name not in SCENARIOS:
         raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}, got {name!r}")
     cfg = config or PipelineConfig()
-    source = _open(name, seed, duration_s, progress, mic_array, bodies, camera)
+    source = _open(name, seed, duration_s, progress, mic_array, bodies, camera, lips)
     if mics is not None:
         source.mics = mics
     fused: list[Result] = []

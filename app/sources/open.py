@@ -95,13 +95,14 @@ class StreamAdapter(SourceBase):
 
 def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, seed: int = 0,
                 rig_path: str | None = None, live: LiveConfig | None = None, mics: str = "pair",
-                bodies: bool = False, camera: str = "stereo", fov_deg: float = DEFAULT_FOV_DEG,
+                bodies: bool = False, camera: str = "stereo", fov_deg: float = DEFAULT_FOV_DEG, lips: bool = False,
                 mic_spacing_m: float | None = None, progress=None  # noqa: ANN001
                 ) -> StreamAdapter | LiveSource:
     """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER``, ``live`` (with ``rig_path`` and ``live``) or
     ``webcam`` (:func:`webcam`); ``mics`` names the simulated room's (or the webcam's) microphones
     (:data:`avcore.geometry.ARRAY_PRESETS`); ``bodies`` draws the simulated people with arms, hands and a table,
-    ``camera`` is the simulated stereo pair, RGB-D camera or one camera (:class:`app.sources.sim.SimSource`)."""
+    ``camera`` is the simulated stereo pair, RGB-D camera or one camera, ``lips`` opens the simulated people's
+    mouths as they speak (:class:`app.sources.sim.SimSource`)."""
     kind, _, arg = spec.partition(":")
     if kind == "sim":
         try:
@@ -113,7 +114,7 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")
         check_simulated_duration(duration_s)
         return StreamAdapter(SimSource.from_preset(preset, duration_s=duration_s, seed=seed, mics=mics,
-                                                   bodies=bodies, camera=camera, progress=progress),
+                                                   bodies=bodies, camera=camera, lips=lips, progress=progress),
                              realtime=realtime)
     if kind == "replay":
         if not arg:

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -42,6 +42,7 @@ from sim.render import (
 from sim.audio import SimAudio, load_clip_bank, render_audio
 from sim.body_truth import interval_times, visible_moving_centres
 from sim.depth import DepthRenderer
+from sim.mouths import MouthTracks
 from sim.render import load_textures
 from sim.scenario import (
     ClipBank,
@@ -82,6 +83,33 @@ class _FrameCache:
     right: np.ndarray | None = None
 
 
+def _with_mouths_located(textures: list[FaceTexture]) -> list[FaceTexture]:
+    """Each photographed face's mouth where the face mesh finds it in its texture (the median place of
+    :data:`sim.render.MOUTH_IN_FACE_BOX` without the mesh's model, or where the mesh finds no face), so that a
+    mouth opens between its own lips."""
+    from app.models import facemesh_model  # the simulator itself knows no model files
+    from avcore.facemesh import LIP_CORNERS, LIP_INNER_LOWER, LIP_INNER_UPPER, FaceMesh
+
+    try:
+        mesh = FaceMesh(facemesh_model())
+    except UserError:
+        return textures
+    out = []
+    for tex in textures:
+        if tex.source == "drawn":
+            out.append(tex)
+            continue
+        marks = mesh.run(tex.image, np.array([tex.face_box])).landmarks[0, :, :2]
+        if np.isnan(marks).any():
+            out.append(tex)
+            continue
+        bx, by, bw, bh = tex.face_box
+        cx, cy = marks[[LIP_INNER_UPPER, LIP_INNER_LOWER]].mean(axis=0)
+        width = float(np.linalg.norm(marks[LIP_CORNERS[1]] - marks[LIP_CORNERS[0]]))
+        out.append(replace(tex, mouth_in_box=((cx - bx) / bw, (cy - by) / bh, width / bw)))
+    return out
+
+
 class SimSource(ReplayStream):
     """A scenario of :mod:`sim.scenario` as a stream of frames and audio blocks with ground truth.
 
@@ -99,7 +127,8 @@ class SimSource(ReplayStream):
     def __init__(self, scenario: Scenario, bank: ClipBank, *, textures: list[FaceTexture] | None = None,
                  data_dir: str | Path | None = None, fps: float = 30.0, block_size: int = 512,
                  noise_std: float = 1.5, audio: SimAudio | None = None, bodies: bool = False,
-                 camera: str = "stereo", progress: Callable[[str], None] | None = None) -> None:
+                 camera: str = "stereo", lips: bool = False,
+                 progress: Callable[[str], None] | None = None) -> None:
         super().__init__()
         if camera not in CAMERAS:
             raise ValueError(f"camera must be one of {', '.join(CAMERAS)}, got {camera!r}")
@@ -112,12 +141,14 @@ class SimSource(ReplayStream):
         self.scenario = scenario
         self.bank = bank
         self.bodies = bool(bodies)
+        # each talker's mouth opens with their speech, and listeners' now and then (sim.mouths)
+        self.mouths = MouthTracks(scenario, bank) if lips else None
         faces_kind = "given"
         if textures is None:
             textures, faces_kind = load_textures(data_dir)
         if not textures:
             raise ValueError("textures is empty; give at least one face texture (or None for the defaults)")
-        self.textures = textures
+        self.textures = _with_mouths_located(textures) if lips else textures
         # distinct faces for distinct people (as long as there are enough textures), chosen by the scenario's seeds
         order = np.random.default_rng([a.face for a in scenario.actors]).permutation(len(textures))
         self._face_of = [int(order[i % len(order)]) for i in range(len(scenario.actors))]
@@ -157,7 +188,7 @@ class SimSource(ReplayStream):
     @classmethod
     def from_preset(cls, name: str, *, duration_s: float | None = None, seed: int = 0, fps: float = 30.0,
                     data_dir: str | Path | None = None, block_size: int = 512, rt60_s: float = 0.4,
-                    mics: str = "pair", bodies: bool = False, camera: str = "stereo",
+                    mics: str = "pair", bodies: bool = False, camera: str = "stereo", lips: bool = False,
                     progress: Callable[[str], None] | None = None) -> SimSource:
         """A preset of :data:`sim.scenario.PRESETS` with real faces and digits from ``data_dir`` (default
         ``../shared/data``; drawn faces and synthetic clips when it is absent), heard by the microphones ``mics``
@@ -166,7 +197,7 @@ class SimSource(ReplayStream):
         scenario = make_scenario(name, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,
                                  rt60_s=rt60_s, mics=mics)
         return cls(scenario, bank, data_dir=data_dir, fps=fps, block_size=block_size, bodies=bodies,
-                   camera=camera, progress=progress)
+                   camera=camera, lips=lips, progress=progress)
 
     # -------------------------------------------------------------- ReplayStream
     def people(self, t: float) -> list[Person]:
@@ -181,9 +212,10 @@ class SimSource(ReplayStream):
         def gesture(i: int) -> float:
             return LISTENING_GESTURE_M + (GESTURE_M - LISTENING_GESTURE_M) * talking[i] if b else 0.0
 
+        mouths = self.mouths.opening(t) if self.mouths is not None else np.zeros(len(pos))
         return [Person(face=self.textures[self._face_of[i]], position=tuple(p), shirt_bgr=a.shirt_bgr,
                        nod_rad=float(nod), nod_hz=NOD_HZ, phase=1.3 * i, arms=b, gesture_m=gesture(i),
-                       table=b and a.posture == "seated")
+                       table=b and a.posture == "seated", mouth_open=float(np.round(mouths[i], 2)))
                 for i, (a, p, nod) in enumerate(zip(self.scenario.actors, pos, nods))]
 
     def body_centres(self, stamp_s: float, interval_s: float) -> np.ndarray:
@@ -197,7 +229,9 @@ class SimSource(ReplayStream):
         people = self.people(t)
         angles = [p.nod_rad * np.sin(2 * np.pi * p.nod_hz * t + p.phase) for p in people]
         moving_hands = [t if p.gesture_m > 0 else 0.0 for p in people]
-        key = tuple(np.round(np.concatenate([np.ravel([p.position for p in people]), angles, moving_hands]), 5))
+        mouths = [p.mouth_open for p in people]
+        key = tuple(np.round(np.concatenate([np.ravel([p.position for p in people]), angles, moving_hands, mouths]),
+                             5))
         if key != self._cache.key:
             self._renderer.people = people
             frame = self._renderer.render(t)
