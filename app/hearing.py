@@ -21,7 +21,9 @@ from avcore.depth import locate_faces_depth, motion_points_depth
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
+from avcore.facemesh import mouth_opening
 from avcore.itd import gives_frame_itds
+from avcore.lips import LipTracks, veto_still_lips
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
 from avcore.selfcal import SelfCalibration, SelfCalibrationFit
@@ -43,19 +45,32 @@ __all__ = ["FaceGuided", "MotionGuided", "Vision", "face_detector", "hearing_mod
 @dataclass(frozen=True, eq=False)
 class Vision:
     """What vision yields for one result: its stamp, the frame it is shown on, the face boxes (None when
-    motion-guided) and the 3D points (the faces, or the HM3D points)."""
+    motion-guided), the 3D points (the faces, or the HM3D points) and, with the lips' cue, each face's lip
+    activity (:class:`avcore.lips.LipTracks`)."""
 
     stamp_s: float
     frame: StereoFrame
     boxes: np.ndarray | None
     xyz: np.ndarray
+    lip_activity: np.ndarray | None = None
 
 
 @dataclass(eq=False)
 class FaceGuided:
-    """Algorithm 2 (module docstring)."""
+    """Algorithm 2 (module docstring); with ``config.lips`` the face mesh on every face and the lips' veto
+    (:mod:`avcore.lips`)."""
 
     config: PipelineConfig
+    _mesh: Any = field(default=None, init=False, repr=False)
+    _lips: LipTracks | None = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
+            from app.models import facemesh_model
+            from avcore.facemesh import FaceMesh
+
+            self._mesh = FaceMesh(facemesh_model())
+            self._lips = LipTracks()
 
     @property
     def frame_capacity(self) -> int:
@@ -91,12 +106,22 @@ class FaceGuided:
             faces = locate_faces_mono(frame.left, rig, detector=detector)
         else:
             faces = locate_faces(frame.left, frame.right, rig, detector=detector)
-        return Vision(frame.stamp_s, frame, faces.boxes, faces.points)
+        activity = None
+        if self._lips is not None:
+            openings = mouth_opening(self._mesh.run(frame.left, faces.boxes).landmarks)
+            activity = self._lips.update(frame.stamp_s, faces.boxes, openings)
+        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
-        """The hearing's step on this result's faces and ITDs, with the single frames' ITDs near it (``near()``)."""
-        return hearing.step(vision.xyz, itds, times_s - vision.stamp_s, *near())
+        """The hearing's step on this result's faces and ITDs, with the single frames' ITDs near it (``near()``);
+        with the lips' cue, the faces whose lips are still are not speaking."""
+        out = hearing.step(vision.xyz, itds, times_s - vision.stamp_s, *near())
+        if vision.lip_activity is None:
+            return out
+        speaking, probability = veto_still_lips(out.speaking, out.probability, vision.lip_activity,
+                                                self.config.lip_still_below)
+        return replace(out, speaking=speaking, probability=probability)
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return vision.xyz

@@ -84,6 +84,9 @@ class PipelineConfig:
         :mod:`avcore.blazeface`); face_model : the BlazeFace model file (default: the installed package's).
     self_calibrate : face-guided: learn the correction c1, c0 of every pair while running, from people talking
         alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
+    lips : face-guided: the face mesh on every face (:mod:`avcore.facemesh`), each face's lip activity
+        (:class:`avcore.lips.LipTracks`), and a face that the ITDs call speaking whose lips are still
+        (activity under ``lip_still_below``) not speaking (:func:`avcore.lips.veto_still_lips`).
     """
 
     inference: Literal["face", "motion"] = "face"
@@ -99,6 +102,8 @@ class PipelineConfig:
     latency: Literal["default", "low"] = "default"
     self_calibrate: bool = False
     face_model: str | None = None
+    lips: bool = False
+    lip_still_below: float = 0.012
     interval_s: float = 0.4
     frame_queue: int = 4
     audio_queue: int = 256
@@ -515,7 +520,7 @@ class Pipeline:
         output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
         ids = tracker.update(self.mode.people_xyz(vision, output), vision.stamp_s)
         result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,
-                        frame.depth_m)
+                        frame.depth_m, vision.lip_activity)
         for voted in self._vote.push(result, ids, output.speaking, output.probability):
             self._emit_voted(*voted)  # the result whose vote this one completed (itself without a vote)
         self._fused += 1

@@ -26,6 +26,8 @@ class Person:
     state (eq. audio_act, after the vote); probability : in [0, 1], above 0.5 exactly when speaking.
     itd_s : (P,) the person's mean ITD on each of the P microphone pairs, seconds (P = 1 for one pair).
     box_px : (x, y, w, h) of the face in the left image, pixels; None when motion-guided.
+    lip_activity : how much the lips moved over the last 0.4 s (:class:`avcore.lips.LipTracks`); None without the
+    lips' cue, NaN where the face gives no opinion (just seen, turned away).
     """
 
     id: int
@@ -34,6 +36,7 @@ class Person:
     probability: float
     itd_s: np.ndarray
     box_px: tuple[int, int, int, int] | None = None
+    lip_activity: float | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +50,7 @@ class Result:
     none); one column with one pair. output : the method's FaceGuidedOutput or MotionGuidedOutput. latency_s : result time
     minus capture stamp (nan for a source replayed as fast as possible). person_ids : (N,) stable ids of the people
     of ``output``. depth_m : an RGB-D camera's depth aligned to ``image``, metres (NaN: none), or None.
+    lip_activity : (N,) each face's lip activity with the lips' cue (:class:`avcore.lips.LipTracks`), or None.
     """
 
     stamp_s: float
@@ -59,6 +63,7 @@ class Result:
     latency_s: float
     person_ids: np.ndarray
     depth_m: np.ndarray | None = None
+    lip_activity: np.ndarray | None = None
 
     @property
     def mode(self) -> str:
@@ -94,9 +99,11 @@ class Result:
         speaking = self.speaking
         probability = np.asarray(out.probability, dtype=np.float64).reshape(-1)
         boxes = None if self.boxes is None else np.asarray(self.boxes).reshape(-1, 4)
+        lips = None if self.lip_activity is None else np.asarray(self.lip_activity, dtype=np.float64).reshape(-1)
         return tuple(
             Person(int(pid), positions[n], bool(speaking[n]), float(probability[n]), means[n],
-                   None if boxes is None else tuple(int(v) for v in boxes[n]))
+                   None if boxes is None else tuple(int(v) for v in boxes[n]),
+                   None if lips is None else float(lips[n]))
             for n, pid in enumerate(np.asarray(self.person_ids).ravel()))
 
     def without_image(self) -> Result:

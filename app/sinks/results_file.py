@@ -14,7 +14,9 @@ Schema of one line (one fused result; fields may be added, never renamed):
              "speaking": bool,
              "probability": float,      # in [0, 1], above 0.5 exactly when speaking
              "itd_mean_s": float,       # the person's mean in ITD space
-             "box_px": [x, y, w, h]     # face-guided only: the face box in the left image, pixels
+             "box_px": [x, y, w, h],    # face-guided only: the face box in the left image, pixels
+             "lip_activity": float | null  # with --read-lips only: how much the lips moved over 0.4 s (the
+                                           # spread of the mouth's opening); null: no opinion (face just seen)
             }, ...]}
 ```
 """
@@ -58,6 +60,8 @@ def result_record(result: Any) -> dict[str, Any]:
         }
         if p.box_px is not None:
             person["box_px"] = list(p.box_px)
+        if p.lip_activity is not None:
+            person["lip_activity"] = None if p.lip_activity != p.lip_activity else round(float(p.lip_activity), 4)
         people.append(person)
     return {
         "stamp_s": round(float(result.stamp_s), 6),

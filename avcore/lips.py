@@ -1,0 +1,76 @@
+"""Visual speech activity: whether each visible face's lips move, from its mouth's opening over the last moments.
+
+A talker's mouth opens and closes with the syllables (3-8 a second); a listener's stays still, or moves without
+sound now and then (a smile, chewing). :class:`LipTracks` follows each face from frame to frame (the nearest box
+centre, within half a face of where it was) and gives its **lip activity**: the standard deviation of its mouth's
+opening (:func:`avcore.facemesh.mouth_opening`, the gap over the mouth's width) over the last ``window_s``. A face
+with fewer than ``min_samples`` openings in that window (just arrived, turned away, the mesh lost) has no opinion
+(NaN), never "still".
+
+:func:`veto_still_lips` is how the speaking test uses it: a face that the ITDs call speaking but whose lips are
+clearly still (activity under ``still_below``) is not speaking. Only this direction is taken: moving lips without
+sound (mouthing, chewing) do not make a speaker, and no opinion changes nothing; so the lips can remove the false
+alarms of two people in similar directions, and cannot add any.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["LipTracks", "veto_still_lips"]
+
+
+@dataclass(eq=False)
+class LipTracks:
+    """``update(stamp_s, boxes, openings)`` -> each face's lip activity (N,) (NaN: no opinion)."""
+
+    window_s: float = 0.4
+    min_samples: int = 6
+    max_jump: float = 0.5  # of the face's width, between two frames
+    _tracks: list = field(default_factory=list, init=False, repr=False)  # [centre (2,), width, [(t, opening)]]
+
+    def __post_init__(self) -> None:
+        if not self.window_s > 0:
+            raise ValueError(f"window_s must be a positive number of seconds, got {self.window_s!r}")
+        if not (isinstance(self.min_samples, int) and self.min_samples >= 2):
+            raise ValueError(f"min_samples must be a whole number >= 2, got {self.min_samples!r}")
+
+    def update(self, stamp_s: float, boxes: np.ndarray, openings: np.ndarray) -> np.ndarray:
+        """boxes (N, 4) x, y, w, h pixels; openings (N,) (NaN where the mesh found no face)."""
+        b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+        o = np.asarray(openings, dtype=np.float64).reshape(-1)
+        if o.shape[0] != b.shape[0]:
+            raise ValueError(f"openings must have one value per box ({b.shape[0]}), got {o.shape[0]}")
+        centres = b[:, :2] + 0.5 * b[:, 2:]
+        self._tracks = [t for t in self._tracks if t[2] and t[2][-1][0] >= stamp_s - self.window_s]
+        free = list(range(len(self._tracks)))
+        activity = np.full(len(b), np.nan)
+        for i in np.argsort(-b[:, 2]):  # the nearest (largest) faces choose first
+            best, best_d = None, self.max_jump * b[i, 2]
+            for k in free:
+                d = float(np.linalg.norm(self._tracks[k][0] - centres[i]))
+                if d <= best_d:
+                    best, best_d = k, d
+            if best is None:
+                self._tracks.append([centres[i], b[i, 2], []])
+                best = len(self._tracks) - 1
+            else:
+                free.remove(best)
+            track = self._tracks[best]
+            track[0], track[1] = centres[i], b[i, 2]
+            track[2] = [(t, v) for t, v in track[2] if t > stamp_s - self.window_s] + [(float(stamp_s), o[i])]
+            values = np.array([v for _, v in track[2]])
+            values = values[np.isfinite(values)]
+            if values.size >= self.min_samples:
+                activity[i] = float(np.std(values))
+        return activity
+
+
+def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.ndarray,
+                    still_below: float) -> tuple[np.ndarray, np.ndarray]:
+    """The speaking states and probabilities with the faces whose lips are still (``activity`` < ``still_below``)
+    not speaking: their probability is kept at most 0.5 (the results' promise: above 0.5 exactly when speaking)."""
+    still = np.isfinite(activity) & (np.nan_to_num(activity, nan=np.inf) < still_below)
+    veto = np.asarray(speaking, dtype=bool) & still
+    return np.asarray(speaking, dtype=bool) & ~veto, np.where(veto, np.minimum(probability, 0.5), probability)

@@ -1,0 +1,67 @@
+"""The lips' cue in the application: --read-lips runs the face mesh on every face, each person carries a lip
+activity to the results file, and a face the ITDs call speaking whose lips are still is not speaking."""
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.cli import main
+from app.hearing import FaceGuided, Vision
+from app.pipeline import PipelineConfig
+
+
+@dataclass(frozen=True)
+class _Output:  # the fields of FaceGuidedOutput the veto reads and replaces
+    speaking: np.ndarray
+    probability: np.ndarray
+
+
+class _Hearing:
+    def step(self, *args: object) -> _Output:
+        return _Output(np.array([True, True, False]), np.array([0.9, 0.8, 0.1]))
+
+
+def test_still_lips_silence_a_face_the_itds_call_speaking(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))  # no mesh runs in this test
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
+    vision = Vision(1.0, None, np.zeros((3, 4)), np.zeros((3, 3)), np.array([0.004, 0.05, 0.004]))
+    out = mode.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: ())
+    assert out.speaking.tolist() == [False, True, False]
+    assert out.probability.tolist() == [0.5, 0.8, 0.1]
+    # without the cue the hearing's answer stands
+    plain = FaceGuided(PipelineConfig()).step(_Hearing(), Vision(1.0, None, np.zeros((3, 4)), np.zeros((3, 3))),
+                                              np.zeros((0, 1)), np.zeros(0), lambda: ())
+    assert plain.speaking.tolist() == [True, True, False]
+
+
+def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path) -> None:
+    pytest.importorskip("pyroomacoustics")
+    from app.errors import UserError
+    from app.models import facemesh_model
+
+    try:
+        facemesh_model()
+    except UserError as exc:
+        pytest.skip(str(exc))
+    out = tmp_path / "r.jsonl"
+    assert main(["demo", "--duration", "2", "--fast", "--headless", "--read-lips", "--results-jsonl", str(out)]) == 0
+    rows = [json.loads(line) for line in out.read_text().splitlines()]
+    values = [p["lip_activity"] for r in rows for p in r["people"]]
+    assert all("lip_activity" in p for r in rows for p in r["people"])
+    assert values[0] is None  # no opinion until a face has been seen for a while
+    assert sum(v is not None for v in values) > 0.5 * len(values)
+    assert all(v is None or 0.0 <= v < 1.0 for v in values)
+    plain = tmp_path / "plain.jsonl"
+    assert main(["demo", "--duration", "1", "--fast", "--headless", "--results-jsonl", str(plain)]) == 0
+    assert not any("lip_activity" in p for line in plain.read_text().splitlines() for p in json.loads(line)["people"])
+
+
+def test_read_lips_goes_with_faces(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo", "--duration", "1", "--headless", "--motion", "--read-lips"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--read-lips" in err[0] and "--motion" in err[0]
