@@ -5,9 +5,9 @@
     python benchmarks/console_screenshots.py --out /tmp/c --runs face --frames 165
 
 Each run is ``avhear demo --fast --duration 8 --save RUN.rrd`` (plus ``--motion`` or ``--mics nao``), cut at each
-frame by Rerun's own ``rerun rrd split``; the web viewer follows a streamed recording to its end, as it follows a
-live run, so the part before frame 50 (1.7 s) shows the console at the start of a run and the part before 165
-(5.5 s) in its middle, both while someone in S2 speaks. The README's picture is ``--runs face --frames 165``
+frame (its static data and the frames before it, :func:`cut`). The web viewer follows a streamed recording to its
+end, as it follows a live run, so the part before frame 50 (1.7 s) shows the console at the start of a run and the
+part before 165 (5.5 s) in its middle, both while someone in S2 speaks. The README's picture is ``--runs face --frames 165``
 (``layouts/screenshot.png``). Needs the ``websocket-client`` package (the test extra has it).
 ``tests/app/test_web_viewer.py`` (slow) runs the same path.
 """
@@ -25,13 +25,17 @@ import time
 import urllib.request
 from pathlib import Path
 
+import pyarrow.compute as pc
+import rerun as rr
+from rerun.chunk import Chunk, RrdReader
+
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from app.cli import main as avhear  # noqa: E402
 from app.console.viewer import rerun_executable, stop_process_group  # noqa: E402
-from layouts.blueprint import save_default_blueprint  # noqa: E402
+from layouts.blueprint import APPLICATION_ID, default_blueprint  # noqa: E402
 
 RUNS = {"face": [], "motion": ["--motion"], "nao": ["--mics", "nao"]}
 
@@ -85,19 +89,36 @@ def _wait_for_port(port: int, server: subprocess.Popen, timeout_s: float = 60.0)
     raise RuntimeError(f"the rerun web viewer did not listen on 127.0.0.1:{port} within {timeout_s:g} s")
 
 
+def cut(rrd: Path, frame: int, out: Path, several_pairs: bool) -> Path:
+    """The recording up to (not including) ``frame`` of the frame timeline, with all its static data and the run's
+    own layout, written to ``out``. (``rerun rrd split`` leaves out the cameras' static pinholes.)"""
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(str(out), default_blueprint=default_blueprint(several_pairs))
+    for chunk in RrdReader(rrd).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if chunk.is_static or "frame" not in batch.schema.names:
+            rr.send_chunks(chunk, recording=rec)
+            continue
+        kept = batch.filter(pc.less(batch.column("frame"), frame))
+        if kept.num_rows:
+            rr.send_chunks(Chunk.from_record_batch(kept), recording=rec)
+    rec.flush()
+    rec.disconnect()
+    return out
+
+
 def chromium_executable() -> str | None:
     return shutil.which("chromium") or shutil.which("chromium-browser")
 
 
-def screenshot(rrd: Path, out: Path, wait_s: float = 40.0, blueprint: Path | None = None) -> Path:
-    """Serve ``rrd`` (and a ``.rbl`` blueprint for it) with the ``rerun`` command's web viewer on 127.0.0.1 and save
-    Chromium's view of it to ``out``."""
+def screenshot(rrd: Path, out: Path, wait_s: float = 40.0) -> Path:
+    """Serve ``rrd`` with the ``rerun`` command's web viewer on 127.0.0.1 and save Chromium's view of it to ``out``."""
     chromium, rerun = chromium_executable(), rerun_executable()
     if chromium is None or rerun is None:
         raise RuntimeError("needs Debian's chromium (apt-get install chromium) and rerun-sdk's `rerun` command")
     grpc, web = free_port(), free_port()
     server = subprocess.Popen([rerun, "--serve-web", "--bind", "127.0.0.1", "--port", str(grpc),
-                               "--web-viewer-port", str(web), str(rrd), *([str(blueprint)] if blueprint else [])],
+                               "--web-viewer-port", str(web), str(rrd)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         _wait_for_port(web, server)
@@ -123,12 +144,8 @@ def main(argv: list[str] | None = None) -> int:
             return 1
         for frame in args.frames:
             with tempfile.TemporaryDirectory() as parts:
-                subprocess.run([rerun_executable() or "rerun", "rrd", "split", "--output-dir", parts, "--timeline",
-                                "frame", "--time", str(frame), str(rrd)], check=True, capture_output=True)
-                before = Path(parts) / f"{rrd.stem}_0__{frame}.rrd"
-                # the split keeps the data, not the run's blueprint: the run's own layout again
-                layout = save_default_blueprint(Path(parts) / "layout.rbl", several_pairs=run == "nao")
-                print(screenshot(before, args.out / f"{run}_frame{frame}.png", args.wait, layout), flush=True)
+                before = cut(rrd, frame, Path(parts) / f"{run}_{frame}.rrd", several_pairs=run == "nao")
+                print(screenshot(before, args.out / f"{run}_frame{frame}.png", args.wait), flush=True)
     return 0
 
 

@@ -59,6 +59,8 @@ def default_blueprint(several_pairs: bool = False) -> rrb.Blueprint:
     speaking = rrb.TimeSeriesView(origin="people", name="Speaking probability",
                                   axis_y=rrb.ScalarAxis(range=(0.0, 1.0), zoom_lock=True),
                                   plot_legend=rrb.PlotLegend(rrb.Corner2D.LeftTop), time_ranges=_recent())
+    lips = rrb.TimeSeriesView(origin="lips", name="Lip activity (--read-lips)",
+                              plot_legend=rrb.PlotLegend(rrb.Corner2D.LeftTop), time_ranges=_recent())
     # scene coordinates are x right, y down, z forward (RDF): the eye 1.2 m above and behind the robot, looking
     # between the robot and the people, so that both are in view
     scene = rrb.Spatial3DView(origin="scene", name="Scene 3D",
@@ -79,8 +81,8 @@ def default_blueprint(several_pairs: bool = False) -> rrb.Blueprint:
 
     paper = rrb.Vertical(
         rrb.Horizontal(image, birdseye, column_shares=[4, 3]),
-        rrb.Horizontal(rrb.Tabs(itd_space, itd_bars, itd_pairs, active_tab=2 if several_pairs else 0), speaking,
-                       column_shares=[4, 3]),
+        rrb.Horizontal(rrb.Tabs(itd_space, itd_bars, itd_pairs, active_tab=2 if several_pairs else 0),
+                       rrb.Tabs(speaking, lips, active_tab=0), column_shares=[4, 3]),
         row_shares=[3, 2],
         name="Vision-guided robot hearing",
     )

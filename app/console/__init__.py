@@ -58,8 +58,10 @@ ITD_CLIP = 1.25 * ITD_TOP  # what rises higher is drawn to here, so that one ful
 ITD_BARS = "itd/bars"
 ITD_PAIRS_HIST = "itd_pairs/histograms"
 ITD_PAIRS_PEOPLE = "itd_pairs/people"
-_PAIR_ROW = 200.0  # display units (us) between two pairs' rows; a bin of 100 % of a pair's ITDs fills its row
+ITD_PAIRS_LABELS = "itd_pairs/labels"
+_PAIR_ROW = 200.0  # display units (us) between two pairs' rows; a bin of ITD_TOP of a pair's ITDs rises 0.8 of it
 PEOPLE = "people"
+LIPS = "lips"  # each person's lip activity (the lips' cue), one series a person
 LEGEND = "legend"  # one line a person (id, state, distance, mean ITD) in each person's colour, shared by every pane
 COUNTS = "counts"
 COUNT_SERIES = ("people", "speakers", "ITDs in the interval")  # the three series of ``counts``, in this order
@@ -154,6 +156,9 @@ class ConsoleFrame:
         ``fps/<stage>``, ``latency_ms/<what>``, ``queue_depth/<queue>``, ``drops/<queue>``, ``audio_overflows``.
     depth_m : (H, W) float, metres (NaN: no depth), or None
         An RGB-D camera's depth aligned to ``image``, drawn in the 3D view every :data:`DEPTH_EVERY` frames.
+    lip_activity : (N,) float or None
+        Each face's lip activity (the lips' cue, :class:`avcore.lips.LipTracks`; NaN: no opinion), drawn as each
+        person's series under ``lips/<id>``.
     """
 
     stamp_s: float
@@ -169,6 +174,7 @@ class ConsoleFrame:
     points_xyz: np.ndarray | None = None
     diagnostics: Mapping[str, float] = field(default_factory=dict)
     depth_m: np.ndarray | None = None
+    lip_activity: np.ndarray | None = None
     pair_itds_s: np.ndarray | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
@@ -223,6 +229,9 @@ class ConsoleFrame:
                 raise ValueError(f"model has {self.model.n_components} Gaussian components but there are {n} faces; "
                                  "pass the model fitted to these faces (one component per face, same order)")
         points = None if self.points_xyz is None else _array(self.points_xyz, "points_xyz", (3,))
+        lips = None if self.lip_activity is None else np.asarray(self.lip_activity, dtype=np.float64).reshape(-1)
+        if lips is not None and lips.shape[0] != n:
+            raise ValueError(f"lip_activity must have one value per face ({n} faces in faces_xyz), got {lips.shape[0]}")
         diag = dict(self.diagnostics or {})
         for key, value in diag.items():
             if not isinstance(key, str) or not _KEY.match(key):
@@ -231,7 +240,7 @@ class ConsoleFrame:
                 raise TypeError(f"diagnostics[{key!r}] must be a number, got {type(value).__name__}")
         for name, value in (("faces_xyz", faces), ("boxes", boxes), ("speaking", speaking), ("probability", prob),
                             ("person_ids", ids.astype(np.int64)), ("itds_s", itds), ("points_xyz", points),
-                            ("diagnostics", diag)):
+                            ("diagnostics", diag), ("lip_activity", lips)):
             object.__setattr__(self, name, value)
 
     @property
@@ -260,7 +269,8 @@ class ConsoleFrame:
                    np.array([p.speaking for p in people], dtype=bool),
                    np.array([p.probability for p in people], dtype=np.float64), result.itds_s,
                    result.output.model, np.array([p.id for p in people], dtype=np.int64),
-                   None if face else result.xyz, diagnostics or {}, getattr(result, "depth_m", None))
+                   None if face else result.xyz, diagnostics or {}, getattr(result, "depth_m", None),
+                   getattr(result, "lip_activity", None))
 
     @classmethod
     def from_motion_guided(cls, stamp_s: float, frame: int, image: np.ndarray | None, points_xyz: np.ndarray,
@@ -562,11 +572,12 @@ class Console:
                                      labels=[str(pid) for pid in ids]))  # the means are in the legend
 
     def _log_pairs(self, frame: ConsoleFrame, colors: np.ndarray) -> None:
-        """The "ITDs per pair" pane: each pair's histogram, one row per pair (the first at the top), and each
-        person's mapped ITD on it as a dot."""
+        """The "ITDs per pair" pane: each pair's histogram, one row per pair (the first at the top), on the ITD
+        pane's vertical scale (clipped as there), each person's mapped ITD on it as a dot, and the pair's name and
+        count at the row's left end, clear of the histogram's middle."""
         if self.array is None or frame.pair_itds_s is None or frame.pair_itds_s.shape[1] != self.array.n_pairs:
             return
-        strips, labels, dots, dot_colors = [], [], [], []
+        strips, labels, corners, dots, dot_colors = [], [], [], [], []
         mapped = self.array.itd(frame.faces_xyz).reshape(-1, self.array.n_pairs)
         for k, pane in enumerate(self._pair_panes):
             column = frame.pair_itds_s[:, k]
@@ -575,13 +586,15 @@ class Console:
             counts, _ = geo.itd_histogram(values, edges)
             xs, ys = geo.histogram_outline(edges, counts / values.size if values.size else np.zeros(counts.shape))
             row = k * _PAIR_ROW
-            strips.append(pane.xy(xs, ys * _PAIR_ROW / pane.height_per_fraction) + (0.0, row))
+            heights = np.minimum(ys, ITD_CLIP) / ITD_TOP * 0.8 * _PAIR_ROW
+            strips.append(pane.xy(xs, heights / pane.height_per_fraction) + (0.0, row))
             i, j = self.array.pairs[k]  # type: ignore[index]
             labels.append(f"mics {i}-{j}: {values.size} ITDs")
+            corners.append((pane.range_s[0] * 1e6, row - 0.5 * _PAIR_ROW))
             dots.append(np.stack([mapped[:, k] * 1e6, np.full(mapped.shape[0], row)], axis=1))
             dot_colors.append(colors)
-        self._log(ITD_PAIRS_HIST, rr.LineStrips2D(_strips_2d(strips), radii=0.8, colors=[(40, 40, 40)],
-                                                  labels=labels))
+        self._log(ITD_PAIRS_HIST, rr.LineStrips2D(_strips_2d(strips), radii=0.8, colors=[(40, 40, 40)]))
+        self._log(ITD_PAIRS_LABELS, rr.Points2D(np.array(corners), radii=0.1, colors=[(40, 40, 40)], labels=labels))
         self._log(ITD_PAIRS_PEOPLE, rr.Points2D(np.concatenate(dots), radii=4.0, colors=np.concatenate(dot_colors)))
 
     def _log_bars(self, counts: np.ndarray) -> None:
@@ -598,12 +611,18 @@ class Console:
 
     def _log_series(self, frame: ConsoleFrame, ids: list[int], colors: np.ndarray) -> None:
         """Speaking probability per person, the counts and the diagnostics, as time series."""
+        lips = frame.lip_activity
         for n, (pid, p) in enumerate(zip(ids, frame.probability.tolist(), strict=True)):
             path = f"{PEOPLE}/{pid}/speaking_probability"
             if pid not in self._styled:
                 self._log(path, rr.SeriesLines(names=f"person {pid}", colors=colors[n:n + 1]), static=True)
+                if lips is not None:
+                    self._log(f"{LIPS}/{pid}", rr.SeriesLines(names=f"person {pid}", colors=colors[n:n + 1]),
+                              static=True)
                 self._styled.add(pid)
             self._log(path, rr.Scalars(p))
+            if lips is not None and np.isfinite(lips[n]):  # no opinion: a gap in the line
+                self._log(f"{LIPS}/{pid}", rr.Scalars(float(lips[n])))
         self._log(COUNTS, rr.Scalars([frame.n_people, np.count_nonzero(frame.speaking), frame.itds_s.size]))
         for key, value in frame.diagnostics.items():
             self._log(f"{DIAGNOSTICS}/{key}", rr.Scalars(float(value)))

@@ -608,8 +608,18 @@ def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict
     rrd, array = recorded_pairs["rrd"], recorded_pairs["array"]
     strips = rrd.values("/itd_pairs/histograms", "LineStrips2D:strips")
     assert len(strips) == 3 and len(strips[-1]) == array.n_pairs
-    labels = rrd.values("/itd_pairs/histograms", "LineStrips2D:labels")[-1]
+    labels = rrd.values("/itd_pairs/labels", "Points2D:labels")[-1]
     assert labels[0] == f"mics {array.pairs[0][0]}-{array.pairs[0][1]}: 20 ITDs" and labels[3].endswith(": 15 ITDs")
+    # each row on the ITD pane's scale: its bars rise from the row's line, at most a row high (clipped as there),
+    # and the talker's peak fills most of it; the labels sit at the rows' left ends, half a row up
+    from app.console import _PAIR_ROW
+
+    for k, strip in enumerate(strips[-1]):
+        ys = np.array(strip)[:, 1]
+        assert ys.max() == pytest.approx(k * _PAIR_ROW) and ys.min() >= k * _PAIR_ROW - _PAIR_ROW - 1e-6
+    assert np.array(strips[-1][0])[:, 1].min() < -0.5 * _PAIR_ROW
+    corners = np.array(rrd.values("/itd_pairs/labels", "Points2D:positions")[-1])
+    np.testing.assert_allclose(corners[:, 1], np.arange(array.n_pairs) * _PAIR_ROW - 0.5 * _PAIR_ROW)
     dots = np.array(rrd.values("/itd_pairs/people", "Points2D:positions")[-1])
     mapped = array.itd(recorded_pairs["xyz"]) * 1e6  # (N, P): one dot per person and pair, at its ITD
     np.testing.assert_allclose(np.sort(dots[:, 0]), np.sort(mapped.T.reshape(-1)), atol=1e-6)
@@ -617,12 +627,37 @@ def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict
     assert rrd.values("/itd/histogram/count", "Points2D:labels")[-1] == ["20 ITDs"]
 
 
-def test_blueprint_views_look_at_what_the_console_logs(recorded: dict, recorded_pairs: dict, tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def recorded_lips(tmp_path_factory: pytest.TempPathFactory) -> Rrd:
+    """Four frames of two people with the lips' cue: person 5 has no opinion at first, then moving lips."""
+    path = tmp_path_factory.mktemp("console") / "lips.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(RIG, MICS, recording=rec)
+    for i, lips in enumerate(([np.nan, 0.003], [np.nan, 0.004], [0.04, 0.002], [0.05, 0.003])):
+        console.log(_frame(frame=i, stamp_s=i / 30, boxes=np.array([[10.0, 10, 50, 50], [200.0, 10, 50, 50]]),
+                           faces_xyz=np.array([[-0.5, 0.0, 2.0], [0.5, 0.0, 2.0]]), speaking=np.array([True, False]),
+                           probability=np.array([0.9, 0.1]), person_ids=np.array([5, 6]), lip_activity=lips))
+    rec.disconnect()
+    return Rrd(path)
+
+
+def test_each_persons_lip_activity_is_a_series_with_gaps_for_no_opinion(recorded_lips: Rrd) -> None:
+    assert [v[0] for v in recorded_lips.values("/lips/5", "Scalars:scalars")] == pytest.approx([0.04, 0.05])
+    assert recorded_lips.frames("/lips/5", "Scalars:scalars") == [2, 3]
+    assert len(recorded_lips.values("/lips/6", "Scalars:scalars")) == 4
+    assert recorded_lips.values("/lips/5", "SeriesLines:names") == [["person 5"]]
+    with pytest.raises(ValueError, match="lip_activity must have one value per face"):
+        _frame(lip_activity=[0.1, 0.2])
+
+
+def test_blueprint_views_look_at_what_the_console_logs(recorded: dict, recorded_pairs: dict, recorded_lips: Rrd,
+                                                       tmp_path: Path) -> None:
     path = save_default_blueprint(tmp_path / "console.rbl")
     origins = _origins(path)
     assert {"scene/cameras/left", "birdseye", "itd", "itd/bars", "itd_pairs", "people", "scene", "counts",
-            "diagnostics/fps", "diagnostics/latency_ms", "events"} <= origins
-    logged = set(recorded["rrd"].rows) | set(recorded_pairs["rrd"].rows)
+            "diagnostics/fps", "diagnostics/latency_ms", "events", "lips", "legend"} <= origins
+    logged = set(recorded["rrd"].rows) | set(recorded_pairs["rrd"].rows) | set(recorded_lips.rows)
     for origin in origins:
         assert any(p == f"/{origin}" or p.startswith(f"/{origin}/") for p in logged), origin
 
