@@ -45,9 +45,9 @@ FACE_MARGIN = 1.6  # head texture side / labelled face box side: hair, ears and 
 # where a photographed mouth is in its labelled face box: centre x, y and width as fractions of the box's width and
 # height (the face mesh's inner lips and corners on the textures, medians; docs/experiments.md, 2026-11-26)
 MOUTH_IN_FACE_BOX = (0.53, 0.73, 0.37)
-MOUTH_MAX_GAP = 0.5  # the open mouth's gap over its width at full opening (speech spans about 0.1-0.5)
+MOUTH_MAX_GAP = 0.35  # the open mouth's gap over its width at full opening (speech spans about 0.1-0.5)
 MOUTH_BGR = (35, 25, 60)  # the mouth's cavity
-TEETH_BGR = (200, 210, 220)
+TEETH_BGR = (150, 160, 172)
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,9 +88,9 @@ class FaceTexture:
         cavity = np.zeros((h, w), np.uint8)
         cv2.ellipse(cavity, (round(cx), round(cy + gap / 2)), (max(1, round(0.4 * width)), max(1, round(gap / 2))),
                     0, 0, 360, 255, -1, cv2.LINE_AA)
-        teeth = min(0.3 * gap, 0.1 * width)
+        teeth = min(0.25 * gap, 0.08 * width)
         colour = np.where(((ys < cy + teeth) | (ys > cy + gap - 0.6 * teeth))[..., None], TEETH_BGR, MOUTH_BGR)
-        alpha = cavity[..., None].astype(np.float32) / 255.0
+        alpha = 0.85 * cavity[..., None].astype(np.float32) / 255.0
         return (out * (1.0 - alpha) + colour * alpha).astype(np.uint8)
 
 
