@@ -149,12 +149,13 @@ def add_lips_argument(p: argparse.ArgumentParser) -> None:
     """``--lips/--no-lips``: whether the simulated people's mouths move (:mod:`sim.mouths`)."""
     p.add_argument("--lips", action=argparse.BooleanOptionalAction, default=None,
                    help="the simulated talkers' mouths open with their speech and listeners' now and then without "
-                        "sound (default); --no-lips: still mouths, the faces of the earlier figures")
+                        "sound; --no-lips (the default for now): still mouths, the faces every figure was measured on")
 
 
 def wants_lips(args: argparse.Namespace) -> bool:
-    """Whether the simulated people's mouths move: yes unless ``--no-lips``."""
-    return args.lips is not False
+    """Whether the simulated people's mouths move: only with ``--lips`` while the lips' cue is not the default (the
+    documented figures were measured on still mouths; moving ones change the data, docs/experiments.md)."""
+    return args.lips is True
 
 
 def wants_bodies(args: argparse.Namespace) -> bool:

@@ -65,3 +65,9 @@ def test_read_lips_goes_with_faces(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo", "--duration", "1", "--headless", "--motion", "--read-lips"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--read-lips" in err[0] and "--motion" in err[0]
+
+
+def test_moving_mouths_are_the_simulated_rooms(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    assert main(["run", "--source", f"replay:{tmp_path}", "--lips", "--headless"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--lips" in err[0] and "real ones" in err[0]
