@@ -68,30 +68,29 @@ def test_an_unwritable_results_path_fails_before_the_run(tmp_path: Path, capsys:
 
 
 def test_a_recording_gives_the_same_results_in_real_time_and_as_fast_as_possible(tmp_path: Path) -> None:
-    """Real time paces the frames and changes no answer. On a loaded machine a real-time source skips the frames
-    that come late (as it must), so the frames it kept are compared with the same frames replayed as fast as
-    possible: the test does not depend on the machine's speed."""
+    """Real time paces the frames and changes no answer. A real-time source skips the frames that come late (as a
+    camera drops them, or the frames' queue drops its oldest), and then the vote and the tracker see other frames and
+    may answer otherwise: on a machine too loaded to keep up (the run's stats count both) the comparison is
+    skipped, with the count."""
     folder = tmp_path / "s2"
     # 10 FPS: in real time the pipeline has 100 ms a frame, far more than it needs on an idle machine
     assert main(["simulate", "S2", "-o", str(folder), "--duration", "4", "--fps", "10"]) == 0
     states = {}
     for mode in ("realtime", "fast"):
-        out = tmp_path / f"{mode}.jsonl"
+        out, stats = tmp_path / f"{mode}.jsonl", tmp_path / f"{mode}.json"
         flags = ["--fast"] if mode == "fast" else []
-        assert main(["run", "--source", f"replay:{folder}", "--headless", "--results-jsonl", str(out), *flags]) == 0
+        assert main(["run", "--source", f"replay:{folder}", "--headless", "--results-jsonl", str(out),
+                     "--stats-json", str(stats), *flags]) == 0
+        figures = json.loads(stats.read_text())
+        lost = figures["late_frames"] + figures["drops"]["frames"]
+        if mode == "realtime" and lost:
+            pytest.skip(f"{lost} of 40 frames came late on this loaded machine: real time skipped or dropped them")
         rows = _lines(out)  # real time is stamped on the monotonic clock, a fast replay from 0
-        states[mode] = {r["index"]: [(p["id"], p["speaking"]) for p in r["people"]] for r in rows}
-        stamps = np.array([r["stamp_s"] for r in rows])
-        states[f"{mode}_stamps"] = {r["index"]: s for r, s in zip(rows, stamps - stamps[0], strict=True)}
-    assert sorted(states["fast"]) == list(range(40))  # 4 s at 10 FPS
-    assert any(s for people in states["fast"].values() for _, s in people)
-    kept = sorted(states["realtime"])
-    assert kept and set(kept) <= set(states["fast"])
-    assert {i: states["fast"][i] for i in kept} == {i: states["realtime"][i] for i in kept}
-    first = kept[0]
-    for i in kept:  # each kept frame's stamp, relative to the first kept, as in the recording
-        assert states["realtime_stamps"][i] == pytest.approx(states["fast_stamps"][i] - states["fast_stamps"][first],
-                                                             abs=1e-3)
+        states[mode] = [(round(r["stamp_s"] - rows[0]["stamp_s"], 3), [(p["id"], p["speaking"]) for p in r["people"]])
+                        for r in rows]
+    assert len(states["fast"]) == 40  # 4 s at 10 FPS
+    assert any(s for _, people in states["fast"] for _, s in people)
+    assert states["realtime"] == states["fast"]
 
 
 @pytest.mark.parametrize(("probability", "speaking"), [(0.50003, True), (0.5, True), (0.50007, False),
