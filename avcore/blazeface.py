@@ -19,7 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["BlazeFaceDetector", "FaceDetections", "TrackingBlazeFace", "decode", "weighted_nms"]
+__all__ = ["BlazeFaceDetector", "FaceDetections", "TrackingBlazeFace", "decode", "read_tflite", "weighted_nms"]
 
 INPUT_PX = 192
 GRID = 48  # anchors per side: INPUT_PX / stride 4
@@ -109,6 +109,20 @@ def weighted_nms(found: FaceDetections, *, iou: float = 0.3) -> FaceDetections:
     return FaceDetections(np.array(out_b), np.array(out_k), np.array(out_s))
 
 
+def read_tflite(model: str | Path, expected: str) -> cv2.dnn.Net:
+    """A TFLite model read by OpenCV's DNN module (OpenCV 5 with its classic engine; OpenCV 4 has only that one); a
+    ValueError that names the ``expected`` file when it is no TFLite model."""
+    reader = cv2.dnn.readNetFromTFLite
+    try:
+        try:
+            return reader(str(model), engine=cv2.dnn.ENGINE_CLASSIC)  # type: ignore[attr-defined]
+        except (AttributeError, TypeError):
+            return reader(str(model))
+    except cv2.error as exc:
+        raise ValueError(f"{model}: OpenCV cannot read it as a TFLite model ({str(exc).strip()[-80:]}); "
+                         f"give {expected}") from None
+
+
 def _bgr(image: np.ndarray) -> np.ndarray:
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim not in (2, 3):
         raise ValueError(f"image must be a (h, w) or (h, w, 3) uint8 array, got {getattr(image, 'shape', image)}")
@@ -140,15 +154,7 @@ class BlazeFaceDetector:
             raise ValueError(f"tiles must be a whole number >= 1, got {self.tiles!r}")
         if not 0 <= self.overlap < 1:
             raise ValueError(f"overlap must be in [0, 1), got {self.overlap!r}")
-        reader = cv2.dnn.readNetFromTFLite
-        try:
-            try:  # OpenCV 5 reads TFLite with its classic engine; OpenCV 4 has only that one
-                self._net = reader(str(self.model), engine=cv2.dnn.ENGINE_CLASSIC)  # type: ignore[attr-defined]
-            except (AttributeError, TypeError):
-                self._net = reader(str(self.model))
-        except cv2.error as exc:
-            raise ValueError(f"{self.model}: OpenCV cannot read it as a TFLite model ({str(exc).strip()[-80:]}); "
-                             "give face_detection_full_range.tflite") from None
+        self._net = read_tflite(self.model, "face_detection_full_range.tflite")
         self._outputs = self._net.getUnconnectedOutLayersNames()
 
     def squares(self, width: int, height: int) -> list[tuple[int, int, int]]:

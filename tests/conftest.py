@@ -17,6 +17,21 @@ def shared_data() -> Path:
     return SHARED_DATA
 
 
+@pytest.fixture(scope="session")
+def load_benchmark():  # noqa: ANN201
+    """A script of ``benchmarks/`` loaded as a module by its name (the folder is no package)."""
+    import importlib.util
+
+    def load(name: str):  # noqa: ANN202
+        path = Path(__file__).resolve().parents[1] / "benchmarks" / f"{name}.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module
+
+    return load
+
+
 @pytest.fixture(scope="session", autouse=True)
 def _own_bus_rendezvous() -> None:
     """The suite's avhear processes meet on a free loopback port of their own (AVHEAR_BUS_PORT), not on 7448, where

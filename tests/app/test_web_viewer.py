@@ -6,7 +6,6 @@ Slow (about a minute): `pytest -m slow tests/app/test_web_viewer.py`. With AVHEA
 is kept there."""
 from __future__ import annotations
 
-import importlib.util
 import os
 from pathlib import Path
 
@@ -18,18 +17,8 @@ from app.cli import main
 
 pytestmark = pytest.mark.slow
 
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "console_screenshots.py"
-
-
-def _screenshots():  # noqa: ANN202
-    spec = importlib.util.spec_from_file_location("console_screenshots", _PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_console_in_the_web_viewer(tmp_path: Path) -> None:
-    shots = _screenshots()
+def test_console_in_the_web_viewer(tmp_path: Path, load_benchmark) -> None:  # noqa: ANN001
+    shots = load_benchmark("console_screenshots")
     if shots.chromium_executable() is None:
         pytest.skip("Debian's chromium is not installed (apt-get install chromium)")
     pytest.importorskip("websocket", reason="pip install websocket-client (the test extra has it)")

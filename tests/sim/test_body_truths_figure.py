@@ -1,29 +1,17 @@
 """benchmarks/body_truths_figure.py: the picture of a skeletons interval with its truth points (issue 18)."""
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 
 from app.plotting import BLUE, GREEN, RED
 
-_PATH = Path(__file__).resolve().parents[2] / "benchmarks" / "body_truths_figure.py"
-
-
-def _module():  # noqa: ANN202
-    spec = importlib.util.spec_from_file_location("body_truths_figure", _PATH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def _has(img: np.ndarray, colour: tuple[int, int, int]) -> bool:
     return bool(np.any(np.all(img == np.array(colour, np.uint8), axis=2)))
 
 
-def test_one_panel_per_visible_person_with_every_mark() -> None:
-    fig = _module()
+def test_one_panel_per_visible_person_with_every_mark(load_benchmark) -> None:  # noqa: ANN001
+    fig = load_benchmark("body_truths_figure")
     img = fig.draw("seated", 0, 3)
     assert img.ndim == 3 and img.shape[2] == 3 and img.dtype == np.uint8
     # three seated people, each panel at least 300 px wide, with both truths and avhear's estimate drawn
