@@ -1,7 +1,6 @@
 """benchmarks/body_truths_figure.py: the picture of a skeletons interval with its truth points (issue 18)."""
 from __future__ import annotations
 
-
 import numpy as np
 
 from app.plotting import BLUE, GREEN, RED
