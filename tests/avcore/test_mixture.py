@@ -295,3 +295,31 @@ def test_pairs_em_with_missing_pairs_is_the_model_written_out() -> None:
     np.testing.assert_allclose(fit.means, mu, rtol=1e-9, atol=1e-15)
     np.testing.assert_allclose(fit.variances, var, rtol=1e-7)
     np.testing.assert_allclose(fit.beta, beta, atol=1e-9)
+
+
+def test_each_class_holds_its_weight_of_the_density() -> None:
+    """pi_n P(x | n) integrates to pi_n over the support for each Gaussian (well inside it here) and for the
+    outlier class, and the classes add up to the density."""
+    model = _model([0.5, 0.3, 0.2], [-120.0, 80.0], [25.0, 15.0])
+    x = np.linspace(*SUPPORT, 20001)
+    per_class = model.component_densities(x)
+    np.testing.assert_allclose(np.trapezoid(per_class, x, axis=0), model.weights, atol=1e-4)
+    np.testing.assert_allclose(per_class.sum(axis=1), model.density(x), rtol=1e-12)
+    with pytest.raises(ValueError, match="^x must be a 1-D array"):
+        model.density(np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="^x must be a 1-D array"):
+        model.component_densities(np.zeros((2, 2)))
+
+
+def test_bic_of_one_candidate_is_a_number_and_of_several_an_array() -> None:
+    one = bic_score(-100.0, 2, 50)
+    assert type(one) is float and one == pytest.approx(-100.0 - 3.0 * np.log(50))
+    several = bic_score(np.array([-100.0, -90.0]), np.array([1, 2]), 50)
+    assert isinstance(several, np.ndarray)
+    np.testing.assert_allclose(several, [-100.0 - 1.5 * np.log(50), -90.0 - 3.0 * np.log(50)])
+
+
+def test_davies_bouldin_of_two_components() -> None:
+    """Two components: each one's index is (sigma_1 + sigma_2) / |mu_1 - mu_2| (section 4.4); one: +inf."""
+    np.testing.assert_allclose(davies_bouldin(np.array([0.0, 100.0]), np.array([10.0, 30.0])), [0.4, 0.4])
+    assert davies_bouldin(np.array([5.0]), np.array([1.0])).tolist() == [np.inf]
