@@ -272,12 +272,19 @@ class Pipeline:
         self._vision_clock: float | None = None  # stamp of the last frame vision took (the ITD worker's pace)
         self._first_audio_stamp: float | None = None
         self._sync: TimeFrame | None = None  # the fusion thread's synchroniser, for its drop counts
+        self._hearing: Any = None  # the fusion thread's hearing, for the self-calibration's state
 
     # -- control ---------------------------------------------------------------------------------------------
 
     def queue_depths(self) -> dict[str, int]:
         """Items waiting in each queue now (for the diagnostics pane)."""
         return {q.name: len(q) for q in (self._q_frames, self._q_audio, self._q_fusion)}
+
+    def self_calibration_state(self) -> list[dict[str, Any]] | None:
+        """Where the self-calibration stands, per pair (:meth:`app.hearing.SelfCalibrating.state`); None without
+        it. For the sinks, which run on the fusion thread that owns the hearing."""
+        hearing = self._hearing
+        return hearing.state() if isinstance(hearing, SelfCalibrating) else None
 
     def stop(self) -> None:
         """Ask every thread to finish (safe from a signal handler)."""
@@ -467,7 +474,7 @@ class Pipeline:
 
     def _fusion_loop(self) -> None:
         sync = self._sync = self.mode.time_frame()
-        hearing = self.mode.hearing(_array(self.source))
+        hearing = self._hearing = self.mode.hearing(_array(self.source))
         tracker = NearestTracker()
         while True:
             if self._stop.is_set():

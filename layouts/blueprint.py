@@ -77,6 +77,9 @@ def default_blueprint(several_pairs: bool = False) -> rrb.Blueprint:
         contents=["+ $origin/queue_depth/**", "+ $origin/drops/**", "+ $origin/audio_overflows"],
         name="Queues, drops, overflows", time_ranges=_recent(),
     )
+    selfcal = rrb.TimeSeriesView(origin="diagnostics/self_calibration",
+                                 name="Self-calibration (--self-calibrate: c1, c0 in us, inliers per pair)",
+                                 time_ranges=_recent())
     events = rrb.TextLogView(origin="events", name="Events")
 
     paper = rrb.Vertical(
@@ -89,7 +92,7 @@ def default_blueprint(several_pairs: bool = False) -> rrb.Blueprint:
     extra = rrb.Vertical(
         legend,
         scene,
-        rrb.Tabs(counts, fps, latency, queues, active_tab=0),
+        rrb.Tabs(counts, fps, latency, queues, selfcal, active_tab=0),
         events,
         row_shares=[2, 3, 2, 1],
         name="Scene and diagnostics",

@@ -35,6 +35,10 @@ class Sinks:
         diagnostics = {f"queue_depth/{name}": float(n) for name, n in self.pipeline.queue_depths().items()}
         if result.latency_s == result.latency_s:
             diagnostics["latency_ms/fusion"] = result.latency_s * 1e3
+        for p, pair in enumerate(self.pipeline.self_calibration_state() or []):  # --self-calibrate: where it stands
+            diagnostics[f"self_calibration/pair{p}/c1"] = pair["c1"]
+            diagnostics[f"self_calibration/pair{p}/c0_us"] = pair["c0_s"] * 1e6
+            diagnostics[f"self_calibration/pair{p}/inliers"] = float(pair["inliers"])
         if self.session.part_due():
             self.session.next_part()
             self.console.new_part()

@@ -629,7 +629,8 @@ def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict
 
 @pytest.fixture(scope="module")
 def recorded_lips(tmp_path_factory: pytest.TempPathFactory) -> Rrd:
-    """Four frames of two people with the lips' cue: person 5 has no opinion at first, then moving lips."""
+    """Four frames of two people with the lips' cue (person 5 has no opinion at first, then moving lips) and a
+    self-calibration's state among the diagnostics."""
     path = tmp_path_factory.mktemp("console") / "lips.rrd"
     rec = rr.RecordingStream(APPLICATION_ID)
     rec.save(path)
@@ -637,7 +638,8 @@ def recorded_lips(tmp_path_factory: pytest.TempPathFactory) -> Rrd:
     for i, lips in enumerate(([np.nan, 0.003], [np.nan, 0.004], [0.04, 0.002], [0.05, 0.003])):
         console.log(_frame(frame=i, stamp_s=i / 30, boxes=np.array([[10.0, 10, 50, 50], [200.0, 10, 50, 50]]),
                            faces_xyz=np.array([[-0.5, 0.0, 2.0], [0.5, 0.0, 2.0]]), speaking=np.array([True, False]),
-                           probability=np.array([0.9, 0.1]), person_ids=np.array([5, 6]), lip_activity=lips))
+                           probability=np.array([0.9, 0.1]), person_ids=np.array([5, 6]), lip_activity=lips,
+                           diagnostics={"self_calibration/pair0/c1": 0.9 + 0.01 * i}))
     rec.disconnect()
     return Rrd(path)
 

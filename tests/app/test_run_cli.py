@@ -61,6 +61,22 @@ def test_the_console_opens_on_every_pairs_itds_with_an_array(tmp_path: Path, mic
     assert "legend" in _entities(rrd)
 
 
+def test_the_console_shows_where_the_self_calibration_stands(tmp_path: Path) -> None:
+    """--self-calibrate: each pair's c1, c0 and inliers as series, from the start's values (the simulated pair's
+    nominal 1 and 0 us) to a fit on the inliers it gathers."""
+    rrd = tmp_path / "demo.rrd"
+    assert main(["demo", "--duration", "4", "--fast", "--self-calibrate", "--save", str(rrd)]) == 0
+    series: dict[str, list[float]] = {}
+    for chunk in RrdReader(rrd).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if "self_calibration" in chunk.entity_path and "Scalars:scalars" in batch.schema.names:
+            series.setdefault(chunk.entity_path.rsplit("/", 1)[-1], []).extend(
+                v[0] for v in batch.column("Scalars:scalars").to_pylist())
+    assert set(series) == {"c1", "c0_us", "inliers"}
+    assert series["c1"][0] == 1.0 and series["c0_us"][0] == 0.0 and series["inliers"][0] == 0.0
+    assert series["inliers"][-1] >= 30 and series["c1"][-1] != 1.0  # fitted once enough people talked alone
+
+
 def test_run_replays_a_recording(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     folder = tmp_path / "s1"
     assert main(["simulate", "S1", "-o", str(folder), "--duration", "2"]) == 0
