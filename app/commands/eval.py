@@ -30,7 +30,7 @@ from app.eval.scenarios import (
     calibrate_on_preset,
     evaluate_scenario,
 )
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from sim.synthetic import SEQUENCES
 from app.eval.synthetic import (
     FACE_VARIANTS,
@@ -146,12 +146,13 @@ def run_scenarios(args: argparse.Namespace) -> int:
         output_dir(args.timeline, "--timeline")
     start = time.perf_counter()
     calibration: CalibrationFit | None = None
-    if args.calibrate and args.mics != "pair":
+    one_pair = MicArray.preset(args.mics).n_pairs == 1
+    if args.calibrate and not one_pair:
         _progress(f"--mics {args.mics}: no audio-visual calibration (it fits one pair; the simulated microphones are "
                   "exact)")
-    if args.calibrate and args.mics == "pair":
+    if args.calibrate and one_pair:
         _progress("calibration preset (section 5.3): fitting c1, c0 ...")
-        calibration = calibrate_on_preset(seed=args.seed[0], config=config, camera=args.camera)
+        calibration = calibrate_on_preset(seed=args.seed[0], config=config, camera=args.camera, mic_array=args.mics)
         c = calibration.as_dict()
         _progress(f"c1 = {c['c1']:.4f}, c0 = {signed_us(c['c0_us'])} us, median |residual| "
                   f"{c['median_abs_residual_before_us']:.1f} -> {c['median_abs_residual_after_us']:.1f} us")

@@ -26,7 +26,7 @@ from app.result import Result
 from app.sources.open import StreamAdapter, open_source
 from avcore.calibration import fit_av_calibration_report
 from avcore.evaluation import TAU_LOC_M, match_clusters
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from avcore.evaluation import FrameTruth
 from avcore.itd import ItdTrack, extract_itds, geometry_options
 from sim.scenario import Scenario
@@ -384,12 +384,16 @@ def _open(name: str, seed: int, duration_s: float | None, progress: Progress | N
 
 
 def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, config: PipelineConfig | None = None,
-                        progress: Progress | None = None, camera: str = "stereo") -> CalibrationFit:
+                        progress: Progress | None = None, camera: str = "stereo",
+                        mic_array: str = "pair") -> CalibrationFit:
     """Fit the affine correction c1, c0 (eq. itd_up) as a user would: run the ``calibration`` preset through the
     pipeline (F3D faces, ITDs of each frame's time window), pair the one face of each frame with each of its ITDs,
-    and fit robustly (:func:`avcore.calibration.fit_av_calibration_report`)."""
+    and fit robustly (:func:`avcore.calibration.fit_av_calibration_report`). ``mic_array``: a preset of one pair
+    (the default pair, a laptop's)."""
+    if MicArray.preset(mic_array).n_pairs != 1:
+        raise ValueError(f"the calibration fits one pair; {mic_array!r} has several")
     cfg = replace(config or PipelineConfig(), inference="face")
-    source = _open("calibration", seed, duration_s, progress, camera=camera)
+    source = _open("calibration", seed, duration_s, progress, mic_array, camera=camera)
     faces: list[np.ndarray] = []
     itds: list[float] = []
 
@@ -422,8 +426,8 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     (:class:`app.sources.sim.SimSource`). A motion-guided run is scored against the centre of each person's visible
     moving body (:meth:`app.sources.sim.SimSource.body_centres`), a face-guided one against the faces.
     """
-    if mics is not None and mic_array != "pair":
-        raise ValueError("an audio-visual correction (mics) applies to the one pair; use mic_array='pair' with it")
+    if mics is not None and MicArray.preset(mic_array).n_pairs != 1:
+        raise ValueError("an audio-visual correction (mics) applies to one pair; use a preset of one pair with it")
     if name not in SCENARIOS:
         raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}, got {name!r}")
     cfg = config or PipelineConfig()

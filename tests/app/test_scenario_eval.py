@@ -239,6 +239,23 @@ def test_calibration_on_the_preset_shrinks_the_residuals() -> None:
     assert set(fit.as_dict()) >= {"c1", "c0_us", "median_abs_residual_after_us"}
 
 
+def test_a_laptops_pair_is_calibrated_on_its_own_microphones() -> None:
+    """The calibration fits the pair the robot has: a laptop's two microphones 10 cm apart (their largest ITD about
+    290 us, against the default pair's 350) get their own c1, c0; an array of several pairs gets none, and a
+    correction cannot be given to one."""
+    from app.eval.scenarios import evaluate_scenario
+    from avcore.geometry import MicArray
+
+    fit = calibrate_on_preset(duration_s=6.0, mic_array="laptop")
+    laptop = MicArray.preset("laptop").pair(0)
+    assert fit.mics.left == laptop.left and fit.mics.right == laptop.right
+    assert fit.median_abs_after_s < fit.median_abs_before_s and 0.4 < fit.mics.c1 < 1.2
+    with pytest.raises(ValueError, match="several"):
+        calibrate_on_preset(duration_s=6.0, mic_array="nao")
+    with pytest.raises(ValueError, match="one pair"):
+        evaluate_scenario("S1", mics=fit.mics, mic_array="nao")
+
+
 def test_eval_scenarios_bad_arguments(capsys: pytest.CaptureFixture[str]) -> None:
     for argv, option in ((["--seed", "-1"], "--seed"), (["--itd-method", "nope"], "--itd-method")):
         with pytest.raises(SystemExit) as stop:  # refused when parsed
