@@ -38,14 +38,15 @@ def statuses() -> dict[str, collections.Counter]:
 
 
 def table(counts: dict[str, collections.Counter]) -> str:
-    rows = ["| module | mutants | killed | survived | no tests | timeout | score |", "|---|---|---|---|---|---|---|"]
+    rows = ["| module | mutants | killed | survived | no tests | timeout | not run yet | score |",
+            "|---|---|---|---|---|---|---|---|"]
     for module in sorted(counts):
         c = counts[module]
-        tested = sum(c.values()) - c["skipped"] - c["no tests"]
+        tested = sum(c.values()) - c["skipped"] - c["no tests"] - c["not checked"]  # a stopped run leaves some
         killed = c["killed"] + c["timeout"]
         score = f"{100 * killed / tested:.1f} %" if tested else "n/a"
         rows.append(f"| `{module}` | {sum(c.values())} | {c['killed']} | {c['survived']} | {c['no tests']} | "
-                    f"{c['timeout']} | {score} |")
+                    f"{c['timeout']} | {c['not checked']} | {score} |")
     return "\n".join(rows)
 
 
