@@ -24,6 +24,7 @@ from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHe
 from avcore.facemesh import mouth_opening
 from avcore.itd import gives_frame_itds
 from avcore.lips import LipTracks, veto_still_lips
+from avcore.voices import VoiceTracks, unexplained_voice
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
 from avcore.selfcal import SelfCalibration, SelfCalibrationFit
@@ -39,7 +40,7 @@ if TYPE_CHECKING:
     from avcore.geometry import MicPair
     from avcore.stereo import StereoRig
 
-__all__ = ["FaceGuided", "MotionGuided", "Vision", "face_detector", "hearing_mode"]
+__all__ = ["FaceGuided", "MotionGuided", "Vision", "Voice", "face_detector", "hearing_mode"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,6 +64,7 @@ class FaceGuided:
     config: PipelineConfig
     _mesh: Any = field(default=None, init=False, repr=False)
     _lips: LipTracks | None = field(default=None, init=False, repr=False)
+    _voices: VoiceTracks = field(default_factory=VoiceTracks, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
@@ -126,6 +128,27 @@ class FaceGuided:
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return vision.xyz
 
+    def voices(self, array: MicArray, vision: Vision, itds: np.ndarray) -> tuple[Voice, ...] | None:
+        """With several pairs, the voice out of view this result's ITDs hold, if any (:mod:`avcore.voices`), with
+        its id; None with one pair (it cannot tell a direction)."""
+        if array.n_pairs < 2:
+            return None
+        found = unexplained_voice(itds, array, vision.xyz)
+        if found is None:
+            return ()
+        return (Voice(self._voices.update(vision.stamp_s, found), found.azimuth_rad, found.elevation_rad),)
+
+
+@dataclass(frozen=True)
+class Voice:
+    """A voice that no visible person explains: its id (its own numbering, apart from the people's) and its
+    direction (azimuth from straight ahead, positive to the right; elevation up, None where the array cannot tell);
+    its distance is unknown."""
+
+    id: int
+    azimuth_rad: float
+    elevation_rad: float | None
+
 
 @dataclass(eq=False)
 class MotionGuided:
@@ -182,6 +205,10 @@ class MotionGuided:
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return output.positions
+
+    def voices(self, array: MicArray, vision: Vision, itds: np.ndarray) -> None:
+        """Algorithm 1 gives every sound a cluster of its own: no voice is left over."""
+        return None
 
 
 class SelfCalibrating:

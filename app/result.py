@@ -51,6 +51,8 @@ class Result:
     minus capture stamp (nan for a source replayed as fast as possible). person_ids : (N,) stable ids of the people
     of ``output``. depth_m : an RGB-D camera's depth aligned to ``image``, metres (NaN: none), or None.
     lip_activity : (N,) each face's lip activity with the lips' cue (:class:`avcore.lips.LipTracks`), or None.
+    voices : the voices out of view (:class:`app.hearing.Voice`: an id and a direction) with several microphone
+    pairs; None with one pair (no direction) or motion-guided.
     """
 
     stamp_s: float
@@ -64,6 +66,7 @@ class Result:
     person_ids: np.ndarray
     depth_m: np.ndarray | None = None
     lip_activity: np.ndarray | None = None
+    voices: tuple | None = None
 
     @property
     def mode(self) -> str:
