@@ -51,6 +51,10 @@ HEADS_SILENT = "scene/heads/silent"
 HM3D_POINTS = "scene/hm3d_points"
 BIRDSEYE = "birdseye"
 BIRDSEYE_HEADS = "birdseye/heads/circles"
+BIRDSEYE_VOICES = "birdseye/voices"  # a voice out of view: a ray from the robot along its direction
+SCENE_VOICES = "scene/voices"
+VOICE_RAY_M = 4.0  # how far a voice's ray is drawn (its distance is unknown)
+VOICE_RGB = (148, 103, 189)
 ITD = "itd"
 ITD_GAUSSIANS = "itd/faces/gaussians"
 ITD_TOP = 0.2  # the ITD pane's vertical scale: fraction of the interval's ITDs per bin at its top
@@ -159,6 +163,8 @@ class ConsoleFrame:
     lip_activity : (N,) float or None
         Each face's lip activity (the lips' cue, :class:`avcore.lips.LipTracks`; NaN: no opinion), drawn as each
         person's series under ``lips/<id>``.
+    voices : sequence of (id, azimuth_rad) or None
+        The voices out of view (:class:`app.hearing.Voice`), each drawn as a ray from the robot.
     """
 
     stamp_s: float
@@ -175,6 +181,7 @@ class ConsoleFrame:
     diagnostics: Mapping[str, float] = field(default_factory=dict)
     depth_m: np.ndarray | None = None
     lip_activity: np.ndarray | None = None
+    voices: tuple = ()
     pair_itds_s: np.ndarray | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
@@ -270,7 +277,8 @@ class ConsoleFrame:
                    np.array([p.probability for p in people], dtype=np.float64), result.itds_s,
                    result.output.model, np.array([p.id for p in people], dtype=np.int64),
                    None if face else result.xyz, diagnostics or {}, getattr(result, "depth_m", None),
-                   getattr(result, "lip_activity", None))
+                   getattr(result, "lip_activity", None),
+                   tuple((v.id, v.azimuth_rad) for v in (getattr(result, "voices", None) or ())))
 
     @classmethod
     def from_motion_guided(cls, stamp_s: float, frame: int, image: np.ndarray | None, points_xyz: np.ndarray,
@@ -462,6 +470,7 @@ class Console:
         self._log_pairs(frame, colors)
         self._log_series(frame, ids, colors)
         self._log_legend(frame, colors)
+        self._log_voices(frame.voices)
         self._log_points(frame.points_xyz)
         self.frames_logged += 1
 
@@ -640,6 +649,16 @@ class Console:
         # the labels are written in each person's colour; the points under them are not drawn
         self._log_people(LEGEND, n, rr.Points2D(np.stack([np.zeros(n), np.arange(n, dtype=np.float64)], 1),
                                                 radii=0.0, colors=colors, labels=lines))
+
+    def _log_voices(self, voices: tuple) -> None:
+        """Each voice out of view as a ray from the robot along its direction (its distance is unknown), in the
+        bird's-eye view and the 3D scene, labelled with its id; cleared when none is heard."""
+        n = len(voices)
+        ends = geo.voice_rays(np.array([a for _, a in voices], dtype=np.float64), VOICE_RAY_M)  # (n, 2, 3)
+        labels = [f"voice {i}" for i, _ in voices]
+        self._log_people(BIRDSEYE_VOICES, n, rr.LineStrips2D(geo.birdseye(ends), radii=0.02, colors=[VOICE_RGB],
+                                                             labels=labels))
+        self._log_people(SCENE_VOICES, n, rr.LineStrips3D(ends, radii=0.01, colors=[VOICE_RGB], labels=labels))
 
     def _log_points(self, points: np.ndarray | None) -> None:
         if points is not None:

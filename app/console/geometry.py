@@ -137,6 +137,14 @@ def birdseye(points_xyz: np.ndarray) -> np.ndarray:
     return np.stack([pts[..., 0], -pts[..., 2]], axis=-1)
 
 
+def voice_rays(azimuths_rad: np.ndarray, length_m: float) -> np.ndarray:
+    """Rays from the robot (the origin) along horizontal directions: azimuths (n,) from straight ahead, positive
+    to the right  ->  (n, 2, 3) metres, start and end."""
+    az = np.asarray(azimuths_rad, dtype=np.float64).reshape(-1)
+    ends = length_m * np.stack([np.sin(az), np.zeros(az.size), np.cos(az)], axis=1)
+    return np.stack([np.zeros_like(ends), ends], axis=1)
+
+
 def camera_centres(rig: StereoRig) -> np.ndarray:
     """The two rectified camera centres in the scene frame: (2, 3) metres, left then right."""
     half = 0.5 * rig.baseline_m

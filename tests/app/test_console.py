@@ -837,3 +837,24 @@ def _containers(container):  # noqa: ANN001, ANN202
         if hasattr(item, "contents") and not hasattr(item, "origin"):
             yield item
             yield from _containers(item)
+
+
+def test_a_voice_out_of_view_is_a_ray_from_the_robot(tmp_path: Path) -> None:
+    """A voice 53 degrees to the left: a ray from the robot 4 m along it in the bird's-eye view (x, -z: forward
+    up) and in 3D, labelled with its id; cleared when no voice is heard."""
+    path = tmp_path / "voices.rrd"
+    rec = rr.RecordingStream(APPLICATION_ID)
+    rec.save(path)
+    console = Console(RIG, MICS, recording=rec)
+    az = np.radians(-53.0)
+    console.log(_frame(frame=0, voices=((3, az),)))
+    console.log(_frame(frame=1))
+    rec.disconnect()
+    rrd = Rrd(path)
+    ray = np.array(rrd.values("/birdseye/voices", "LineStrips2D:strips")[0][0])
+    np.testing.assert_allclose(ray, [[0.0, 0.0], [4 * np.sin(az), -4 * np.cos(az)]], atol=1e-6)
+    assert ray[1, 0] < 0 and ray[1, 1] < 0  # to the left, and ahead (up in the view)
+    assert rrd.values("/birdseye/voices", "LineStrips2D:labels")[0] == ["voice 3"]
+    np.testing.assert_allclose(np.array(rrd.values("/scene/voices", "LineStrips3D:strips")[0][0])[1],
+                               [4 * np.sin(az), 0.0, 4 * np.cos(az)], atol=1e-6)
+    assert rrd.frames("/birdseye/voices", "Clear:is_recursive") == [1]
