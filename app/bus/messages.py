@@ -13,7 +13,9 @@ FACE = 2, VOICE = 4) and TF frames on ``tf``. Topics REP-155 latches are sent wi
 
 avhear's ids: a tracked person ``N`` (:class:`avcore.tracking.NearestTracker`; the results file's ``id``) is the
 person ``pN`` with the face ``fN`` (face-guided runs) and the voice ``vN``, matched with confidence 1.0 (the voice is
-the sound from that person's place); persons are anonymous (followed, not recognised). Frames ``person_pN`` (at the
+the sound from that person's place); persons are anonymous (followed, not recognised). A voice out of view (several
+microphone pairs: the results' ``voices``) is the voice ``voN``, matched to no face or person, its frame
+``voice_voN`` 1 m along its direction (:data:`UNSEEN_VOICE_RANGE_M`: its distance is unknown). Frames ``person_pN`` (at the
 face while seen, at the last place while remembered), ``face_fN`` and ``voice_vN`` are children of :data:`RIG_FRAME`,
 the scene frame of docs/architecture.md, with identity rotation. Headers carry the result's capture stamp on the
 source's clock, the JSON's ``stamp_s``.
@@ -138,6 +140,16 @@ def voice_id(person: int) -> str:
     return f"v{int(person)}"
 
 
+def outside_voice_id(voice: int) -> str:
+    """A voice out of view (no person, no face): its own numbering, apart from the people's voices."""
+    return f"vo{int(voice)}"
+
+
+# a voice out of view has a direction and no distance: its voice_<id> frame is put this far along its ray, a unit
+# distance that says "direction only" (REP-155 gives voices no distance field)
+UNSEEN_VOICE_RANGE_M = 1.0
+
+
 class Topics:
     """Builds the messages of one result: (topic relative to the namespace, ROS type, payload); the JSON line of the
     results file goes on :data:`RESULTS_KEY` with the type None (it is not a ROS message). Stateful: it remembers
@@ -168,10 +180,17 @@ class Topics:
             out.append((topic, typename, encode(message, typename)))
 
         voices = [voice_id(p["id"]) for p in people]
-        add("humans/voices/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=voices))
+        outside = record.get("voices") or []  # voices out of view: a direction, no face, no person
+        unseen = [outside_voice_id(v["id"]) for v in outside]
+        add("humans/voices/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=voices + unseen))
         for p, vid in zip(people, voices):
             add(f"humans/voices/{vid}/is_speaking", BOOL, t[BOOL](data=bool(p["speaking"])))
         transforms = [self._transform(header, f"voice_{vid}", p["position_m"]) for p, vid in zip(people, voices)]
+        for v, vid in zip(outside, unseen):  # heard now: speaking; its frame on its ray, at an unknown distance
+            add(f"humans/voices/{vid}/is_speaking", BOOL, t[BOOL](data=True))
+            az = np.radians(v["azimuth_deg"])
+            transforms.append(self._transform(header, f"voice_{vid}", [UNSEEN_VOICE_RANGE_M * np.sin(az), 0.0,
+                                                                        UNSEEN_VOICE_RANGE_M * np.cos(az)]))
         if face:
             faces = [face_id(p["id"]) for p in people]
             add("humans/faces/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=faces))

@@ -348,3 +348,18 @@ def test_a_ros2_graph_behind_rmw_zenohs_router_sees_avhear(rmw_router: str) -> N
     assert [p[8] for p in parts if p[5] == "NN"] == ["avhear"]
     assert any(p[5] == "MP" and p[9] == "%humans%voices%tracked" for p in parts)
     assert all(m.header.frame_id == "avhear_rig" for m in messages) and any(m.ids for m in messages)
+
+
+def test_a_voice_out_of_view_is_a_voice_of_its_own_on_its_ray() -> None:
+    """A voice out of view (the results' `voices`) is tracked and speaking, matched to no person or face, and its
+    frame lies 1 m along its direction (x = sin azimuth, z = cos azimuth: 53 degrees to the left)."""
+    record = dict(RECORD, voices=[{"id": 2, "azimuth_deg": -53.0, "elevation_deg": None}])
+    messages = Topics().messages(record)
+    got = {topic: payload for topic, _, payload in messages}
+    assert decode(got["humans/voices/tracked"], "hri_msgs/msg/IdsList").ids == ["v0", "v3", "vo2"]
+    assert decode(got["humans/voices/vo2/is_speaking"], "std_msgs/msg/Bool").data is True
+    matches = [decode(p, "hri_msgs/msg/IdsMatch") for topic, _, p in messages if topic == "humans/candidate_matches"]
+    assert all("vo2" not in (m.id1, m.id2) for m in matches)
+    frames = {t.child_frame_id: t for t in decode(got["tf"], "tf2_msgs/msg/TFMessage").transforms}
+    v = frames["voice_vo2"].transform.translation
+    assert (v.x, v.y, v.z) == pytest.approx((-0.7986, 0.0, 0.6018), abs=1e-4)
