@@ -261,6 +261,7 @@ class ScenarioScore:
     faces: str = ""
     timeline: Timeline | None = field(default=None, repr=False)  # of a single run; None once seeds are merged
     self_calibration: list[dict[str, Any]] = field(default_factory=list)  # per seed: where the first pair ended
+    voices: VoiceCounts | None = None  # several pairs, face-guided: the voices out of view
 
     @property
     def all_found_share(self) -> float:
@@ -321,6 +322,8 @@ class ScenarioScore:
         self.itd_errors_s += other.itd_errors_s
         self.itd_true_s += other.itd_true_s
         self.self_calibration += other.self_calibration
+        if other.voices is not None:
+            self.voices = other.voices if self.voices is None else self.voices.add(other.voices)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -347,11 +350,64 @@ class ScenarioScore:
             "speech_clips": self.speech,
             "face_images": self.faces,
             **({"self_calibration": self.self_calibration} if self.self_calibration else {}),
+            **({"voices_out_of_view": self.voices.as_dict()} if self.voices is not None else {}),
         }
 
 
 def _clean(x: float) -> float | None:
     return None if math.isnan(x) else round(float(x), 6)
+
+
+VOICE_TOLERANCE_DEG = 15.0  # a voice out of view counts as found within this of its talker's azimuth
+VOICE_SILENT_HOLD_S = 0.4  # a result counts as "nobody unseen talks" when none does within this of its stamp
+
+
+@dataclass
+class VoiceCounts:
+    """The voices out of view against the truth, per result: ``talking`` results where a person out of view speaks,
+    ``found`` of them with a voice within :data:`VOICE_TOLERANCE_DEG` of that person's azimuth (``errors_deg`` the
+    nearest voice's error in each); ``quiet`` results where nobody out of view speaks within
+    :data:`VOICE_SILENT_HOLD_S`, ``false`` of them with a voice."""
+
+    talking: int = 0
+    found: int = 0
+    quiet: int = 0
+    false: int = 0
+    errors_deg: list[float] = field(default_factory=list, repr=False)
+
+    def add(self, other: VoiceCounts) -> VoiceCounts:
+        return VoiceCounts(self.talking + other.talking, self.found + other.found, self.quiet + other.quiet,
+                           self.false + other.false, self.errors_deg + other.errors_deg)
+
+    def as_dict(self) -> dict[str, Any]:
+        median = float(np.median(self.errors_deg)) if self.errors_deg else math.nan
+        return {"results_unseen_talking": self.talking, "found_within_15deg": self.found,
+                "found_share": _clean(self.found / self.talking if self.talking else math.nan),
+                "median_azimuth_error_deg": _clean(median), "results_nobody_unseen_talking": self.quiet,
+                "false_voice_results": self.false}
+
+
+def voice_counts(scenario: Scenario, fused: Sequence[Result]) -> VoiceCounts | None:
+    """:class:`VoiceCounts` of a run whose results carry voices (None when they do not: one pair, motion)."""
+    if not fused or all(r.voices is None for r in fused):
+        return None
+    out = VoiceCounts()
+    for r in fused:
+        t = float(r.stamp_s)
+        unseen = ~scenario.visible(t)
+        talking = np.flatnonzero(scenario.speaking_at([t])[0] & unseen)
+        azimuths = np.array([v.azimuth_rad for v in (r.voices or ())])
+        if talking.size:
+            out.talking += 1
+            where = scenario.positions(t)[talking[0]]
+            if azimuths.size:
+                error = np.degrees(np.abs(np.angle(np.exp(1j * (azimuths - math.atan2(where[0], where[2]))))))
+                out.errors_deg.append(float(error.min()))
+                out.found += int(error.min() <= VOICE_TOLERANCE_DEG)
+        elif not (scenario.speaking_at([t], hold_s=VOICE_SILENT_HOLD_S)[0] & unseen).any():
+            out.quiet += 1
+            out.false += int(azimuths.size > 0)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -450,6 +506,7 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     score = score_run(scenario, fused, audio[:, list(source.channels)], float(stream.samplerate_hz), source.mics,
                       cfg, frame_stamps_s=np.asarray(stream.frame_stamps_s), positions_at=positions_at)
     score.seeds = [seed]
+    score.voices = voice_counts(scenario, fused)
     if stats.self_calibration:
         score.self_calibration = [dict(stats.self_calibration[0], seed=seed)]
     meta = getattr(stream, "meta", {})

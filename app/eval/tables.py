@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from app.pipeline import PipelineConfig
 from app.eval.scenarios import (
     INTERVAL_S,
@@ -234,6 +236,23 @@ def _identity_lines(scores: list[ScenarioScore]) -> list[str]:
     return lines
 
 
+def _voice_lines(scores: list[ScenarioScore]) -> list[str]:
+    """The voices out of view (several pairs), where a run reports them."""
+    with_voices = [s for s in scores if s.voices is not None]
+    if not with_voices:
+        return []
+    lines = ["Voices out of view (several pairs), per result: found = a voice within 15 degrees of the unseen talker's "
+             "azimuth; false = a voice while nobody out of view talks (0.4 s either side).",
+             f"{'Scen.':6s} {'talking':>8s} {'found':>7s} {'share':>7s} {'median err':>11s} {'quiet':>7s} {'false':>6s}"]
+    for s in with_voices:
+        v = s.voices
+        share = v.found / v.talking if v.talking else math.nan
+        median = float(np.median(v.errors_deg)) if v.errors_deg else math.nan
+        lines.append(f"{s.scenario:6s} {v.talking:8d} {v.found:7d} {_pct1(share):>7s} {_num(median, '.1f'):>11s} "
+                     f"{v.quiet:7d} {v.false:6d}")
+    return lines
+
+
 def _target_lines(scores: list[ScenarioScore], reference: str) -> list[str]:
     t = scenario_targets(scores)
     lines = [("Targets (beyond the paper's table): TP >= 95 %; FP/spk at most half the paper's; S4's unseen "
@@ -266,8 +285,9 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
     reference = f"truth held +-{TIMING_REFERENCE_S * 1e3:.0f} ms"
     sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration),
                 _per_number_lines(scores, label), _per_interval_lines(scores, label, reference),
-                _front_end_lines(scores), _identity_lines(scores), _target_lines(scores, reference)]
-    return "\n\n".join("\n".join(section) for section in sections)
+                _front_end_lines(scores), _identity_lines(scores), _voice_lines(scores),
+                _target_lines(scores, reference)]
+    return "\n\n".join("\n".join(section) for section in sections if section)
 
 
 def _pct1(x: float) -> str:

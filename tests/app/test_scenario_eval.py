@@ -357,3 +357,32 @@ def test_identity_scores_as_the_mot_literature_defines_them() -> None:
     assert got.idf1 == pytest.approx(10 / 17)
     perfect = identity_counts([[(0, 3)], [(0, 3)]], n_true=[1, 1], n_found=[1, 1])
     assert perfect.idf1 == 1.0 and perfect.id_switches == 0
+
+
+def test_voices_out_of_view_are_scored_against_the_unseen_talkers_azimuth() -> None:
+    """S4's person 0 sits out of view 53 degrees to the left: a result while they speak counts as found when a voice
+    lies within 15 degrees of them; a voice while nobody out of view speaks (0.4 s either side) is false."""
+    import math
+    from types import SimpleNamespace
+
+    from app.eval.scenarios import voice_counts
+
+    scenario = make_scenario("S4", clip_durations_s=[[0.6] * 10] * 3, seed=0)
+    first = next(e for e in scenario.events if e.kind == "speech" and e.actor == 0)
+    quiet_t = next(t for t in np.arange(0.0, scenario.duration_s, 0.05)
+                   if not scenario.speaking_at([t], hold_s=0.4)[0][0])
+    where = scenario.actors[0].path.at(0.0)
+    truth = math.atan2(where[0], where[2])
+
+    def result(t: float, *azimuths_deg: float) -> SimpleNamespace:
+        return SimpleNamespace(stamp_s=t, voices=tuple(SimpleNamespace(azimuth_rad=math.radians(a))
+                                                       for a in azimuths_deg))
+
+    talking = 0.5 * (first.start_s + first.end_s)
+    runs = [result(talking, math.degrees(truth) + 10.0), result(talking, math.degrees(truth) - 20.0, 40.0),
+            result(talking), result(quiet_t, 30.0), result(quiet_t)]
+    counts = voice_counts(scenario, runs)
+    assert (counts.talking, counts.found, counts.quiet, counts.false) == (3, 1, 2, 1)
+    assert counts.errors_deg == pytest.approx([10.0, 20.0])
+    assert counts.as_dict()["found_share"] == pytest.approx(1 / 3, abs=1e-6)
+    assert voice_counts(scenario, [SimpleNamespace(stamp_s=1.0, voices=None)]) is None
