@@ -5,7 +5,8 @@ a constant, a comparison) one at a time and runs the tests that cover it; a chan
     python benchmarks/mutation.py app.sinks.results_file avcore.speaking   # some modules
     python benchmarks/mutation.py --report            # the table of the last run, without running
 
-Runs outside CI (it takes hours on two cores). Prints one row a module: mutants, killed, survived, the score
+Runs outside CI (it takes hours on two cores). After changing ``only_mutate`` in pyproject.toml, delete ``mutants/``:
+mutmut keeps the copies it made before, unmutated for a module that was not in the list. Prints one row a module: mutants, killed, survived, the score
 (killed / tested), as docs/results.md shows it; `mutmut results` lists the survivors, `mutmut show NAME` one of them.
 """
 from __future__ import annotations
