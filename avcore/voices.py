@@ -3,10 +3,11 @@
 Algorithm 2 gives every ITD to a visible face or to the outlier class; a talker out of view only feeds the outliers.
 With several pairs the outliers carry a direction: a sound from direction u reaches the pairs with the ITDs that the
 array's own mapping gives a point along u (eq. itd_up per pair, its correction included). So the ITD vectors of a
-time frame that no face explains (on the median pair, no face's mapped ITD vector within ``tolerance_s``) are
-matched against the mapped vectors of a grid of directions (every degree of azimuth, elevations every 5 degrees
-where the microphones span some height, points ``distance_m`` away); the direction that explains the most of them,
-at least ``min_windows``, is a voice. Its distance is unknown: only its direction is reported.
+time frame that no face explains (no face's mapped ITD vector within ``tolerance_s`` on more than half of the pairs)
+are matched against the mapped vectors of a grid of directions, computed once an array (every degree of azimuth,
+elevations every 5 degrees where the microphones span some height, points ``distance_m`` away); the direction that
+explains the most of them, at least ``min_windows``, is a voice. Its distance is unknown: only its direction is
+reported.
 
 Azimuth is measured in the scene frame (x right, y down, z forward) from straight ahead, positive to the right;
 elevation positive upwards. A pair alone cannot tell front from back; an array whose pairs point several ways can.
@@ -49,6 +50,21 @@ def _grid(array: MicArray) -> tuple[np.ndarray, np.ndarray]:
     return az.ravel(), el.ravel()
 
 
+_PREDICTED: dict = {}  # (id of the array, distance) -> its grid's mapped ITDs: the same array every result
+
+
+def _predicted(array: MicArray, distance_m: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    key = (id(array), float(distance_m))
+    cached = _PREDICTED.get(key)
+    if cached is None or cached[0] is not array:
+        az, el = _grid(array)
+        cached = (array, az, el, array.itd(distance_m * direction_vector(az, el)))
+        if len(_PREDICTED) > 8:
+            _PREDICTED.clear()
+        _PREDICTED[key] = cached
+    return cached[1], cached[2], cached[3]
+
+
 def unexplained_voice(itds_s: np.ndarray, array: MicArray, faces_xyz: np.ndarray, *, tolerance_s: float = 20e-6,
                       min_windows: int = 4, distance_m: float = 2.0,
                       face_margin_rad: float = np.radians(15.0)) -> VoiceDirection | None:
@@ -62,14 +78,16 @@ def unexplained_voice(itds_s: np.ndarray, array: MicArray, faces_xyz: np.ndarray
     faces = np.asarray(faces_xyz, dtype=np.float64).reshape(-1, 3)
     if faces.shape[0]:
         mapped = array.itd(faces)  # (N, P)
-        off = np.nanmedian(np.abs(itds[:, None, :] - mapped[None, :, :]), axis=2)  # (K, N)
-        itds = itds[~(off < tolerance_s).any(axis=1)]
+        present = np.isfinite(itds).sum(axis=1)
+        near = (np.abs(itds[:, None, :] - mapped[None, :, :]) < tolerance_s).sum(axis=2)  # (K, N)
+        itds = itds[~(2 * near > present[:, None]).any(axis=1)]
     if itds.shape[0] < min_windows:
         return None
-    az, el = _grid(array)
-    predicted = array.itd(distance_m * direction_vector(az, el))  # (G, P)
-    fits = np.nanmedian(np.abs(itds[None, :, :] - predicted[:, None, :]), axis=2) < tolerance_s  # (G, K)
-    counts = fits.sum(axis=1)
+    az, el, predicted = _predicted(array, distance_m)  # (G,), (G,), (G, P)
+    # a window fits a direction where most of its pairs do (more than half of them within the tolerance)
+    present = np.isfinite(itds).sum(axis=1)
+    near = (np.abs(itds[None, :, :] - predicted[:, None, :]) < tolerance_s).sum(axis=2)  # (G, K); NaN: no
+    counts = (2 * near > present[None, :]).sum(axis=1)
     best = int(np.argmax(counts))
     if counts[best] < min_windows:
         return None
