@@ -18,18 +18,18 @@ import cv2
 import numpy as np
 
 from avcore.depth import locate_faces_depth, motion_points_depth
+from avcore.facemesh import mouth_opening
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
-from avcore.facemesh import mouth_opening
 from avcore.itd import gives_frame_itds
 from avcore.lips import LipTracks, veto_still_lips
-from avcore.voices import VoiceTracks, unexplained_voice
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
 from avcore.selfcal import SelfCalibration, SelfCalibrationFit
 from avcore.speaking import SpeakingVote
 from avcore.sync import TimeFrame
+from avcore.voices import VoiceTracks, unexplained_voice
 
 log = logging.getLogger(__name__)
 
