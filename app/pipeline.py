@@ -121,6 +121,9 @@ class PipelineConfig:
         for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
+        if not 0 < self.lip_still_below < 1:
+            raise ValueError(f"lip_still_below must be a spread of the mouth's opening in (0, 1), got "
+                             f"{self.lip_still_below!r}")
         FaceGuidedParams(decision_window_s=self.decision_window_s)  # the hearing's own check, here at once
         least = max(self.frame_window_s, self.interval_s) + self.window_s + self.hop_s
         if self.max_audio_lead_s <= least:

@@ -71,3 +71,9 @@ def test_moving_mouths_are_the_simulated_rooms(capsys: pytest.CaptureFixture[str
     assert main(["run", "--source", f"replay:{tmp_path}", "--lips", "--headless"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--lips" in err[0] and "real ones" in err[0]
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.01, 1.0, float("nan")])
+def test_the_still_lips_threshold_is_checked(bad: float) -> None:
+    with pytest.raises(ValueError, match="lip_still_below"):
+        PipelineConfig(lip_still_below=bad)
