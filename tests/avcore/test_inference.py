@@ -340,3 +340,18 @@ def test_the_papers_methods_are_the_papers() -> None:
     face = FaceGuidedParams.paper()
     assert face.anchor_means is False and face.update_variances is True and face.speaking.outlier_aware is False
     assert face.var_max_s2 == 1.0
+
+
+def test_an_interval_without_moving_points_has_nobody_in_it() -> None:
+    """No HM3D points: no audio-visual object can be formed (the model is vision-guided): zero people in arrays of
+    the right shapes and types, the outliers-only model, every candidate's BIC 0 and N = 0 chosen, and the paper's
+    threshold for the interval's ITDs with no person (K / 2)."""
+    hearing = MotionGuidedHearing(MicPair())
+    out = hearing.step(np.zeros((0, 3)), np.array([1e-4, -2e-4, 3e-5, 5e-5]))
+    assert out.n == 0 and out.positions.shape == (0, 3) and out.covariances.shape == (0, 3, 3)
+    assert out.speaking.dtype == bool and out.speaking.shape == (0,)
+    for name in ("probability", "itd_means", "itd_counts", "point_counts"):
+        assert getattr(out, name).shape == (0,), name
+    assert out.model.n_components == 0 and out.model.weights.tolist() == [1.0]
+    assert out.bic.tolist() == [0.0] * (hearing.params.n_max + 1) and out.n_selected == 0
+    assert out.tau_a == pytest.approx(4 / 2)
