@@ -11,8 +11,10 @@ for result in avhear.results("sim:S2", duration_s=5):   # or "replay:recordings/
 
 Each result is an :class:`app.result.Result`: ``stamp_s``, ``index``, ``mode``, ``people`` (each an
 :class:`app.result.Person`: ``id``, ``position_m``, ``speaking``, ``probability``, ``itd_s`` per microphone pair,
-``box_px`` or None), the interval's ITDs, the latency, and ``as_dict()`` (a line of the results file). The pipeline runs in threads while you iterate; leaving the loop
-(``break``, an exception, or closing the iterator) stops it.
+``box_px`` or None), the interval's ITDs, the latency, with several microphone pairs ``voices`` (the voices out of
+view: :class:`app.hearing.Voice`, an id and a direction), and ``as_dict()`` (a line of the results file). The
+pipeline runs in threads while you iterate; leaving the loop (``break``, an exception, or closing the iterator) stops
+it.
 """
 from __future__ import annotations
 
@@ -24,9 +26,10 @@ __all__ = ["results"]
 
 
 def results(source: str = "sim:S2", *, duration_s: float | None = None, realtime: bool = False, seed: int = 0,
-            motion: bool = False, rig_path: str | None = None, max_waiting: int = 64) -> Iterator:
+            motion: bool = False, rig_path: str | None = None, mics: str = "pair", max_waiting: int = 64) -> Iterator:
     """Fused results of ``source`` (``sim:S1..S5``, ``replay:FOLDER`` or ``live`` with ``rig_path``), in order.
 
+    mics : the simulated robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`, e.g. "nao").
     realtime : deliver at the source's pace (a live source always is); False replays as fast as the pipeline goes.
     max_waiting : results held for a consumer slower than the pipeline; the pipeline waits for room (a live
         source then drops frames at its input, counted in the pipeline's statistics).
@@ -35,7 +38,7 @@ def results(source: str = "sim:S2", *, duration_s: float | None = None, realtime
     from app.sources.open import open_source
 
     src = open_source(source, realtime=realtime or source == "live", duration_s=duration_s, seed=seed,
-                      rig_path=rig_path)
+                      rig_path=rig_path, mics=mics)
     waiting: queue.Queue = queue.Queue(maxsize=max_waiting)
     stop = threading.Event()
     end = object()

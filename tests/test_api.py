@@ -38,3 +38,13 @@ def test_a_script_beside_the_clone_imports_the_package(tmp_path) -> None:  # noq
     where, stamp = done.stdout.split()
     assert where == str(tmp_path / "avhear" / "__init__.py")  # the clone's folder was the one found
     assert 0.0 <= float(stamp) < 1.0
+
+
+def test_a_robot_with_an_array_hears_the_talker_out_of_view() -> None:
+    """S4 with NAO's four microphones: the talker outside the view (53 degrees to the left, who counts first) is
+    among the results as a voice to the left; with the default pair, results carry no voices."""
+    import math
+
+    voices = [v for r in avhear.results("sim:S4", duration_s=3, mics="nao") for v in r.voices]
+    assert len(voices) >= 5 and all(-75 < math.degrees(v.azimuth_rad) < -35 for v in voices)
+    assert next(avhear.results("sim:S4", duration_s=1)).voices is None
