@@ -241,9 +241,9 @@ def _voice_lines(scores: list[ScenarioScore]) -> list[str]:
     with_voices = [s for s in scores if s.voices is not None]
     if not with_voices:
         return []
+    header = f"{'Scen.':6s} {'talking':>8s} {'found':>7s} {'share':>7s} {'median err':>11s} {'quiet':>7s} {'false':>6s}"
     lines = ["Voices out of view (several pairs), per result: found = a voice within 15 degrees of the unseen talker's "
-             "azimuth; false = a voice while nobody out of view talks (0.4 s either side).",
-             f"{'Scen.':6s} {'talking':>8s} {'found':>7s} {'share':>7s} {'median err':>11s} {'quiet':>7s} {'false':>6s}"]
+             "azimuth; false = a voice while nobody out of view talks (0.4 s either side).", header]
     for s in with_voices:
         v = s.voices
         share = v.found / v.talking if v.talking else math.nan
