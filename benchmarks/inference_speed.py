@@ -6,6 +6,8 @@ Prints, on one core (BLAS threads pinned to 1):
 * MotionGuidedHearing.step on the synthetic DynCon sequence (M ~ 2,000 points, K ~ 20 ITDs, N_max = 10), both
   variants: median and 90th percentile wall time, CPU time, peak memory of one step;
 * FaceGuidedHearing.step with 3 faces and 20 ITDs, on a pair and on NAO's four microphones (6 pairs);
+* the search for a voice out of view (avcore.voices.unexplained_voice) on NAO's array, 20 ITD vectors from a talker
+  53 degrees to the left and two faces in view (the fusion thread runs it once a result with several pairs);
 * the same 1-D data fitted for N = 1..10 by scikit-learn's GaussianMixture (default settings: tol 1e-3,
   k-means init, one init) against our batched EM for all N (visual EM + fusion EM + BIC), and the ratio.
 
@@ -128,6 +130,25 @@ def bench_sklearn(mics: MicPair, intervals: list, n_runs: int) -> None:
           f"warm vs warm {med['sk warm'] / med['ours warm']:5.1f}x")
 
 
+def bench_voices(repeats: int) -> float:
+    """NAO's array: 20 windows of a talker out of view, two faces in view (the search's worst case: a voice found)."""
+    from avcore.voices import direction_vector, unexplained_voice
+
+    array = MicArray.preset("nao")
+    rng = np.random.default_rng(0)
+    talker = array.itd(2.5 * direction_vector(np.radians(-53.0), 0.0))
+    itds = talker[None, :] + rng.normal(0.0, 5e-6, (20, array.n_pairs))
+    faces = np.array([[0.6, -0.1, 2.0], [-0.3, -0.1, 2.2]])
+    unexplained_voice(itds, array, faces)  # the array's grid is mapped once
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        unexplained_voice(itds, array, faces)
+        times.append(time.perf_counter() - t0)
+    print(f"unexplained_voice, NAO's 6 pairs, 20 ITD vectors:      {_stats(times)}")
+    return float(np.median(times))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--repeats", type=int, default=2000, help="face-guided steps to time")
@@ -141,6 +162,7 @@ def main() -> None:
     bench_motion(mics, intervals, MotionGuidedParams.paper(), "paper")
     bench_face(mics, args.repeats)
     bench_face(MicArray.preset("nao"), args.repeats)
+    bench_voices(max(1, args.repeats // 10))
     bench_sklearn(mics, intervals, args.sklearn_runs)
     print("paper: Face-Guided pipeline 17 FPS on NAO; Motion-Guided not real time. "
           "targets: motion <= 10 ms, face <= 0.2 ms, >= 20x scikit-learn")

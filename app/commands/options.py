@@ -213,6 +213,10 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
         from app.hearing import face_detector
 
         face_detector(config)  # before any preparation: a missing or unreadable model is one line at once
+    if config.lips:
+        from app.models import facemesh_model
+
+        facemesh_model()  # the same for the face mesh
     return config
 
 

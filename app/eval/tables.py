@@ -3,8 +3,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from app.pipeline import PipelineConfig
 from app.eval.scenarios import (
     INTERVAL_S,
@@ -245,11 +243,11 @@ def _voice_lines(scores: list[ScenarioScore]) -> list[str]:
     lines = ["Voices out of view (several pairs), per result: found = a voice within 15 degrees of the unseen talker's "
              "azimuth; false = a voice while nobody out of view talks (0.4 s either side).", header]
     for s in with_voices:
-        v = s.voices
-        share = v.found / v.talking if v.talking else math.nan
-        median = float(np.median(v.errors_deg)) if v.errors_deg else math.nan
-        lines.append(f"{s.scenario:6s} {v.talking:8d} {v.found:7d} {_pct1(share):>7s} {_num(median, '.1f'):>11s} "
-                     f"{v.quiet:7d} {v.false:6d}")
+        v = s.voices.as_dict()  # the JSON's figures, the table's too
+        share, median = (math.nan if v[k] is None else v[k] for k in ("found_share", "median_azimuth_error_deg"))
+        lines.append(f"{s.scenario:6s} {v['results_unseen_talking']:8d} {v['found_within_15deg']:7d} "
+                     f"{_pct1(share):>7s} {_num(median, '.1f'):>11s} {v['results_nobody_unseen_talking']:7d} "
+                     f"{v['false_voice_results']:6d}")
     return lines
 
 

@@ -77,3 +77,13 @@ def test_moving_mouths_are_the_simulated_rooms(capsys: pytest.CaptureFixture[str
 def test_the_still_lips_threshold_is_checked(bad: float) -> None:
     with pytest.raises(ValueError, match="lip_still_below"):
         PipelineConfig(lip_still_below=bad)
+
+
+def test_a_missing_face_mesh_is_one_line_before_any_preparation(monkeypatch: pytest.MonkeyPatch,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setenv("AVHEAR_FACEMESH", "/nonexistent/face_landmark.tflite")
+    assert main(["demo", "--duration", "2", "--headless", "--read-lips"]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.strip().splitlines() == ["avhear: error: AVHEAR_FACEMESH=/nonexistent/face_landmark.tflite: "
+                                                 "no such file; give the path of face_landmark.tflite"]
+    assert "preparing" not in captured.out + captured.err  # refused before the simulated room is made
