@@ -271,10 +271,10 @@ def face_detector(config: PipelineConfig) -> FaceDetector:
         log.warning("OpenCV %s has no Haar cascades: the faces are found by BlazeFace", cv2.__version__)
         config = replace(config, face_detector="blazeface", face_model=str(model))
     if config.face_detector == "blazeface":
-        from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace
+        from avcore.blazeface import TrackingBlazeFace
 
         try:
-            return TrackingBlazeFace(BlazeFaceDetector(blazeface_model(config.face_model), tiles=2))
+            return TrackingBlazeFace.from_model(blazeface_model(config.face_model))
         except ValueError as exc:  # a file that is not the model
             raise UserError(f"--face-model: {exc}") from None
     return TrackingFaceDetector()

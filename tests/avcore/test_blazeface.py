@@ -7,7 +7,8 @@ import cv2
 import numpy as np
 import pytest
 
-from avcore.blazeface import GRID, INPUT_PX, BlazeFaceDetector, FaceDetections, decode, weighted_nms
+from avcore.blazeface import (FULL_RANGE, GRID, INPUT_PX, SHORT_RANGE, BlazeFaceDetector, BlazeFaceNet, FaceDetections,
+                              as_full_range, decode, per_image, weighted_nms)
 
 
 def _outputs(cells: dict[tuple[int, int], tuple[float, list[float]]]) -> tuple[np.ndarray, np.ndarray]:
@@ -39,6 +40,49 @@ def test_scores_are_a_sigmoid_with_a_threshold_and_clipped_logits() -> None:
                             (5, 5): (1e6, [0.0, 0, 10, 10] + [0.0] * 12)})  # clipped at 100: no overflow
     found = decode(scores, raw)
     assert sorted(np.round(found.scores, 3)) == [0.601, 1.0]
+
+
+def test_short_range_anchors_are_two_grids_with_their_anchors_per_cell() -> None:
+    """The short-range model's 896 anchors (SsdAnchorsCalculator, strides 8, 16, 16, 16 at 128 px): a 16x16 grid
+    with two anchors a cell, then an 8x8 grid whose cells hold the six anchors of its three layers."""
+    a = SHORT_RANGE.anchors
+    assert a.shape == (896, 2) and SHORT_RANGE.groups == (512, 384) and FULL_RANGE.groups == (2304,)
+    np.testing.assert_allclose(a[0], a[1])
+    np.testing.assert_allclose(a[2 * (16 * 3 + 5)], [5.5 / 16, 3.5 / 16])  # row 3, column 5 of the fine grid
+    np.testing.assert_allclose(a[512 + 6 * (8 * 7 + 2): 512 + 6 * (8 * 7 + 3)], [[2.5 / 8, 7.5 / 8]] * 6)
+    scores = np.full(896, -50.0)
+    raw = np.zeros((896, 16))
+    scores[512 + 6 * 10 + 4] = 3.0  # cell (1, 2) of the coarse grid
+    raw[512 + 6 * 10 + 4, :4] = [6.4, 0.0, 32.0, 32.0]
+    found = decode(scores, raw, variant=SHORT_RANGE)
+    np.testing.assert_allclose(found.boxes[0], [2.5 / 8 + 0.05 - 0.125, 1.5 / 8 - 0.125, 0.25, 0.25])
+    weak = np.where(scores > 0, 0.1, scores)  # 0.525: above the short range's 0.5, below the full range's 0.6
+    assert decode(weak, raw, variant=SHORT_RANGE).scores.size == 1
+    assert decode(weak, raw, variant=SHORT_RANGE, threshold=0.6).scores.size == 0
+
+
+def test_a_batch_is_split_per_image_grid_by_grid() -> None:
+    """OpenCV gives (1, batch * anchors, c) with each grid's anchors of every image before the next grid's: image
+    i's anchors are its fine grid's block, then its coarse grid's; a (batch, anchors, c) output is kept."""
+    fine = np.arange(3 * 512 * 2).reshape(3, 512, 2)
+    coarse = -np.arange(3 * 384 * 2).reshape(3, 384, 2)
+    joined = np.concatenate([fine.reshape(1, -1, 2), coarse.reshape(1, -1, 2)], axis=1)
+    split = per_image(joined, 3, SHORT_RANGE)
+    for i in range(3):
+        np.testing.assert_array_equal(split[i], np.concatenate([fine[i], coarse[i]]))
+    batched = np.zeros((3, 896, 2))
+    assert per_image(batched, 3, SHORT_RANGE) is batched
+
+
+def test_a_short_range_box_is_placed_as_the_full_range_places_it() -> None:
+    """Centred 0.02 widths below the mean of the eyes, nose tip and mouth, 1 / 0.95 as wide, square; the keypoints
+    and scores kept."""
+    keypoints = np.array([[[40.0, 50], [60, 50], [50, 60], [50, 70], [30, 55], [70, 55]]])
+    short = FaceDetections(np.array([[20.0, 30, 57, 57]]), keypoints, np.array([0.8]))
+    full = as_full_range(short)
+    side = 57 / 0.95
+    np.testing.assert_allclose(full.boxes[0], [50 - side / 2, 57.5 + 0.02 * side - side / 2, side, side])
+    assert full.keypoints is keypoints and full.scores is short.scores
 
 
 def test_weighted_suppression_averages_overlapping_faces_by_score() -> None:
@@ -90,6 +134,29 @@ def test_blazeface_finds_the_labelled_faces(model: Path, shared_data: Path) -> N
     assert found <= matched[1]  # every detection is a labelled face
 
 
+@pytest.mark.shared_data
+def test_the_short_range_model_finds_the_full_ranges_faces_alike_in_a_batch(model: Path, shared_data: Path) -> None:
+    """Each labelled photograph's faces as the full range finds them, looked for by the short-range model in
+    squares of 2.5 face widths, all of an image in one batch: each square holds its face, its keypoints within
+    0.1 of a face's width of the full range's, and its box, once placed as the full range's, within 0.2 widths."""
+    import xml.etree.ElementTree as ET
+
+    full, short = BlazeFaceDetector(model), BlazeFaceNet(model.with_name(SHORT_RANGE.file), SHORT_RANGE)
+    checked = 0
+    for image in ET.parse(shared_data / "faces" / "testing.xml").getroot().iter("image"):
+        img = cv2.imread(str(shared_data / "faces" / image.get("file")))
+        faces = full.detect_faces(img)
+        squares = [(int(x + w / 2 - 1.25 * w), int(y + h / 2 - 1.25 * h), int(2.5 * w)) for x, y, w, h in faces.boxes]
+        found = as_full_range(short.run(img, squares))
+        for box, keypoints in zip(faces.boxes, faces.keypoints):
+            err = np.linalg.norm(found.keypoints - keypoints, axis=2).mean(axis=1) / box[2]
+            best = int(np.argmin(err))
+            assert err[best] < 0.1
+            np.testing.assert_allclose(found.boxes[best], box, atol=0.2 * box[2])
+            checked += 1
+    assert checked >= 15
+
+
 def test_the_detector_refuses_a_missing_model(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="not found"):
         BlazeFaceDetector(tmp_path / "none.tflite")
@@ -100,20 +167,22 @@ def test_the_detector_refuses_a_missing_model(tmp_path: Path) -> None:
 def test_tracked_blazeface_finds_every_rendered_face_with_a_square_per_face(model: Path, shared_data: Path,
                                                                            monkeypatch: pytest.MonkeyPatch) -> None:
     """The simulated room's three faces (photographs, about 40 px) over 45 frames: every visible face found in
-    every frame and nothing else; after the first frame's whole scan, one square per face and one of the scan."""
+    every frame and nothing else; after the first frame's whole scan (full range), one short-range square per face
+    every frame and one full-range square of the scan every second frame."""
     from app.sources.sim import SimSource
-    from avcore.blazeface import TrackingBlazeFace
+    from avcore.blazeface import BlazeFaceNet, TrackingBlazeFace
 
     room = SimSource.from_preset("S2", duration_s=2.0, seed=2, data_dir=shared_data)
-    tracker = TrackingBlazeFace(BlazeFaceDetector(model, tiles=2))
-    batches: list[int] = []
-    run = BlazeFaceDetector.run
+    tracker = TrackingBlazeFace.from_model(model)
+    assert tracker.near is not None and tracker.near.variant is SHORT_RANGE
+    batches: list[tuple[int, int]] = []
+    run = BlazeFaceNet.run
 
-    def count(self, bgr, squares):  # noqa: ANN001, ANN202
-        batches.append(len(squares))
-        return run(self, bgr, squares)
+    def count(self, bgr, squares, threshold=None):  # noqa: ANN001, ANN202
+        batches.append((self.variant.input_px, len(squares)))
+        return run(self, bgr, squares, threshold)
 
-    monkeypatch.setattr(BlazeFaceDetector, "run", count)
+    monkeypatch.setattr(BlazeFaceNet, "run", count)
     for k in range(45):
         left, _ = room._images(k)
         truth = room.truth(k)
@@ -123,7 +192,10 @@ def test_tracked_blazeface_finds_every_rendered_face_with_a_square_per_face(mode
         assert len(boxes) == len(faces) == 3, k
         for face in faces:
             assert (np.abs(centres - (face[:2] + face[2:] / 2)) < face[2:] / 2).all(axis=1).any(), k
-    assert batches[0] == 5 and set(batches[1:]) == {4}  # the whole scan, then three faces and one square
+    assert batches[0] == (192, 5)  # the whole scan
+    later = batches[1:]
+    assert [n for px, n in later if px == 128] == [3] * 44
+    assert [n for px, n in later if px == 192] == [0, 1] * 22  # frames 1, 2, ...: the scan every second frame
 
 
 def test_a_lost_face_is_looked_for_where_it_was_for_lost_frames_frames() -> None:
@@ -153,13 +225,15 @@ def test_a_lost_face_is_looked_for_where_it_was_for_lost_frames_frames() -> None
 
     image = np.zeros((240, 320, 3), np.uint8)
     base = Base({0})
-    tracker = TrackingBlazeFace(base, lost_frames=3)  # type: ignore[arg-type]
+    tracker = TrackingBlazeFace(base, lost_frames=3, scan_every=1)  # type: ignore[arg-type]
     returned = [len(tracker.detect(image)) for _ in range(6)]
     assert returned == [1, 0, 0, 0, 0, 0]
     assert base.asked == [1, 2, 2, 2, 2, 1]  # the scan's square, plus the face's: tracked, then lost three frames
     base = Base({0, 2})
-    tracker = TrackingBlazeFace(base, lost_frames=3)  # type: ignore[arg-type]
+    tracker = TrackingBlazeFace(base, lost_frames=3, scan_every=1)  # type: ignore[arg-type]
     assert [len(tracker.detect(image)) for _ in range(4)] == [1, 0, 1, 0]
     assert base.asked == [1, 2, 2, 2]
     with pytest.raises(ValueError, match="lost_frames"):
         TrackingBlazeFace(base, lost_frames=-1)  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="scan_every"):
+        TrackingBlazeFace(base, scan_every=0)  # type: ignore[arg-type]
