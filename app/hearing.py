@@ -40,7 +40,7 @@ if TYPE_CHECKING:
     from avcore.geometry import MicPair
     from avcore.stereo import StereoRig
 
-__all__ = ["FaceGuided", "MotionGuided", "Vision", "Voice", "face_detector", "hearing_mode"]
+__all__ = ["FaceGuided", "MotionGuided", "Vision", "Voice", "detector_name", "face_detector", "hearing_mode"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +71,7 @@ class FaceGuided:
             from app.models import facemesh_model
             from avcore.facemesh import FaceMesh
 
-            self._mesh = FaceMesh(facemesh_model())
+            self._mesh = FaceMesh(facemesh_model(), runtime=self.config.tflite_runtime)
             self._lips = LipTracks()
 
     @property
@@ -256,28 +256,45 @@ class SelfCalibrating:
                 for c1, c0, f, cal in zip(a.c1, a.c0, self._fits, self._cals)]  # type: ignore[arg-type]
 
 
-def face_detector(config: PipelineConfig) -> FaceDetector:
-    """The detector ``config.face_detector`` names; BlazeFace's model must be installed (a UserError says how). An
-    OpenCV without Haar cascades (OpenCV 5) gives BlazeFace, with a one-line notice."""
+def detector_name(config: PipelineConfig) -> str:
+    """The detector ``config.face_detector`` stands for: "auto" is BlazeFace when its model is installed, else Haar's
+    cascade with a one-line notice; Haar asked of an OpenCV without cascades (OpenCV 5) is BlazeFace, with a notice.
+    A UserError says how to get BlazeFace's model where nothing else can find faces."""
     from app.errors import UserError
     from app.models import INSTALL_HINT, blazeface_model
 
-    if config.face_detector == "haar" and not hasattr(cv2, "CascadeClassifier"):
-        try:
-            model = blazeface_model(config.face_model)
-        except UserError:
+    has_haar = hasattr(cv2, "CascadeClassifier")
+    if config.face_detector == "blazeface" or (config.face_detector == "haar" and has_haar):
+        return config.face_detector
+    try:
+        blazeface_model(config.face_model)
+    except UserError:
+        if not has_haar:
             raise UserError(f"OpenCV {cv2.__version__} has no Haar cascades and BlazeFace's model is not installed: "
                             f"{INSTALL_HINT}") from None
+        log.warning("BlazeFace's model is not installed (%s): the faces are found by Haar's cascade", INSTALL_HINT)
+        return "haar"
+    if config.face_detector == "haar":
         log.warning("OpenCV %s has no Haar cascades: the faces are found by BlazeFace", cv2.__version__)
-        config = replace(config, face_detector="blazeface", face_model=str(model))
-    if config.face_detector == "blazeface":
-        from avcore.blazeface import TrackingBlazeFace
+    return "blazeface"
 
-        try:
-            return TrackingBlazeFace.from_model(blazeface_model(config.face_model))
-        except ValueError as exc:  # a file that is not the model
-            raise UserError(f"--face-model: {exc}") from None
-    return TrackingFaceDetector()
+
+def face_detector(config: PipelineConfig) -> FaceDetector:
+    """The detector :func:`detector_name` gives for ``config`` (a UserError when its model or runtime is missing or
+    is not what it should be)."""
+    from app.errors import UserError
+    from app.models import blazeface_model
+
+    if detector_name(config) == "haar":
+        return TrackingFaceDetector()
+    from avcore.blazeface import TrackingBlazeFace
+
+    try:
+        return TrackingBlazeFace.from_model(blazeface_model(config.face_model), runtime=config.tflite_runtime)
+    except ValueError as exc:  # a file that is not the model
+        raise UserError(f"--face-model: {exc}") from None
+    except ImportError as exc:  # LiteRT asked for and not installed
+        raise UserError(f"--tflite-runtime litert: {exc}") from None
 
 
 def _time_frame(config: PipelineConfig, half_s: float) -> TimeFrame:

