@@ -5,6 +5,7 @@ import json
 import os
 import socket
 import threading
+import time
 import types
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -75,6 +76,30 @@ def write_video(path: Path, n: int, width: int, shade: int, height: int = 48) ->
 @pytest.fixture
 def make_video() -> Callable[..., Path]:
     return write_video
+
+
+@pytest.fixture
+def paced_cameras(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Video files delivered as cameras deliver, 30 frames a second, rather than as fast as they decode: the
+    vision thread then sees the frames a camera would give it, whatever the face detector costs."""
+
+    capture = cv2.VideoCapture
+
+    class PacedCapture:  # wraps OpenCV's capture (a Python subclass of it crashed the interpreter at exit)
+        def __init__(self, *args: object) -> None:
+            self._cap, self._due = capture(*args), 0.0
+
+        def __getattr__(self, name: str) -> object:
+            return getattr(self._cap, name)
+
+        def grab(self) -> bool:
+            now = time.monotonic()
+            if self._due > now:
+                time.sleep(self._due - now)
+            self._due = max(self._due, now) + 1 / 30
+            return self._cap.grab()
+
+    monkeypatch.setattr(app.sources.live.cv2, "VideoCapture", PacedCapture)
 
 
 class FakeInputStream:

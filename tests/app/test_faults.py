@@ -31,9 +31,10 @@ def test_no_camera(tmp_path: Path, rig_file: Path, fake_sounddevice, capsys: pyt
 
 
 def test_camera_that_stops_mid_run(tmp_path: Path, rig_file: Path, make_video, fake_sounddevice,  # noqa: ANN001
-                                   capsys: pytest.CaptureFixture[str]) -> None:
-    """Video files that end after 40 frames are cameras unplugged mid-run; the audio keeps coming."""
-    fake_sounddevice.InputStream.n_blocks = 400
+                                   paced_cameras, capsys: pytest.CaptureFixture[str]) -> None:  # noqa: ANN001
+    """Video files that end after 40 frames (at a camera's 30 frames a second) are cameras unplugged mid-run; the
+    audio keeps coming."""
+    fake_sounddevice.InputStream.n_blocks = 4000  # about 4 s of blocks: the audio outlasts the cameras' 1.3 s
     left, right = make_video(tmp_path / "l.avi", 40, 64, 60), make_video(tmp_path / "r.avi", 40, 64, 200)
     results, rrd = tmp_path / "r.jsonl", tmp_path / "run.rrd"
     code = main(["run", "--source", "live", "--rig", str(rig_file), "--cameras", str(left), str(right),
