@@ -34,7 +34,7 @@ from app.errors import UserError
 from app.pipeline import DEFAULT_ITD_METHOD
 from app.sources.recording import Recording
 from avcore.calibration import CalibrationReport, fit_av_calibration_report
-from avcore.faces import FaceDetector, TrackingFaceDetector, locate_faces
+from avcore.faces import FaceDetector, locate_faces
 from avcore.geometry import MicArray, MicPair
 from avcore.itd import ItdTrack, extract_itds, geometry_options
 
@@ -133,9 +133,14 @@ def locate_recording_faces(recording: Recording, *, detector: FaceDetector | Non
     """F3D (section 5.2) on every stereo frame of ``recording``, as the pipeline does it.
 
     A frame that cannot be processed (wrong size, corrupt) is counted with ``n_faces = -1`` and skipped.
-    ``progress(done, total)`` is called after each frame.
+    ``progress(done, total)`` is called after each frame. ``detector``: the pipeline's default by default
+    (:func:`app.hearing.face_detector`).
     """
-    detector = detector if detector is not None else TrackingFaceDetector()
+    if detector is None:
+        from app.hearing import face_detector
+        from app.pipeline import PipelineConfig
+
+        detector = face_detector(PipelineConfig())
     total = len(recording.frame_stamps_s)
     stamps = np.empty(total)
     counts = np.full(total, -1, dtype=int)

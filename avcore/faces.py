@@ -116,6 +116,9 @@ class HaarFaceDetector:
         if self.min_neighbors < 0 or self.min_neighbors_coarse < 0:
             raise ValueError("min_neighbors and min_neighbors_coarse must be >= 0, got "
                              f"{self.min_neighbors!r} and {self.min_neighbors_coarse!r}")
+        if not hasattr(cv2, "CascadeClassifier"):
+            raise RuntimeError(f"OpenCV {cv2.__version__} has no Haar cascades (OpenCV 5 dropped them): find faces "
+                               "with avcore.blazeface, or install OpenCV 4")
         path = self.cascade or str(Path(cv2.data.haarcascades) / HAAR_FRONTAL)
         self._classifier = cv2.CascadeClassifier(path)
         if self._classifier.empty():

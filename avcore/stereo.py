@@ -143,7 +143,7 @@ class StereoRig:
             object.__setattr__(self, name, value)
 
         r1, r2, p1, p2, q, _, _ = cv2.stereoRectify(
-            k_l, d_l, k_r, d_r, size, rot, t, flags=cv2.CALIB_ZERO_DISPARITY, alpha=0
+            k_l, d_l, k_r, d_r, size, rot, t.reshape(3, 1), flags=cv2.CALIB_ZERO_DISPARITY, alpha=0
         )
         if abs(p2[1, 3]) > abs(p2[0, 3]):
             raise ValueError(

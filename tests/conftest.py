@@ -46,3 +46,36 @@ def _own_bus_rendezvous() -> None:
         s.bind(("127.0.0.1", 0))
         router = s.getsockname()[1]
     os.environ.setdefault("AVHEAR_ROS_ROUTER", f"tcp/127.0.0.1:{router}")
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Tests marked ``haar`` are about OpenCV 4's Haar cascade: skipped, with the reason, on an OpenCV without it."""
+    import cv2
+
+    if hasattr(cv2, "CascadeClassifier"):
+        return
+    skip = pytest.mark.skip(reason=f"OpenCV {cv2.__version__} has no Haar cascades (OpenCV 5)")
+    for item in items:
+        if "haar" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session")
+def face_finder():  # noqa: ANN201
+    """A face detector for tests about something other than detection: BlazeFace (the full range on the whole image
+    and 2 x 2 tiles, as the default's scan) when its model is installed, else Haar's cascade; skipped without
+    either."""
+    import cv2
+
+    from app.errors import UserError
+    from app.models import blazeface_model
+    from avcore.blazeface import BlazeFaceDetector
+
+    try:
+        return BlazeFaceDetector(blazeface_model(), tiles=2)
+    except UserError as exc:
+        if not hasattr(cv2, "CascadeClassifier"):
+            pytest.skip(str(exc))
+    from avcore.faces import HaarFaceDetector
+
+    return HaarFaceDetector()

@@ -286,11 +286,11 @@ def test_console_rejects_bad_settings() -> None:
 
 # ---------------------------------------------------------------------------------------------- recordings
 @pytest.fixture(scope="module")
-def scene() -> dict:
+def scene(face_finder) -> dict:  # noqa: ANN001
     """One rendered 640x480 frame of the default scene (three drawn faces) and its F3D faces."""
     renderer = default_scene()
     frame = renderer.render(0.0)
-    faces = locate_faces(frame.left, frame.right, renderer.rig)
+    faces = locate_faces(frame.left, frame.right, renderer.rig, detector=face_finder)
     assert len(faces) == 3
     return {"rig": renderer.rig, "image": frame.left, "boxes": faces.boxes, "xyz": faces.points}
 

@@ -323,9 +323,9 @@ class _SlowDetector:
     """Wraps the face detector, taking ``delay_s`` more per image: vision far slower than the ITD worker."""
 
     def __init__(self, delay_s: float) -> None:
-        from avcore.faces import TrackingFaceDetector
+        from app.hearing import face_detector
 
-        self.inner, self.delay_s = TrackingFaceDetector(), delay_s
+        self.inner, self.delay_s = face_detector(PipelineConfig()), delay_s
 
     def __getattr__(self, name: str) -> object:
         return getattr(self.inner, name)

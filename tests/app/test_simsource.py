@@ -96,20 +96,20 @@ def test_real_time_stream_paces_on_the_monotonic_clock_and_stamps_from_zero(miss
     assert src.stats.frames + src.stats.frames_dropped == 15
 
 
-def test_faces_are_drawn_where_the_truth_says(s2):
+def test_faces_are_drawn_where_the_truth_says(s2, face_finder):
     for k in (0, 12, 25):
         left, _ = s2._images(k)
         truth = s2.truth(k)
-        found = detect_faces(left)
+        found = detect_faces(left, face_finder)
         for box, visible in zip(truth.boxes_left, truth.visible):
             assert visible
             assert max((_iou(box, f) for f in found), default=0.0) > 0.4, (k, box, found)
 
 
-def test_the_talker_outside_the_view_is_not_in_the_image(missing):
+def test_the_talker_outside_the_view_is_not_in_the_image(missing, face_finder):
     src = SimSource.from_preset("S4", duration_s=1.0, seed=1, fps=5, data_dir=missing)
     truth = src.truth(2)
-    found = detect_faces(src._images(2)[0])
+    found = detect_faces(src._images(2)[0], face_finder)
     assert truth.visible.tolist() == [False, True, True]
     assert len(found) == 2
     for box in truth.boxes_left[1:]:
@@ -155,13 +155,13 @@ def test_bad_arguments_are_named(missing):
         render_audio(sc, load_clip_bank(8000, missing))
 
 
-def test_real_faces_and_digits_when_the_shared_data_is_there(shared_data):
+def test_real_faces_and_digits_when_the_shared_data_is_there(shared_data, face_finder):
     """With ../shared/data: real face crops found where the truth says, real digits heard from the right side."""
     src = SimSource.from_preset("S2", duration_s=6.0, seed=0, fps=5, data_dir=shared_data)
     assert src.meta["speech"] == "digits" and src.meta["faces"] == "faces"
     hits = total = 0
     for k in range(0, src.n_frames, 3):
-        truth, found = src.truth(k), detect_faces(src._images(k)[0])
+        truth, found = src.truth(k), detect_faces(src._images(k)[0], face_finder)
         for box in truth.boxes_left[truth.visible]:
             total += 1
             hits += max((_iou(box, f) for f in found), default=0.0) > 0.4

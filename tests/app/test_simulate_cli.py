@@ -11,7 +11,7 @@ from avcore.faces import locate_faces
 from avcore.itd import extract_itds
 
 
-def test_simulate_writes_a_recording_that_the_front_ends_read(tmp_path, capsys):
+def test_simulate_writes_a_recording_that_the_front_ends_read(tmp_path, capsys, face_finder):
     out = tmp_path / "s1"
     missing = tmp_path / "no-shared-data"
     status = main(["simulate", "S1", "-o", str(out), "--duration", "2.5", "--fps", "8", "--seed", "3",
@@ -30,7 +30,7 @@ def test_simulate_writes_a_recording_that_the_front_ends_read(tmp_path, capsys):
     # F3D on the replayed frames finds the person where the truth says (section 5.2)
     errors = []
     for f in frames[::4]:
-        faces = locate_faces(f.left, f.right, rec.stereo)
+        faces = locate_faces(f.left, f.right, rec.stereo, detector=face_finder)
         assert len(faces) >= 1  # the detector may add a false positive on the background; the person is there
         errors.append(np.min(np.linalg.norm(faces.points - rec.truth(f.index).positions_m[0], axis=1)))
     assert np.median(errors) < 0.1

@@ -37,7 +37,7 @@ def _scene_video(tmp_path: Path) -> tuple[Path, SimSource]:
     return path, source
 
 
-def test_a_webcam_without_calibration_places_the_faces(tmp_path: Path) -> None:
+def test_a_webcam_without_calibration_places_the_faces(tmp_path: Path, face_finder) -> None:  # noqa: ANN001
     """The simulated camera (60 degrees across 640 px) read as a webcam: its intrinsics from the image size and the
     field of view match the rig's within a pixel, the laptop's two microphones are 10 cm apart either side of the
     camera, and the faces of its frames lie along their true directions at depths within 25 % (drawn faces here,
@@ -52,7 +52,7 @@ def test_a_webcam_without_calibration_places_the_faces(tmp_path: Path) -> None:
     for k in range(10):
         frame = next(frames)
         assert frame.right is None and frame.depth_m is None
-        found = locate_faces_mono(frame.left, source.rig)
+        found = locate_faces_mono(frame.left, source.rig, detector=face_finder)
         truth = sim.truth(k)
         for true in truth.positions_m[truth.visible]:
             true_cam = true + np.array([sim.stereo.baseline_m / 2, 0.0, 0.0])  # the webcam's frame is the camera's

@@ -26,11 +26,11 @@ def _errors(loc: FaceLocations, truth: np.ndarray) -> np.ndarray:
     return np.array([np.min(np.linalg.norm(loc.points - g, axis=1)) for g in truth])
 
 
-def test_drawn_faces_are_found_and_located_within_2_cm():
+def test_drawn_faces_are_found_and_located_within_2_cm(face_finder):
     """Runs on a clean machine: drawn faces at 1.3, 2.1 and 2.9 m."""
     scene = default_scene(None, seed=0)
     frame = scene.render(0.0)
-    loc = locate_faces(frame.left, frame.right, scene.rig)
+    loc = locate_faces(frame.left, frame.right, scene.rig, detector=face_finder)
     err = _errors(loc, frame.faces)
     assert np.all(err < 0.05), err
     assert np.median(err) <= 0.02
@@ -39,19 +39,20 @@ def test_drawn_faces_are_found_and_located_within_2_cm():
 
 
 @pytest.mark.shared_data
-def test_f3d_median_error_on_moving_real_face_scenes(shared_data):
+def test_f3d_median_error_on_moving_real_face_scenes(shared_data, face_finder):
     errors = []
     for seed in (0, 3):
         scene = default_scene(shared_data / "faces", moving=True, seed=seed)
         for t in (0.0, 0.37):
             frame = scene.render(t)
-            errors.append(_errors(locate_faces(frame.left, frame.right, scene.rig), frame.faces))
+            errors.append(_errors(locate_faces(frame.left, frame.right, scene.rig, detector=face_finder), frame.faces))
     err = np.concatenate(errors)
     found = np.isfinite(err) & (err < 0.1)
     assert found.mean() >= 0.8, err  # the benchmark reports the exact recall
     assert np.median(err[found]) <= 0.02
 
 
+@pytest.mark.haar
 def test_boxes_are_in_full_resolution_pixels_whatever_the_scale():
     scene = default_scene(None, seed=0)
     frame = scene.render(0.0)
@@ -63,16 +64,16 @@ def test_boxes_are_in_full_resolution_pixels_whatever_the_scale():
         assert d.min() < 0.25 * near[2], (scale, boxes)
 
 
-def test_no_face_gives_empty_arrays_of_the_right_shapes():
+def test_no_face_gives_empty_arrays_of_the_right_shapes(face_finder):
     rig = StereoRig.ideal(554.0, (640, 480), 0.12)
     empty = StereoSceneRenderer(rig, [], seed=2).render(0.0)
-    loc = locate_faces(empty.left, empty.right, rig)
+    loc = locate_faces(empty.left, empty.right, rig, detector=face_finder)
     assert loc.boxes.shape == (0, 4) and loc.points.shape == (0, 3) and loc.ncc.shape == (0,)
     assert len(loc) == 0
-    assert detect_faces(np.zeros((48, 64), np.uint8)).shape == (0, 4)
+    assert detect_faces(np.zeros((48, 64), np.uint8), face_finder).shape == (0, 4)
 
 
-def test_raw_images_of_a_distorted_rig_are_rectified_before_matching():
+def test_raw_images_of_a_distorted_rig_are_rectified_before_matching(face_finder):
     """End to end through a real-looking rig: lens distortion, a slight rotation, different cameras."""
     k_l = np.array([[560.0, 0.0, 330.0], [0.0, 561.0, 240.0], [0.0, 0.0, 1.0]])
     k_r = np.array([[566.0, 0.0, 320.0], [0.0, 565.0, 245.0], [0.0, 0.0, 1.0]])
@@ -83,29 +84,41 @@ def test_raw_images_of_a_distorted_rig_are_rectified_before_matching():
     frame = scene.render(0.0)
     raw_left, raw_right = scene.to_raw(frame)
     assert not np.array_equal(raw_left, frame.left)
-    loc = locate_faces(raw_left, raw_right, rig, rectified=False)
+    loc = locate_faces(raw_left, raw_right, rig, rectified=False, detector=face_finder)
     err = _errors(loc, frame.faces)
     assert np.all(err < 0.03), err
     # the same raw images taken as rectified ones give worse positions: the rectification did the work
-    naive = _errors(locate_faces(raw_left, raw_right, rig), frame.faces)
+    naive = _errors(locate_faces(raw_left, raw_right, rig, detector=face_finder), frame.faces)
     assert np.median(naive) > np.median(err)
 
 
-def test_bad_inputs_are_rejected():
+def test_bad_inputs_are_rejected(face_finder):
     rig = StereoRig.ideal(554.0, (640, 480), 0.12)
     img = np.zeros((480, 640), np.uint8)
     with pytest.raises(ValueError, match="uint8"):
-        detect_faces(np.zeros((480, 640), np.float32))
+        detect_faces(np.zeros((480, 640), np.float32), face_finder)
     with pytest.raises(ValueError, match="rig's size"):
-        locate_faces(img, np.zeros((240, 320), np.uint8), rig)
-    with pytest.raises(ValueError, match="scale"):
-        HaarFaceDetector(scale=1.5)
-    with pytest.raises(ValueError, match="could not be loaded"):
-        HaarFaceDetector(cascade="/nonexistent/cascade.xml")
+        locate_faces(img, np.zeros((240, 320), np.uint8), rig, detector=face_finder)
     with pytest.raises(ValueError, match="model zoo"):
         YuNetFaceDetector(model="/nonexistent/yunet.onnx")
 
 
+@pytest.mark.haar
+def test_bad_haar_settings_are_rejected():
+    with pytest.raises(ValueError, match="scale"):
+        HaarFaceDetector(scale=1.5)
+    with pytest.raises(ValueError, match="could not be loaded"):
+        HaarFaceDetector(cascade="/nonexistent/cascade.xml")
+
+
+def test_haar_without_cascades_says_what_to_use(monkeypatch: pytest.MonkeyPatch) -> None:
+    if hasattr(cv2, "CascadeClassifier"):
+        monkeypatch.delattr(cv2, "CascadeClassifier")
+    with pytest.raises(RuntimeError, match="has no Haar cascades .*: find faces with avcore.blazeface"):
+        HaarFaceDetector()
+
+
+@pytest.mark.haar
 def test_tracking_detector_follows_moving_faces_and_spreads_the_full_scan():
     scene = default_scene(None, moving=True, seed=2)
     base = HaarFaceDetector()
@@ -149,6 +162,7 @@ def test_tracking_detector_follows_moving_faces_and_spreads_the_full_scan():
         TrackingFaceDetector(scan_px_per_frame=0)
 
 
+@pytest.mark.haar
 def test_scan_jobs_cover_every_face_size_and_row():
     det = HaarFaceDetector(scale=0.8)
     whole = det.scan_jobs((640, 480))
@@ -204,6 +218,7 @@ def test_yunet_wrapper_scales_its_input_and_reports_full_resolution_boxes(tmp_pa
     assert calls["size"] == [(320, 240), (160, 120)] and calls["detect"][-1] == (120, 160, 3)
 
 
+@pytest.mark.haar
 def test_tracking_detector_searches_a_lost_face_again_for_a_while():
     """A face the cascade misses in its window for two frames (a blink of the detector) is searched there again
     and found in the third, long before the scan's next pass; after ``lost_frames`` misses it is given up (one

@@ -42,6 +42,7 @@ def _depth_errors(detector: object) -> np.ndarray:
 
 
 @pytest.mark.shared_data
+@pytest.mark.haar
 def test_one_camera_places_real_faces_by_their_box(shared_data: Path) -> None:
     """OpenCV's boxes with the box-to-eyes ratio measured on real photographs, on the simulated room's real faces
     (S3: three people 1.6-2.6 m away, every 10th frame of 4 s): within 10 % of the true depth in median. (The drawn
@@ -76,10 +77,10 @@ def test_one_camera_places_the_rendered_faces_by_their_eyes() -> None:
     assert np.median(errors) < 0.10 and errors.max() < 0.20
 
 
-def test_faces_out_of_range_are_unmatched() -> None:
+def test_faces_out_of_range_are_unmatched(face_finder) -> None:  # noqa: ANN001
     scene = default_scene()
     frame = scene.render(0.0)
-    found = locate_faces_mono(frame.left, scene.rig, max_depth_m=1.0)
+    found = locate_faces_mono(frame.left, scene.rig, max_depth_m=1.0, detector=face_finder)
     assert len(found) == 0 and found.unmatched.shape[0] == len(frame.faces)
     with pytest.raises(ValueError, match="rig's size"):
-        locate_faces_mono(frame.left[:100], scene.rig)
+        locate_faces_mono(frame.left[:100], scene.rig, detector=face_finder)

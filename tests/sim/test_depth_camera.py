@@ -59,7 +59,7 @@ def test_edges_and_dark_surfaces_lose_their_depth() -> None:
     assert np.isnan(depth[:300, 300:600][~step[:300, 300:600]]).mean() < 0.1
 
 
-def test_rgbd_faces_within_two_centimetres() -> None:
+def test_rgbd_faces_within_two_centimetres(face_finder) -> None:  # noqa: ANN001
     """F3D from the simulated D435's depth (noise, holes, a 4 ms offset on swaying people): every face found, its
     median error within 2 cm of its centre at 1.3-2.9 m (the RGB-D target)."""
     scene = default_scene(moving=True)
@@ -67,7 +67,7 @@ def test_rgbd_faces_within_two_centimetres() -> None:
     errors = []
     for k in range(10):
         frame = scene.render(k / 15)
-        faces = locate_faces_depth(frame.left, dr.render(k / 15, frame.left), scene.rig)
+        faces = locate_faces_depth(frame.left, dr.render(k / 15, frame.left), scene.rig, detector=face_finder)
         nearest = np.linalg.norm(frame.faces[:, None] - faces.points[None], axis=2).min(axis=1)
         assert np.all(nearest < 0.05), (k, nearest)  # every face found, none far off
         errors += nearest.tolist()
