@@ -219,8 +219,8 @@ class BlazeFaceDetector:
     model : path of ``face_detection_full_range.tflite``. score_threshold, nms_iou : MediaPipe's 0.6 and 0.3.
     runtime : "opencv" or "litert" (:mod:`avcore.tflite`). min_face_px : smaller detections are dropped (a face
     of 20 px is 4.2 m away at a focal length of 554 px; below, BlazeFace finds patterns on shirts and hands, at
-    scores of 0.5-0.7, and no face). ``detect(image)`` gives the boxes (the :class:`avcore.faces.FaceDetector` protocol); ``detect_faces(image)``
-    the boxes, keypoints and scores.
+    scores of 0.5-0.7, and no face). ``detect(image)`` gives the boxes (the :class:`avcore.faces.FaceDetector`
+    protocol); ``detect_faces(image)`` the boxes, keypoints and scores.
     """
 
     model: str | Path

@@ -5,7 +5,7 @@ with real face crops from ../shared/data/faces when present, drawn faces otherwi
 on one core by default (cv2.setNumThreads(1)); with one thread they are the CPU time of the calling thread (where
 OpenCV then runs), so that other work on the machine does not inflate them (on an idle core it equals wall time).
 
-    python benchmarks/vision_speed.py                 # 4 scenes: F3D stills and videos, HM3D intervals
+    python benchmarks/vision_speed.py                 # 4 scenes: F3D stills and videos, the face mesh, HM3D
     python benchmarks/vision_speed.py --scenes 2      # quicker
 """
 from __future__ import annotations
@@ -198,6 +198,42 @@ def hm3d_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
           "interval of 6 frames (0.4 s)")
 
 
+def mesh_table(args: argparse.Namespace, faces_dir: Path | None) -> None:
+    """The face mesh (--read-lips) on the faces the tracked BlazeFace finds: ms per frame of three faces, per
+    runtime (all of a frame's faces in one batch)."""
+    try:
+        from app.models import blazeface_model, facemesh_model
+        from avcore.blazeface import TrackingBlazeFace
+        from avcore.facemesh import FaceMesh
+        from avcore.tflite import litert_available
+    except ImportError as exc:
+        print(f"face mesh left out: {exc}", file=sys.stderr)
+        return
+    try:
+        detector_model, mesh_model = blazeface_model(), facemesh_model()
+    except Exception as exc:  # noqa: BLE001 - the table is left out, and says why
+        print(f"face mesh left out: {exc}", file=sys.stderr)
+        return
+    print("\nface mesh (--read-lips) on the tracked faces, a batch per frame")
+    print(f"{'runtime':<8} {'faces':>5} {'mean ms':>7} {'p95 ms':>6} {'ms/face':>7}")
+    for runtime in ("opencv", "litert") if litert_available() else ("opencv",):
+        mesh = FaceMesh(mesh_model, runtime=runtime)
+        clock, spent, faces = _clock(args.threads), [], 0
+        for seed in range(args.scenes):
+            scene = default_scene(faces_dir, moving=True, seed=seed)
+            tracker = TrackingBlazeFace.from_model(detector_model)
+            for i in range(args.track_frames):
+                image = scene.render(i / args.fps).left
+                found = tracker.detect_faces(image)
+                t0 = clock()
+                mesh.run(image, found.boxes, found.keypoints[:, :2])
+                spent.append(clock() - t0)
+                faces += len(found)
+        ms = 1000 * np.array(spent)
+        print(f"{runtime:<8} {faces:5d} {ms.mean():7.1f} {np.percentile(ms, 95):6.1f} {ms.sum() / faces:7.2f}",
+              flush=True)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--faces", type=Path, default=DEFAULT_FACES, help="labelled faces folder (drawn if absent)")
@@ -210,7 +246,7 @@ def main() -> int:
     parser.add_argument("--track-frames", type=int, default=20, help="frames per F3D video sequence")
     parser.add_argument("--repeat", type=int, default=2, help="HM3D timing repeats (best kept)")
     parser.add_argument("--threads", type=int, default=1, help="OpenCV threads (default 1: one core)")
-    parser.add_argument("--skip", choices=("f3d", "hm3d"), action="append", default=[])
+    parser.add_argument("--skip", choices=("f3d", "mesh", "hm3d"), action="append", default=[])
     parser.add_argument("--camera", choices=("stereo", "rgbd"), default="stereo",
                         help="HM3D from the stereo pair (default) or from an RGB-D camera's depth (sim.depth)")
     parser.add_argument("--bodies", action="store_true",
@@ -221,6 +257,8 @@ def main() -> int:
     print(f"visual front-end on rendered 640x480 pairs, OpenCV {cv2.__version__}, {args.threads} thread(s)")
     if "f3d" not in args.skip:
         f3d_table(args, faces_dir)
+    if "mesh" not in args.skip:
+        mesh_table(args, faces_dir)
     if "hm3d" not in args.skip:
         hm3d_table(args, faces_dir)
     return 0

@@ -135,7 +135,7 @@ def test_litert_asked_for_and_missing_is_one_line(monkeypatch: pytest.MonkeyPatc
     from app.commands.options import pipeline_config
 
     monkeypatch.setattr(avcore.tflite, "litert_available", lambda: False)
-    with pytest.raises(UserError, match="^--tflite-runtime litert: LiteRT is not installed: pip install ai-edge-litert"):
+    with pytest.raises(UserError, match="^--tflite-runtime litert: LiteRT is not installed: pip install ai-edge-lit"):
         pipeline_config(_parser().parse_args(["--tflite-runtime", "litert"]))
 
 

@@ -41,7 +41,8 @@ def test_both_runtimes_find_the_same_faces_and_landmarks(models: Path, shared_da
     """The labelled photographs: the full range (whole image and tiles, a batch of five), the short range on
     squares around the faces (a batch), and the face mesh: boxes, keypoints and landmarks within 0.05 px, scores
     within 1e-4, by OpenCV's DNN and by LiteRT."""
-    full = {rt: BlazeFaceDetector(models / "face_detection_full_range.tflite", runtime=rt) for rt in ("opencv", "litert")}
+    full = {rt: BlazeFaceDetector(models / "face_detection_full_range.tflite", runtime=rt)
+            for rt in ("opencv", "litert")}
     short = {rt: BlazeFaceNet(models / SHORT_RANGE.file, SHORT_RANGE, rt) for rt in ("opencv", "litert")}
     mesh = {rt: FaceMesh(models / "face_landmark.tflite", runtime=rt) for rt in ("opencv", "litert")}
     faces = 0
