@@ -194,12 +194,16 @@ def run_scenarios(args: argparse.Namespace) -> int:
         assert merged is not None
         scores.append(merged)
     if args.json:
+        from app.hearing import detector_name
+
         out = {
             "protocol": {"interval_s": INTERVAL_S, "itd_tolerance_us": ITD_TOLERANCE_S * 1e6,
                          "count": "one number spoken by a visible person (targets); also one visible person during "
                                   "one interval", "tau_loc_m": 0.35},
             "inference": config.inference,
             "itd_method": config.itd_method,
+            "face_detector": None if config.inference == "motion" else detector_name(config),
+            "tflite_runtime": config.tflite_runtime,
             "seeds": list(args.seed),
             "calibration": calibration.as_dict() if calibration else None,
             "results": [s.as_dict() for s in scores],

@@ -184,6 +184,10 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
     captured = capsys.readouterr()
     out = json.loads(captured.out)
     assert out["protocol"]["interval_s"] == INTERVAL_S and out["inference"] == "face" and out["seeds"] == [0]
+    from app.hearing import detector_name
+    from app.pipeline import PipelineConfig
+
+    assert out["face_detector"] == detector_name(PipelineConfig()) and out["tflite_runtime"] == "opencv"
     (row,) = out["results"]
     assert row["scenario"] == "S2" and row["n_intervals"] == 10 and row["n_frames"] == 120
     s = row["speaking"]
