@@ -157,7 +157,10 @@ def main() -> int:
         return 2
     cv2.setNumThreads(args.threads)
     sets = {name: load(args.data, f"{name}.xml") for name in ("training", "testing")}
-    backends = [(f"haar x{s:g}", HaarFaceDetector(scale=s)) for s in args.scales]
+    backends = [(f"haar x{s:g}", HaarFaceDetector(scale=s)) for s in args.scales] if hasattr(
+        cv2, "CascadeClassifier") else []
+    if not backends:
+        print(f"Haar left out: OpenCV {cv2.__version__} has no Haar cascades", file=sys.stderr)
     if args.yunet_model is not None:
         backends += [(f"yunet x{s:g}", YuNetFaceDetector(args.yunet_model, scale=s)) for s in args.scales]
     try:
