@@ -261,17 +261,18 @@ def detector_name(config: PipelineConfig) -> str:
     cascade with a one-line notice; Haar asked of an OpenCV without cascades (OpenCV 5) is BlazeFace, with a notice.
     A UserError says how to get BlazeFace's model where nothing else can find faces."""
     from app.errors import UserError
-    from app.models import INSTALL_HINT, blazeface_model
+    from app.models import INSTALL_HINT, blazeface_model, no_face_detector
 
     has_haar = hasattr(cv2, "CascadeClassifier")
     if config.face_detector == "blazeface" or (config.face_detector == "haar" and has_haar):
         return config.face_detector
+    if config.face_detector == "auto" and config.face_model is not None:
+        return "blazeface"  # a model given by name: a missing file is an error, never a fallback
     try:
         blazeface_model(config.face_model)
     except UserError:
         if not has_haar:
-            raise UserError(f"OpenCV {cv2.__version__} has no Haar cascades and BlazeFace's model is not installed: "
-                            f"{INSTALL_HINT}") from None
+            raise no_face_detector(cv2.__version__) from None
         log.warning("BlazeFace's model is not installed (%s): the faces are found by Haar's cascade", INSTALL_HINT)
         return "haar"
     if config.face_detector == "haar":

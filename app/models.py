@@ -14,7 +14,7 @@ from pathlib import Path
 
 from app.errors import UserError
 
-__all__ = ["BLAZEFACE_FILE", "FACEMESH_FILE", "INSTALL_HINT", "blazeface_model", "facemesh_model"]
+__all__ = ["BLAZEFACE_FILE", "FACEMESH_FILE", "INSTALL_HINT", "blazeface_model", "facemesh_model", "no_face_detector"]
 
 BLAZEFACE_FILE = "face_detection_full_range.tflite"
 FACEMESH_FILE = "face_landmark.tflite"  # MediaPipe's face mesh, in the same folder
@@ -45,6 +45,12 @@ def blazeface_model(path: str | Path | None = None) -> Path:
         raise UserError(f"the BlazeFace face detector's model is not installed: {INSTALL_HINT} (or use "
                         "--face-detector haar)")
     return data / BLAZEFACE_FILE
+
+
+def no_face_detector(opencv_version: str) -> UserError:
+    """The error of a machine that can find no face: an OpenCV without Haar cascades and no BlazeFace model."""
+    return UserError(f"OpenCV {opencv_version} has no Haar cascades and BlazeFace's model is not installed: "
+                     f"{INSTALL_HINT}")
 
 
 def facemesh_model() -> Path:

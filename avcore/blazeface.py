@@ -10,7 +10,7 @@ overlapping the best by IoU > 0.3 are averaged with their scores as weights). Th
 (``face_detection_short_range.tflite``, for faces that fill much of its input) takes 128x128 and has 896 anchors:
 a 16x16 grid (stride 8) with two per cell, then an 8x8 grid (stride 16) with six per cell
 (``face_detection_short_range_common.pbtxt``: SsdAnchorsCalculator with strides 8, 16, 16, 16, one aspect ratio
-and its interpolated scale, fixed-size anchors), scores kept above 0.5; it costs a third of the full range's.
+and its interpolated scale, fixed-size anchors), scores kept above 0.5; it is the cheaper of the two.
 
 The whole frame at 192 px misses faces under about 40 px of a VGA image; :class:`BlazeFaceDetector` also scans
 overlapping tiles (``tiles``), each at the detector's input size, so that small and distant faces are seen larger.
@@ -218,8 +218,8 @@ class BlazeFaceDetector:
 
     model : path of ``face_detection_full_range.tflite``. score_threshold, nms_iou : MediaPipe's 0.6 and 0.3.
     runtime : "opencv" or "litert" (:mod:`avcore.tflite`). min_face_px : smaller detections are dropped (a face
-    of 20 px is 4.2 m away at a focal length of 554 px; below, BlazeFace finds patterns on shirts and hands, at
-    scores of 0.5-0.7, and no face). ``detect(image)`` gives the boxes (the :class:`avcore.faces.FaceDetector`
+    of 20 px is 4.2 m away at a focal length of 554 px; below, BlazeFace finds patterns on shirts and hands rather
+    than faces: docs/experiments.md). ``detect(image)`` gives the boxes (the :class:`avcore.faces.FaceDetector`
     protocol); ``detect_faces(image)`` the boxes, keypoints and scores.
     """
 
@@ -275,11 +275,10 @@ class BlazeFaceDetector:
         return self.detect_faces(image).boxes
 
 
-# The short-range model's box, put where the full range puts it (dlib's labelled photographs and the rendered room,
-# faces 24-110 px): the two models' keypoints agree within 0.03 of a face's width, but the short range's box lies
-# lower and 5 % smaller, and less steadily about its keypoints (sd 0.13 widths across against 0.03); the full
-# range's box centre lies 0.017-0.022 widths below the mean of the eyes, nose tip and mouth, its width 1 / 0.945-0.967
-# of the short range's.
+# The short-range model's box, put where the full range puts it: the two models' keypoints agree, their boxes do
+# not (the short range's lies lower, smaller and less steadily about the face). Where the full range's box lies
+# about the eyes, nose tip and mouth, and its width against the short range's, were measured on dlib's labelled
+# photographs and the rendered room (docs/experiments.md, 2026-11-26, "BlazeFace fast enough to be the default").
 FULL_CENTRE_BELOW_KEYPOINTS = 0.02
 FULL_OVER_SHORT_WIDTH = 1 / 0.95
 
@@ -313,7 +312,7 @@ class TrackingBlazeFace:
     square of the full scan (the whole image, then each tile of ``base``, one at a time), so that a newcomer is
     found within ``scan_every * len(base.squares(...))`` frames. The first frame gets the whole scan.
 
-    The squares around the faces go to ``near`` when given (the short-range model: a third of the cost), each
+    The squares around the faces go to ``near`` when given (the short-range model, the cheaper), each
     ``near_context`` face widths a side, else to the full-range model at ``context`` widths (the face then spans
     192 / ``context`` px of its input, where it is found best). A face its square loses is looked for there again
     in each of the next ``lost_frames`` frames (as :class:`avcore.faces.TrackingFaceDetector` does), so that a face

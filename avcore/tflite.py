@@ -2,8 +2,8 @@
 
 OpenCV's DNN module (``cv2.dnn.readNetFromTFLite``; on OpenCV 5 its classic engine) is the default: avhear needs
 OpenCV anyway. LiteRT (the ``ai-edge-litert`` package, Google's TFLite runtime with its XNNPACK kernels, no
-TensorFlow) is optional and runs these models 2-3 times faster on one core (``python
-benchmarks/vision_speed.py``). Both take the same crops and give the same outputs to within float rounding.
+TensorFlow) is optional and runs these models faster (``python benchmarks/vision_speed.py`` times
+both). Both take the same crops and give the same outputs to within float rounding.
 
 :class:`TfliteNet` takes square BGR uint8 crops of the model's input size and gives the model's outputs for the
 batch; each model's own module decodes them.

@@ -176,7 +176,7 @@ def face_detector_name(args: argparse.Namespace, one_camera: bool) -> str:
     import cv2
 
     from app.errors import UserError
-    from app.models import INSTALL_HINT, blazeface_model
+    from app.models import INSTALL_HINT, blazeface_model, no_face_detector
 
     if args.face_detector is not None:
         return str(args.face_detector)
@@ -189,8 +189,7 @@ def face_detector_name(args: argparse.Namespace, one_camera: bool) -> str:
         blazeface_model()
     except UserError:
         if not hasattr(cv2, "CascadeClassifier"):
-            raise UserError(f"OpenCV {cv2.__version__} has no Haar cascades and BlazeFace's model is not installed: "
-                            f"{INSTALL_HINT}") from None
+            raise no_face_detector(cv2.__version__) from None
         why = ("with one camera a face's distance is best read from its eyes, which BlazeFace finds" if one_camera
                else "faces are best found by BlazeFace")
         print(f"avhear: {why}: {INSTALL_HINT}; meanwhile by Haar's cascade", file=sys.stderr, flush=True)

