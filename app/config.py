@@ -23,6 +23,8 @@ The rig calibration file (one per robot or laptop) holds the stereo rig and the 
                                   # or positions_m: [[x, y, z], ...] in the scene frame
       rotation: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]   # optional: the preset's frame -> the scene frame
       translation_m: [0, -0.05, 0]                   # optional: where the preset's origin is in the scene frame
+      pairs: [[0, 1], [0, 2], ...]  # optional: the pairs used, [i, j] each, i as the "left" (default: every pair,
+                                  # i the one more to the left, in the preset's order when it is placed)
       channels: [0, 1, 2, 3]      # optional: the input stream's channel of each microphone (default the preset's)
       c1: [0.98, 1.01, ...]       # optional: each pair's correction of eq. (itd_up), in the order of the pairs
       c0_s: [0.0, 1.0e-6, ...]    # (avhear calibrate av writes them; default 1 and 0)
@@ -47,7 +49,8 @@ from avcore.stereo import StereoRig
 __all__ = ["RigConfig", "load_rig", "save_rig", "rig_to_dict", "rig_from_dict"]
 
 _TOP_KEYS = ("stereo", "microphones", "array")
-_ARRAY_KEYS = ("preset", "positions_m", "rotation", "translation_m", "channels", "speed_of_sound_m_s", "c1", "c0_s")
+_ARRAY_KEYS = ("preset", "positions_m", "rotation", "translation_m", "pairs", "channels", "speed_of_sound_m_s", "c1",
+               "c0_s")
 _MIC_KEYS = ("left_m", "right_m", "speed_of_sound_m_s", "c1", "c0_s")
 _MIC_REQUIRED = ("left_m", "right_m")
 
@@ -175,6 +178,14 @@ def _array_from_dict(value: object, path: Path | str) -> MicArray:
                 raise _fail(path, "array.positions_m", f"must list at least two [x, y, z], got {positions!r}")
             array = MicArray(tuple(tuple(_numbers(p, path, f"array.positions_m[{i}]", (3,)))
                                    for i, p in enumerate(positions)), speed_of_sound=speed)
+        if "pairs" in a:
+            pairs = a["pairs"]
+            if not isinstance(pairs, list) or not pairs or any(
+                    not isinstance(ij, list) or len(ij) != 2 or any(isinstance(k, bool) or not isinstance(k, int)
+                                                                  for k in ij) for ij in pairs):
+                raise _fail(path, "array.pairs", f"must be a list of [i, j] microphone numbers, got {pairs!r}")
+            array = MicArray(array.positions, tuple((i, j) for i, j in pairs), array.speed_of_sound,
+                             channels=array.channels)
         if "channels" in a:
             channels = a["channels"]
             if not isinstance(channels, list) or any(isinstance(c, bool) or not isinstance(c, int) for c in channels):
@@ -219,6 +230,7 @@ def rig_to_dict(rig: RigConfig) -> dict[str, Any]:
         }
     if rig.array is not None:
         out["array"] = {"positions_m": [list(p) for p in rig.array.positions],
+                        "pairs": [list(ij) for ij in rig.array.pairs],  # type: ignore[union-attr]
                         "channels": list(rig.array.channels),  # type: ignore[arg-type]
                         "speed_of_sound_m_s": float(rig.array.speed_of_sound),
                         "c1": [float(v) for v in rig.array.c1],  # type: ignore[union-attr]

@@ -26,7 +26,7 @@ from avcore.itd import gives_frame_itds
 from avcore.lips import LipTracks, veto_still_lips
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
-from avcore.selfcal import SelfCalibration, SelfCalibrationFit
+from avcore.selfcal import ArrayYawCalibration, SelfCalibration, SelfCalibrationFit, YawFit
 from avcore.speaking import SpeakingVote
 from avcore.sync import TimeFrame
 from avcore.voices import VoiceTracks, unexplained_voice
@@ -215,13 +215,18 @@ class SelfCalibrating:
     """A face-guided hearing whose correction c1, c0 (eq. itd_up, per pair) is learned as it runs
     (:mod:`avcore.selfcal`): each result's faces and time frame feed one :class:`SelfCalibration` per pair, and every
     ``every`` results the pairs whose fit is ready get their correction; the hearing is rebuilt with it (it holds
-    no state from one result to the next). ``state()`` says where each pair stands."""
+    no state from one result to the next). With several pairs the array's turn about the vertical is learned first
+    (:class:`ArrayYawCalibration`) and the pairs are fitted where it puts them, once it is known. ``state()`` says
+    where each pair stands."""
 
     def __init__(self, hearing: FaceGuidedHearing, every: int = 30) -> None:
         self.hearing = hearing
         self.every = every
+        self._given = hearing.array
         self._cals = [SelfCalibration(hearing.array.pair(p)) for p in range(hearing.array.n_pairs)]
         self._fits: list[SelfCalibrationFit | None] = [None] * len(self._cals)
+        self._yaw = ArrayYawCalibration(hearing.array) if hearing.array.n_pairs > 1 else None
+        self._yaw_fit: YawFit | None = None
         self._n = 0
 
     @property
@@ -232,28 +237,41 @@ class SelfCalibrating:
         out = self.hearing.step(faces_xyz, itds_s, *rest)
         for p, cal in enumerate(self._cals):
             cal.push(faces_xyz, itds_s[:, p])
+        if self._yaw is not None:
+            self._yaw.push(faces_xyz, itds_s)
         self._n += 1
         if self._n % self.every == 0:
             self._refit()
         return out
 
     def _refit(self) -> None:
+        a = self._given
+        if self._yaw is not None:
+            self._yaw_fit = self._yaw.fit() or self._yaw_fit
+            if self._yaw_fit is None:
+                return  # the pairs are fitted where the turn puts them: wait for it
+            a = a.turned(self._yaw_fit.yaw_rad)
+        for p, cal in enumerate(self._cals):
+            cal.mics = a.pair(p)
         fits = [cal.fit() for cal in self._cals]
-        if all(f is None for f in fits):
-            return
         self._fits = [f if f is not None else old for f, old in zip(fits, self._fits)]
-        a = self.hearing.array
         c1 = tuple(f.c1 if f is not None else c for f, c in zip(self._fits, a.c1))  # type: ignore[arg-type]
         c0 = tuple(f.c0 if f is not None else c for f, c in zip(self._fits, a.c0))  # type: ignore[arg-type]
         self.hearing = FaceGuidedHearing(MicArray(a.positions, a.pairs, a.speed_of_sound, c1, c0, a.channels),
                                          self.hearing.params)
 
     def state(self) -> list[dict[str, Any]]:
-        """Per pair: c1, c0 in use, and the fit's inliers, observations and confidence (None: not fitted yet)."""
+        """Per pair: c1, c0 in use, and the fit's inliers, observations and confidence (None: not fitted yet); with
+        several pairs also the array's learned turn, ``array_yaw_deg`` (None: not yet), the same in every pair."""
         a = self.hearing.array
-        return [{"c1": float(c1), "c0_s": float(c0), "inliers": f.inliers if f else 0,
-                 "observations": len(cal), "confidence": f.confidence if f else None}
-                for c1, c0, f, cal in zip(a.c1, a.c0, self._fits, self._cals)]  # type: ignore[arg-type]
+        out = [{"c1": float(c1), "c0_s": float(c0), "inliers": f.inliers if f else 0,
+                "observations": len(cal), "confidence": f.confidence if f else None}
+               for c1, c0, f, cal in zip(a.c1, a.c0, self._fits, self._cals)]  # type: ignore[arg-type]
+        if self._yaw is not None:
+            yaw = None if self._yaw_fit is None else math.degrees(self._yaw_fit.yaw_rad)
+            for d in out:
+                d["array_yaw_deg"] = yaw
+        return out
 
 
 def detector_name(config: PipelineConfig) -> str:

@@ -6,6 +6,7 @@ so a source on the right, closer to the right microphone, has a positive ITD.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -238,6 +239,16 @@ class MicArray:
             raise ValueError(f"translation_m must be three finite coordinates in metres, got {translation_m!r}")
         moved = tuple(tuple(float(v) for v in rot @ np.asarray(p) + t) for p in self.positions)
         return MicArray(moved, self.pairs, self.speed_of_sound, self.c1, self.c0, self.channels)
+
+    def turned(self, yaw_rad: float) -> MicArray:
+        """The array turned by ``yaw_rad`` about the vertical (the scene's y axis) through its microphones' centroid;
+        a positive angle turns its front (+z) towards +x. The correction, pairs and channels stay."""
+        if not math.isfinite(yaw_rad):
+            raise ValueError(f"yaw_rad must be a finite angle in radians, got {yaw_rad!r}")
+        c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+        rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+        centre = np.mean(np.asarray(self.positions), axis=0)
+        return self.placed(rot, centre - rot @ centre)
 
     @property
     def n_pairs(self) -> int:

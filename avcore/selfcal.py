@@ -13,6 +13,12 @@ refines its fit. A talker out of view gives observations paired only with the wr
 ``fit()`` returns None until the inliers span ``min_span_s`` of raw ITD (two people at least ten degrees apart,
 or one who moved) and number ``min_inliers``; its ``confidence`` is the share of the one-source observations the
 line explains. Observations older than ``memory`` are forgotten, so the estimate follows a microphone that moved.
+The faces are kept, not their mapping, so that a pair moved by the array's turn (below) is fitted where it now is.
+
+With several pairs, the array's turn about the vertical relative to the camera (a rig file that places it wrongly,
+a head that turned) is learned first (:class:`ArrayYawCalibration`): a source's ITD vector over the pairs points
+in one direction of the array's own frame, so one face talking alone fixes the turn; the turn most one-source
+observations agree with is searched over the plausible range, then refined on its inliers.
 """
 from __future__ import annotations
 
@@ -21,9 +27,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 
-__all__ = ["SelfCalibration", "SelfCalibrationFit"]
+__all__ = ["ArrayYawCalibration", "SelfCalibration", "SelfCalibrationFit", "YawFit"]
 
 
 @dataclass(frozen=True)
@@ -77,7 +83,7 @@ class SelfCalibration:
         tau = float(np.median(itds))
         if 1.4826 * float(np.median(np.abs(itds - tau))) > self.max_spread_s:
             return False
-        self._obs.append((tau, self.mics.raw_itd(faces).reshape(-1)))
+        self._obs.append((tau, faces))
         return True
 
     def fit(self) -> SelfCalibrationFit | None:
@@ -86,9 +92,8 @@ class SelfCalibration:
         if len(self._obs) < self.min_inliers:
             return None
         tau = np.array([t for t, _ in self._obs])
-        xs = [x for _, x in self._obs]
-        owner = np.concatenate([np.full(x.size, k) for k, x in enumerate(xs)])
-        x_all = np.concatenate(xs)
+        owner = np.concatenate([np.full(f.shape[0], k) for k, (_, f) in enumerate(self._obs)])
+        x_all = self.mics.raw_itd(np.concatenate([f for _, f in self._obs])).reshape(-1)  # on the pair as it is now
         y_all = tau[owner]
         rng = np.random.default_rng(self.seed)
         i = rng.integers(0, x_all.size, self.trials)
@@ -132,3 +137,140 @@ class SelfCalibration:
         first[keep] = True
         picked = close & first
         return int(picked.sum()), picked
+
+
+@dataclass(frozen=True)
+class YawFit:
+    """The array's turn about the vertical (radians, :meth:`avcore.geometry.MicArray.turned`); scale: the ITDs'
+    common scale found with it (the pairs' own c1 are fitted after); inliers: one-source observations it explains; observations: those kept; confidence: inliers / observations; scale_s: the inliers'
+    root-mean-square residual over the pairs."""
+
+    yaw_rad: float
+    scale: float
+    inliers: int
+    observations: int
+    confidence: float
+    scale_s: float
+
+
+@dataclass
+class ArrayYawCalibration:
+    """Collects one-source time frames of an array (:meth:`push`) and finds its turn about the vertical
+    (:meth:`fit`) that maps the most of them onto a visible face; see the module.
+
+    An observation is the median ITD of every pair over the time frame, kept when every pair has ``min_itds`` ITDs
+    spread less than ``max_spread_s`` (one source), with the visible faces. A turn explains it when one face's ITD
+    vector, on the array so turned with its correction, lies within ``tolerance_s`` of it (the median over the
+    pairs of the absolute differences) with the ITDs of every pair times a common scale: measured ITDs come out
+    shorter than the geometry's (reverberation pulls them towards zero, section 5.3's c1), by the same share on
+    every pair. Turn and scale are searched every ``coarse_deg`` within ``max_yaw_deg`` and every
+    ``coarse_scale`` within ``scale_range``, then by ``fine_deg`` and ``fine_scale`` within one coarse step of the
+    best, the latter on the best's inliers by their mean squared residual.
+    """
+
+    array: MicArray
+    max_spread_s: float = 12e-6
+    min_itds: int = 5
+    tolerance_s: float = 10e-6
+    min_inliers: int = 30
+    max_yaw_deg: float = 45.0
+    coarse_deg: float = 1.0
+    scale_range: tuple[float, float] = (0.7, 1.1)
+    coarse_scale: float = 0.05
+    coarse_observations: int = 150
+    memory: int = 600
+    _obs: deque = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.array.n_pairs < 2:
+            raise ValueError("the array's turn needs at least two pairs")
+        if not (self.max_spread_s > 0 and self.tolerance_s > 0):
+            raise ValueError("max_spread_s and tolerance_s must be > 0 seconds")
+        if not (0 < self.coarse_deg <= self.max_yaw_deg <= 180):
+            raise ValueError("need 0 < coarse_deg <= max_yaw_deg <= 180 degrees")
+        if not (0 < self.coarse_scale and 0 < self.scale_range[0] < self.scale_range[1]):
+            raise ValueError("need 0 < coarse_scale and 0 < scale_range[0] < scale_range[1]")
+        if not (self.min_itds >= 2 and self.min_inliers >= 2 and self.memory >= self.min_inliers):
+            raise ValueError("need min_itds >= 2, min_inliers >= 2 and memory >= min_inliers")
+        self._obs = deque(maxlen=self.memory)
+
+    def __len__(self) -> int:
+        return len(self._obs)
+
+    def push(self, faces_xyz: np.ndarray, itds_s: np.ndarray) -> bool:
+        """One result: its visible faces (N, 3) metres and its time frame's ITD vectors (K, P) seconds (NaN where a
+        pair has none). Kept (True) when there is a face and every pair's ITDs come from one source."""
+        faces = np.asarray(faces_xyz, dtype=np.float64).reshape(-1, 3)
+        itds = np.asarray(itds_s, dtype=np.float64).reshape(-1, self.array.n_pairs)
+        if faces.shape[0] == 0:
+            return False
+        tau = np.empty(self.array.n_pairs)
+        for p in range(self.array.n_pairs):
+            x = itds[:, p][np.isfinite(itds[:, p])]
+            if x.size < self.min_itds:
+                return False
+            tau[p] = np.median(x)
+            if 1.4826 * float(np.median(np.abs(x - tau[p]))) > self.max_spread_s:
+                return False
+        self._obs.append((tau, faces))
+        return True
+
+    def _residuals(self, yaw_rad: float, scales: np.ndarray, tau: np.ndarray, faces: np.ndarray, owner: np.ndarray,
+                   starts: np.ndarray) -> np.ndarray:
+        """(scales, observations): each observation's residual (seconds) with its best face, on the array turned by
+        ``yaw_rad`` with its ITDs times each scale."""
+        predicted = self.array.turned(yaw_rad).itd(faces)  # (F, P)
+        r = np.median(np.abs(tau[owner][None] - scales[:, None, None] * predicted[None]), axis=2)  # (S, F)
+        return np.minimum.reduceat(r, starts, axis=1)
+
+    def fit(self) -> YawFit | None:
+        """The turn the most one-source observations agree with, refined on them; None while fewer than
+        ``min_inliers`` agree."""
+        if len(self._obs) < self.min_inliers:
+            return None
+        obs = list(self._obs)
+        every = max(1, len(obs) // self.coarse_observations)
+        scales = np.arange(self.scale_range[0], self.scale_range[1] + 1e-9, self.coarse_scale)
+        yaws = np.deg2rad(np.arange(-self.max_yaw_deg, self.max_yaw_deg + 1e-9, self.coarse_deg))
+        (yaw, scale), _ = self._best(yaws, scales, _stacked(obs[::every]), None)
+        data = _stacked(obs)
+        keep = self._residuals(yaw, np.array([scale]), *data)[0] <= self.tolerance_s
+        if keep.sum() < self.min_inliers:
+            return None
+        # within half a coarse step (and a little) of the coarse best, on its inliers
+        yaws = yaw + np.deg2rad(np.arange(-0.6, 0.6 + 1e-9, 0.2) * self.coarse_deg)
+        scales = scale + np.arange(-0.6, 0.6 + 1e-9, 0.2) * self.coarse_scale
+        (yaw, scale), _ = self._best(yaws, scales, data, keep)
+        r = self._residuals(yaw, np.array([scale]), *data)[0]
+        inside = r <= self.tolerance_s
+        n = int(inside.sum())
+        if n < self.min_inliers:
+            return None
+        rms = float(np.sqrt(np.mean(r[inside] ** 2)))
+        return YawFit(float(yaw), float(scale), n, len(obs), n / len(obs), rms)
+
+    def _best(self, yaws: np.ndarray, scales: np.ndarray, data: tuple, keep: np.ndarray | None
+              ) -> tuple[tuple[float, float], np.ndarray]:
+        """Over the grid: the most inliers, then the smallest mean squared residual among them (``keep`` given:
+        the smallest mean squared residual of those observations)."""
+        best_key, best = None, None
+        for yaw in yaws:
+            res = self._residuals(float(yaw), scales, *data)  # (S, O)
+            inside = res <= self.tolerance_s if keep is None else np.broadcast_to(keep, res.shape)
+            counts = inside.sum(axis=1)
+            mse = (np.where(inside, res, 0.0) ** 2).sum(axis=1) / np.maximum(counts, 1)
+            for k in range(scales.size):
+                key = (-int(counts[k]), float(mse[k]))
+                if best_key is None or key < best_key:
+                    best_key, best = key, ((float(yaw), float(scales[k])), inside[k])
+        assert best is not None
+        return best
+
+
+def _stacked(obs: list) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Observations [(tau (P,), faces (N, 3))] as tau (O, P), faces (F, 3), each face's observation (F,), and
+    where each observation's faces start (O,)."""
+    tau = np.array([t for t, _ in obs])
+    faces = np.concatenate([f for _, f in obs])
+    owner = np.concatenate([np.full(f.shape[0], k) for k, (_, f) in enumerate(obs)])
+    return tau, faces, owner, np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])

@@ -129,6 +129,9 @@ def run_synthetic(args: argparse.Namespace) -> int:
     return 0
 
 
+START_YAW_ERROR_DEG = 10.0  # an array's self-calibration starts this far turned from where the room has it
+
+
 def _gap_us(state: dict, loudspeaker: MicPair) -> float:
     """The largest difference, microseconds, between the self-calibrated and the loudspeaker's mappings over the
     cameras' view (faces within 30 degrees of straight ahead: raw ITDs up to half the pair's maximum)."""
@@ -161,6 +164,9 @@ def run_scenarios(args: argparse.Namespace) -> int:
         # the self-calibration's start: 20 % off in c1 and 30 us off in c0 from the loudspeaker's fit
         start_mics = calibration.mics.with_correction(1.2 * calibration.mics.c1, calibration.mics.c0 + 30e-6)
         _progress(f"self-calibration from c1 = {start_mics.c1:.4f}, c0 = {signed_us(start_mics.c0 * 1e6)} us")
+    start_yaw = START_YAW_ERROR_DEG if config.self_calibrate and not one_pair else 0.0
+    if start_yaw:
+        _progress(f"self-calibration from the array turned {start_yaw:.0f} degrees about the vertical from where it is")
     scores: list[ScenarioScore] = []
     for name in args.scenario:
         merged: ScenarioScore | None = None
@@ -169,7 +175,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
             t0 = time.perf_counter()
             score = evaluate_scenario(name, seed, duration_s=args.duration, config=config, mics=start_mics,
                                       mic_array=args.mics, bodies=wants_bodies(args), camera=args.camera,
-                                      lips=wants_lips(args))
+                                      lips=wants_lips(args), array_yaw_deg=start_yaw)
             u = score.utterances  # the table's first unit
             _progress(f"{name} seed {seed}: per spoken number TP {u.tp}, FN {u.fn}, FP {u.fp} "
                       f"({time.perf_counter() - t0:.0f} s)")
@@ -179,7 +185,9 @@ def run_scenarios(args: argparse.Namespace) -> int:
                 _progress(f"{name} seed {seed}: self-calibrated c1 = {state['c1']:.4f}, c0 = "
                           f"{signed_us(state['c0_s'] * 1e6)} us ({state['inliers']} of {state['observations']} "
                           "one-source time frames)" + (f", {state['gap_to_loudspeaker_us']:.1f} us from the "
-                                                      "loudspeaker's fit" if calibration is not None else ""))
+                                                      "loudspeaker's fit" if calibration is not None else "")
+                          + (f"; the array's turn learned within {abs(state['array_yaw_error_deg']):.1f} degrees"
+                             if state.get("array_yaw_error_deg") is not None else ""))
             if args.timeline is not None and score.timeline is not None:
                 from app.eval.figure import save_timeline
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from contextlib import ExitStack
 from dataclasses import replace
 from functools import partial
@@ -237,14 +238,20 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
 
 
 def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> None:
-    """The source's cameras and microphones with each pair's self-calibrated c1, c0, as a rig file."""
+    """The source's cameras and microphones with each pair's self-calibrated c1, c0 (and an array's learned turn
+    about the vertical, in its positions), as a rig file."""
     array = getattr(source, "array", None)
     array = array if array is not None else MicArray.from_pair(source.mics, tuple(source.channels))
+    yaw = state[0].get("array_yaw_deg")
+    if yaw is not None:
+        array = array.turned(math.radians(yaw))
     learned = MicArray(array.positions, array.pairs, array.speed_of_sound, tuple(s["c1"] for s in state),
                        tuple(s["c0_s"] for s in state), array.channels)
     rig = RigConfig(source.rig, learned.pair(0), None) if learned.n_pairs == 1 else RigConfig(source.rig, None, learned)
     fitted = ", ".join(f"c1 {s['c1']:.4f} c0 {s['c0_s'] * 1e6:+.1f} us ({s['inliers']} of {s['observations']} "
                        "one-source time frames)" for s in state)
+    if yaw is not None:
+        fitted += f"; the array turned {yaw:+.1f} degrees about the vertical"
     save_rig(path, rig, header=f"written by avhear run --self-calibrate: {fitted}")
     print(f"avhear: the self-calibrated rig is in {path} ({fitted}); use it with --rig {path}")
 

@@ -470,7 +470,7 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
 def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = None,
                       config: PipelineConfig | None = None, mics: MicPair | None = None,
                       mic_array: str = "pair", bodies: bool = False, camera: str = "stereo", lips: bool = False,
-                      progress: Progress | None = None) -> ScenarioScore:
+                      array_yaw_deg: float = 0.0, progress: Progress | None = None) -> ScenarioScore:
     """Simulate scenario ``name`` (S1-S5) with ``seed``, run it through the pipeline and score it (section 7.3).
 
     duration_s : seconds of scenario (default the preset's, 20-25 s). config : the pipeline's settings (default
@@ -479,7 +479,8 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); with several pairs the fusion uses them all and
     ``mics`` must be None (the simulated microphones are exact). bodies : people with a torso, arms and hands that
     gesture, the seated behind a table; camera : the stereo pair or an RGB-D camera
-    (:class:`app.sources.sim.SimSource`). A motion-guided run is scored against the centre of each person's visible
+    (:class:`app.sources.sim.SimSource`). array_yaw_deg : the pipeline is told the array is turned this much about
+    the vertical from where the room has it (a wrong rig file; :meth:`avcore.geometry.MicArray.turned`). A motion-guided run is scored against the centre of each person's visible
     moving body (:meth:`app.sources.sim.SimSource.body_centres`), a face-guided one against the faces.
     """
     if mics is not None and MicArray.preset(mic_array).n_pairs != 1:
@@ -490,6 +491,10 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     source = _open(name, seed, duration_s, progress, mic_array, bodies, camera, lips)
     if mics is not None:
         source.mics = mics
+    if array_yaw_deg:
+        if source.array is None:
+            raise ValueError("array_yaw_deg turns an array of several pairs; this source has one pair")
+        source.array = source.array.turned(math.radians(array_yaw_deg))
     fused: list[Result] = []
 
     def keep(result: Result) -> None:
@@ -508,7 +513,10 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     score.seeds = [seed]
     score.voices = voice_counts(scenario, fused)
     if stats.self_calibration:
-        score.self_calibration = [dict(stats.self_calibration[0], seed=seed)]
+        state = dict(stats.self_calibration[0], seed=seed)
+        if state.get("array_yaw_deg") is not None:  # the learned turn undoes the wrong one: what is left
+            state["array_yaw_error_deg"] = array_yaw_deg + state["array_yaw_deg"]
+        score.self_calibration = [state]
     meta = getattr(stream, "meta", {})
     score.speech, score.faces = str(meta.get("speech", "")), str(meta.get("faces", ""))
     return score

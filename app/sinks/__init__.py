@@ -39,6 +39,8 @@ class Sinks:
             diagnostics[f"self_calibration/pair{p}/c1"] = pair["c1"]
             diagnostics[f"self_calibration/pair{p}/c0_us"] = pair["c0_s"] * 1e6
             diagnostics[f"self_calibration/pair{p}/inliers"] = float(pair["inliers"])
+            if p == 0 and pair.get("array_yaw_deg") is not None:  # several pairs: the array's turn, once
+                diagnostics["self_calibration/array_yaw_deg"] = pair["array_yaw_deg"]
         if self.session.part_due():
             self.session.next_part()
             self.console.new_part()

@@ -108,12 +108,29 @@ def test_an_array_section_places_a_preset_on_the_rig_and_round_trips(tmp_path):
     assert back.array.positions == rig.array.positions and back.array.channels == rig.array.channels
 
 
+def test_a_turned_array_keeps_its_pairs_and_their_corrections_through_a_file(tmp_path):
+    """A placed array's pairs keep the preset's order (its c1, c0 go with them): a file written from it names its
+    pairs, so that read back (where another microphone may now be the more to the left) each correction stays with
+    its pair."""
+    from avcore.geometry import MicArray
+
+    given = MicArray.preset("respeaker4").turned(np.radians(40.0))
+    turned = MicArray(given.positions, given.pairs, given.speed_of_sound, (0.9, 0.91, 0.92, 0.93, 0.94, 0.95),
+                      (1e-6, 2e-6, 3e-6, 4e-6, 5e-6, 6e-6), given.channels)
+    assert MicArray(turned.positions).pairs != turned.pairs  # the default order would be another one
+    save_rig(tmp_path / "rig.yaml", RigConfig(array=turned))
+    back = load_rig(tmp_path / "rig.yaml").array
+    assert back.pairs == turned.pairs and back.c1 == turned.c1 and back.c0 == turned.c0
+
+
 @pytest.mark.parametrize(("section", "message"), [
     ("array:\n  preset: nao5\n", "unknown array 'nao5'"),
     ("array:\n  preset: nao\n  positions_m: [[0, 0, 0], [0.1, 0, 0]]\n", "either 'preset'"),
     ("array:\n  positions_m: [[0, 0, 0]]\n", "at least two"),
     ("array:\n  preset: pair\n  channels: [0, 0]\n", "different channel numbers"),
     ("array:\n  preset: nao\n  rotation: [[2, 0, 0], [0, 1, 0], [0, 0, 1]]\n", "rotation matrix"),
+    ("array:\n  preset: nao\n  pairs: [[0, 1, 2]]\n", "list of \\[i, j\\]"),
+    ("array:\n  preset: nao\n  pairs: [[0, 7]]\n", "below 4"),
 ])
 def test_a_bad_array_section_names_the_file_and_what_to_fix(tmp_path, section, message):
     path = tmp_path / "rig.yaml"

@@ -429,3 +429,25 @@ def test_a_self_calibrating_run_corrects_a_wrong_start(tmp_path) -> None:  # noq
     assert state["inliers"] >= 30 and state["confidence"] > 0.5
     assert abs(state["c1"] - 0.81) < 0.08 and abs(state["c0_s"]) < 8e-6
     assert stats.as_dict()["self_calibration"] == [state]
+    assert "array_yaw_deg" not in state  # one pair: no turn to learn
+
+
+def test_a_self_calibrating_array_learns_its_turn(tmp_path) -> None:  # noqa: ANN001
+    """--self-calibrate with an array of several pairs (the ReSpeaker 4-mic): the pipeline is told the array is
+    turned 10 degrees about the vertical from where the room has it; the run learns the turn back within 2 degrees
+    and hears with the array where it is (its microphones within 1 cm of the room's)."""
+    from app.sources.open import StreamAdapter
+    from app.sources.sim import SimSource
+
+    source = StreamAdapter(SimSource.from_preset("S2", duration_s=14.0, seed=0, fps=15, data_dir=tmp_path / "none",
+                                                 mics="respeaker4"), realtime=False)
+    real = source.array
+    source.array = real.turned(np.radians(10.0))
+    kept: list = []
+    pipeline = Pipeline(source, PipelineConfig(self_calibrate=True), kept.append)
+    stats = pipeline.run()
+    assert len(stats.self_calibration) == real.n_pairs
+    yaws = {s["array_yaw_deg"] for s in stats.self_calibration}
+    assert len(yaws) == 1 and abs(yaws.pop() + 10.0) < 2.0
+    heard = pipeline._hearing.array  # the hearing the fusion thread ended with
+    assert np.max(np.abs(np.asarray(heard.positions) - np.asarray(real.positions))) < 0.01

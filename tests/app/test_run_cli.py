@@ -208,3 +208,29 @@ def test_a_self_calibrated_run_saves_its_rig(tmp_path: Path, capsys: pytest.Capt
     assert abs(rig.microphones.c1 - 0.81) < 0.08 and abs(rig.microphones.c0) < 8e-6
     assert main(["demo", "--headless", "--save-rig", str(tmp_path / "x.yaml")]) == 2
     assert "--save-rig keeps what --self-calibrate learns" in capsys.readouterr().err
+
+
+def test_an_arrays_learned_turn_goes_into_the_saved_rig(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """--save-rig after an array's self-calibration: the file holds the array turned as learned (its microphones
+    where the turn puts them, each pair's c1, c0), says the turn in its header, and reads back as that array."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from app.commands.run import _save_learned_rig
+    from app.config import load_rig
+    from avcore.geometry import MicArray
+
+    given = MicArray.preset("respeaker4")
+    state = [{"c1": 0.9 + 0.01 * p, "c0_s": 1e-6 * p, "inliers": 40, "observations": 50, "array_yaw_deg": -8.0}
+             for p in range(given.n_pairs)]
+    path = tmp_path / "learned.yaml"
+    _save_learned_rig(path, SimpleNamespace(array=given, rig=None), state)
+    assert "the array turned -8.0 degrees about the vertical" in path.read_text()
+    assert "the array turned -8.0 degrees" in capsys.readouterr().out
+    saved = load_rig(path).array
+    assert saved is not None and saved.pairs == given.pairs and saved.channels == given.channels
+    np.testing.assert_allclose(np.asarray(saved.positions), np.asarray(given.turned(np.radians(-8.0)).positions),
+                               atol=1e-9)
+    np.testing.assert_allclose(saved.c1, [s["c1"] for s in state])
+    np.testing.assert_allclose(saved.c0, [s["c0_s"] for s in state])

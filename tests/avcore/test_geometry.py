@@ -212,3 +212,21 @@ def test_a_placed_array_moves_every_microphone_and_keeps_its_pairs() -> None:
     np.testing.assert_allclose(np.asarray(same.positions), np.asarray(moved.positions), atol=1e-12)
     with pytest.raises(ValueError, match="translation_m"):
         array.placed(np.eye(3), [0.0, np.inf, 0.0])
+
+
+def test_a_turned_array_turns_about_the_vertical_through_its_centre() -> None:
+    """turned(yaw): every microphone keeps its height and its distance to the microphones' centroid, which stays;
+    a quarter turn takes the front (+z) to the right (+x) and the right to the back (written out by hand)."""
+    array = MicArray(((-0.05, 0.0, 1.0), (0.05, 0.0, 1.0), (0.0, 0.02, 1.1)), c1=(0.9, 1.0, 1.1))
+    centre = np.mean(np.asarray(array.positions), axis=0)
+    quarter = array.turned(np.pi / 2)
+    # (x, y, z) -> (z, y, -x) about the centre: a quarter turn with the front going right
+    offsets = np.asarray(array.positions) - centre
+    by_hand = centre + np.c_[offsets[:, 2], offsets[:, 1], -offsets[:, 0]]
+    np.testing.assert_allclose(np.asarray(quarter.positions), by_hand, atol=1e-12)
+    assert by_hand[2, 0] > centre[0] and by_hand[1, 2] < centre[2]  # front to the right, right to the back
+    assert quarter.pairs == array.pairs and quarter.c1 == array.c1 and quarter.channels == array.channels
+    back = quarter.turned(-np.pi / 2)
+    np.testing.assert_allclose(np.asarray(back.positions), np.asarray(array.positions), atol=1e-12)
+    with pytest.raises(ValueError, match="yaw_rad"):
+        array.turned(float("nan"))
