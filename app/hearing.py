@@ -240,7 +240,9 @@ class SelfCalibrating:
         if self._yaw is not None:
             self._yaw.push(faces_xyz, itds_s)
         self._n += 1
-        if self._n % self.every == 0:
+        # an array's turn is looked for three times as often until found (until then the whole array hears wrong)
+        searching = self._yaw is not None and self._yaw_fit is None
+        if self._n % (max(1, self.every // 3) if searching else self.every) == 0:
             self._refit()
         return out
 

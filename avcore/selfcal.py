@@ -172,7 +172,7 @@ class ArrayYawCalibration:
     max_spread_s: float = 12e-6
     min_itds: int = 5
     tolerance_s: float = 10e-6
-    min_inliers: int = 30
+    min_inliers: int = 20
     max_yaw_deg: float = 45.0
     coarse_deg: float = 1.0
     scale_range: tuple[float, float] = (0.7, 1.1)
