@@ -212,20 +212,26 @@ class MotionGuided:
 
 
 class SelfCalibrating:
-    """A face-guided hearing whose correction c1, c0 (eq. itd_up, per pair) is learned as it runs
-    (:mod:`avcore.selfcal`): each result's faces and time frame feed one :class:`SelfCalibration` per pair, and every
-    ``every`` results the pairs whose fit is ready get their correction; the hearing is rebuilt with it (it holds
-    no state from one result to the next). With several pairs the array's turn about the vertical is learned first
-    (:class:`ArrayYawCalibration`) and the pairs are fitted where it puts them, once it is known. ``state()`` says
-    where each pair stands."""
+    """A face-guided hearing whose correction is learned as it runs (:mod:`avcore.selfcal`); every ``every`` results
+    the hearing is rebuilt with what is known (it holds no state from one result to the next).
 
-    def __init__(self, hearing: FaceGuidedHearing, every: int = 30) -> None:
+    One pair: its c1, c0 (eq. itd_up) from :class:`SelfCalibration`. Several pairs (an array, whose geometry comes
+    from its maker and whose placement from the rig file): the array's turn about the vertical and the ITDs' common
+    scale (:class:`ArrayYawCalibration`), the scale becoming every pair's c1; with ``fit_pairs`` each pair's own c1,
+    c0 are then fitted where the turn puts it (off by default for arrays: a pair whose faces span little of its
+    ITD range, such as NAO's front-back pairs, gets a line far from the truth). ``state()`` says where each pair
+    stands."""
+
+    def __init__(self, hearing: FaceGuidedHearing, every: int = 30, fit_pairs: bool | None = None) -> None:
         self.hearing = hearing
         self.every = every
         self._given = hearing.array
-        self._cals = [SelfCalibration(hearing.array.pair(p)) for p in range(hearing.array.n_pairs)]
+        several = hearing.array.n_pairs > 1
+        self.fit_pairs = not several if fit_pairs is None else fit_pairs
+        self._cals = [SelfCalibration(hearing.array.pair(p)) for p in range(hearing.array.n_pairs)] \
+            if self.fit_pairs else []
         self._fits: list[SelfCalibrationFit | None] = [None] * len(self._cals)
-        self._yaw = ArrayYawCalibration(hearing.array) if hearing.array.n_pairs > 1 else None
+        self._yaw = ArrayYawCalibration(hearing.array) if several else None
         self._yaw_fit: YawFit | None = None
         self._n = 0
 
@@ -248,27 +254,33 @@ class SelfCalibrating:
 
     def _refit(self) -> None:
         a = self._given
+        c1, c0 = a.c1, a.c0
         if self._yaw is not None:
-            self._yaw_fit = self._yaw.fit() or self._yaw_fit
+            self._yaw_fit = self._yaw.fit(self._yaw_fit.yaw_rad if self._yaw_fit else 0.0) or self._yaw_fit
             if self._yaw_fit is None:
                 return  # the pairs are fitted where the turn puts them: wait for it
             a = a.turned(self._yaw_fit.yaw_rad)
-        for p, cal in enumerate(self._cals):
-            cal.mics = a.pair(p)
-        fits = [cal.fit() for cal in self._cals]
-        self._fits = [f if f is not None else old for f, old in zip(fits, self._fits)]
-        c1 = tuple(f.c1 if f is not None else c for f, c in zip(self._fits, a.c1))  # type: ignore[arg-type]
-        c0 = tuple(f.c0 if f is not None else c for f, c in zip(self._fits, a.c0))  # type: ignore[arg-type]
+            c1 = tuple(self._yaw_fit.scale * c for c in a.c1)  # type: ignore[union-attr]
+        if self._cals:
+            for p, cal in enumerate(self._cals):
+                cal.mics = a.pair(p)
+            fits = [cal.fit() for cal in self._cals]
+            self._fits = [f if f is not None else old for f, old in zip(fits, self._fits)]
+            c1 = tuple(f.c1 if f is not None else c for f, c in zip(self._fits, c1))  # type: ignore[arg-type]
+            c0 = tuple(f.c0 if f is not None else c for f, c in zip(self._fits, c0))  # type: ignore[arg-type]
         self.hearing = FaceGuidedHearing(MicArray(a.positions, a.pairs, a.speed_of_sound, c1, c0, a.channels),
                                          self.hearing.params)
 
     def state(self) -> list[dict[str, Any]]:
-        """Per pair: c1, c0 in use, and the fit's inliers, observations and confidence (None: not fitted yet); with
-        several pairs also the array's learned turn, ``array_yaw_deg`` (None: not yet), the same in every pair."""
+        """Per pair: c1, c0 in use, and the fit's inliers, observations and confidence (None: not fitted yet: the
+        pair's own fit, or the array's); with several pairs also the array's learned turn, ``array_yaw_deg`` (None:
+        not yet), the same in every pair."""
         a = self.hearing.array
-        out = [{"c1": float(c1), "c0_s": float(c0), "inliers": f.inliers if f else 0,
-                "observations": len(cal), "confidence": f.confidence if f else None}
-               for c1, c0, f, cal in zip(a.c1, a.c0, self._fits, self._cals)]  # type: ignore[arg-type]
+        fits = self._fits if self._cals else [self._yaw_fit] * a.n_pairs
+        seen = [len(cal) for cal in self._cals] if self._cals else [len(self._yaw)] * a.n_pairs  # type: ignore[arg-type]
+        out = [{"c1": float(c1), "c0_s": float(c0), "inliers": f.inliers if f else 0, "observations": n,
+                "confidence": f.confidence if f else None}
+               for c1, c0, f, n in zip(a.c1, a.c0, fits, seen)]  # type: ignore[arg-type]
         if self._yaw is not None:
             yaw = None if self._yaw_fit is None else math.degrees(self._yaw_fit.yaw_rad)
             for d in out:

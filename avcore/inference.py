@@ -33,7 +33,7 @@ from avcore.mixture import (
     unpack,
     warn_not_converged,
 )
-from avcore.refine3d import Group3D, compact_groups, group_from_members, merge_close
+from avcore.refine3d import Group3D, compact_groups, group_from_members, merge_close, merge_within_width
 from avcore.itd.pairs import FrameBins
 from avcore.speaking import SpeakingTest, bin_shares, speaking_threshold
 
@@ -75,6 +75,9 @@ class MotionGuidedParams:
         groups this far apart vertically (and aligned horizontally) are one person.
     merge_reach_per_m : the horizontal merge distance grows by this much per metre that one group lies below the
         other (``avcore.refine3d.merge_close``'s ``reach_per_m``): a gesturing hand is found beside and below its head.
+    body_width_m : if set, groups at about one height whose points together span no more than this (between their
+        5th and 95th percentiles) are one person (``avcore.refine3d.merge_within_width``): a body moving at both
+        its sides (swaying, both hands gesturing) gives two strips about 0.3 m apart that ``merge_distance_m`` keeps.
     body_radius_m : if set, an object's position is the alpha-weighted mean of its clusters' points within this
         horizontal radius (and ``merge_vertical_m`` vertically) of its groups, not the groups' mean alone.
     body_keeps_groups : with ``body_radius_m``, the body's points are the union of its groups' members and its
@@ -100,6 +103,7 @@ class MotionGuidedParams:
     merge_distance_m: float = 0.3
     merge_vertical_m: float = 1.2
     merge_reach_per_m: float = 0.3
+    body_width_m: float | None = 0.6
     body_radius_m: float | None = 0.3
     body_keeps_groups: bool = True
     warm_start_candidates: bool = True
@@ -114,6 +118,8 @@ class MotionGuidedParams:
                              f"{self.merge_distance_m}, {self.merge_vertical_m}")
         if not self.merge_reach_per_m >= 0:
             raise ValueError(f"merge_reach_per_m must be >= 0, got {self.merge_reach_per_m}")
+        if self.body_width_m is not None and not self.body_width_m > 0:
+            raise ValueError(f"body_width_m must be None or > 0 metres, got {self.body_width_m}")
         if self.body_radius_m is not None and not self.body_radius_m > 0:
             raise ValueError(f"body_radius_m must be None or > 0 metres, got {self.body_radius_m}")
         if not isinstance(self.body_keeps_groups, bool):
@@ -368,11 +374,15 @@ class MotionGuidedHearing:
                 g = self._body(pts, alpha[:, sorted({sources[i] for i in idx})].sum(axis=1), g)
             return g
 
-        clusters = merge_close(groups, pts, p.merge_distance_m, p.merge_vertical_m, p.merge_reach_per_m)
+        def close(parts: list[Group3D]) -> list[list[int]]:
+            found = merge_close(parts, pts, p.merge_distance_m, p.merge_vertical_m, p.merge_reach_per_m)
+            return found if p.body_width_m is None else merge_within_width(parts, pts, found, p.body_width_m)
+
+        clusters = close(groups)
         bodies = [merged(c) for c in clusters]
         if p.body_radius_m is not None and len(clusters) > 1:
             # body centres of a person's merged parts can be closer than the parts were: merge once more on them
-            again = merge_close(bodies, pts, p.merge_distance_m, p.merge_vertical_m, p.merge_reach_per_m)
+            again = close(bodies)
             bodies = [bodies[c[0]] if len(c) == 1 else merged(sum((clusters[i] for i in c), [])) for c in again]
             clusters = [sum((clusters[i] for i in c), []) for c in again]
         objects = []

@@ -266,3 +266,47 @@ def merge_close(groups: list[Group3D], points: np.ndarray, distance_m: float,
         means.pop(j)
         masses.pop(j)
     return clusters
+
+
+def _weighted_quantiles(x: np.ndarray, w: np.ndarray, q: tuple[float, float]) -> np.ndarray:
+    order = np.argsort(x)
+    c = np.cumsum(w[order])
+    return np.interp(q, c / c[-1], x[order])
+
+
+def merge_within_width(groups: list[Group3D], points: np.ndarray, clusters: list[list[int]], width_m: float,
+                       max_dy_m: float = 0.25) -> list[list[int]]:
+    """``clusters`` (lists of indices into ``groups``) merged while two of them are one body's width across.
+
+    A person who sways or gestures with both hands moves at both sides of the body: the moving points gather in two
+    strips at the body's edges about 0.3-0.35 m apart at one height (the rendered scenes' people, the skeletons'
+    gesturing arms), which ``merge_close`` keeps apart, as it must keep two heads side by side. What tells them
+    apart is the extent: the two strips' points together span one body (about 0.5 m between their 5th and 95th
+    percentiles along the horizontal line through their means), two people side by side span two. Clusters at
+    about one height (means within ``max_dy_m``) whose members together span at most ``width_m`` are merged,
+    the narrowest pair first. Its limit: two people whose moving points are heads alone, closer than about
+    ``width_m`` minus a head's width, are taken for one.
+    """
+    if not width_m > 0:
+        raise ValueError(f"width_m must be > 0 metres, got {width_m!r}")
+    clusters = [list(c) for c in clusters]
+    while len(clusters) > 1:
+        members = [sum(groups[i].members for i in c) for c in clusters]
+        means = [(m @ points) / max(float(m.sum()), 1e-12) for m in members]
+        best: tuple[float, int, int] | None = None
+        for i in range(len(clusters)):
+            for j in range(i + 1, len(clusters)):
+                axis = np.array([means[j][0] - means[i][0], 0.0, means[j][2] - means[i][2]])
+                norm = float(np.linalg.norm(axis))
+                if abs(means[j][1] - means[i][1]) > max_dy_m or norm < 1e-9:
+                    continue
+                w = members[i] + members[j]
+                keep = w > 1e-9
+                lo, hi = _weighted_quantiles(points[keep] @ (axis / norm), w[keep], (0.05, 0.95))
+                if hi - lo <= width_m and (best is None or hi - lo < best[0]):
+                    best = (hi - lo, i, j)
+        if best is None:
+            break
+        _, i, j = best
+        clusters[i] += clusters.pop(j)
+    return clusters

@@ -158,8 +158,9 @@ class ArrayYawCalibration:
     """Collects one-source time frames of an array (:meth:`push`) and finds its turn about the vertical
     (:meth:`fit`) that maps the most of them onto a visible face; see the module.
 
-    An observation is the median ITD of every pair over the time frame, kept when every pair has ``min_itds`` ITDs
-    spread less than ``max_spread_s`` (one source), with the visible faces. A turn explains it when one face's ITD
+    An observation is the median ITD of each pair over the time frame, with the visible faces; a pair counts when it
+    has ``min_itds`` ITDs spread less than ``max_spread_s`` (one source), and the observation is kept when more than
+    half of the pairs count (two people at once spread most of them). A turn explains it when one face's ITD
     vector, on the array so turned with its correction, lies within ``tolerance_s`` of it (the median over the
     pairs of the absolute differences) with the ITDs of every pair times a common scale: measured ITDs come out
     shorter than the geometry's (reverberation pulls them towards zero, section 5.3's c1), by the same share on
@@ -178,6 +179,7 @@ class ArrayYawCalibration:
     scale_range: tuple[float, float] = (0.7, 1.1)
     coarse_scale: float = 0.05
     coarse_observations: int = 150
+    switch_margin: float = 1.25
     memory: int = 600
     _obs: deque = field(init=False, repr=False)
 
@@ -192,6 +194,8 @@ class ArrayYawCalibration:
             raise ValueError("need 0 < coarse_scale and 0 < scale_range[0] < scale_range[1]")
         if not (self.min_itds >= 2 and self.min_inliers >= 2 and self.memory >= self.min_inliers):
             raise ValueError("need min_itds >= 2, min_inliers >= 2 and memory >= min_inliers")
+        if not self.switch_margin >= 1:
+            raise ValueError(f"switch_margin must be >= 1, got {self.switch_margin}")
         self._obs = deque(maxlen=self.memory)
 
     def __len__(self) -> int:
@@ -204,14 +208,16 @@ class ArrayYawCalibration:
         itds = np.asarray(itds_s, dtype=np.float64).reshape(-1, self.array.n_pairs)
         if faces.shape[0] == 0:
             return False
-        tau = np.empty(self.array.n_pairs)
+        tau = np.full(self.array.n_pairs, np.inf)  # a pair without enough ITDs: never within the tolerance
         for p in range(self.array.n_pairs):
             x = itds[:, p][np.isfinite(itds[:, p])]
             if x.size < self.min_itds:
-                return False
-            tau[p] = np.median(x)
-            if 1.4826 * float(np.median(np.abs(x - tau[p]))) > self.max_spread_s:
-                return False
+                continue
+            mid = float(np.median(x))
+            if 1.4826 * float(np.median(np.abs(x - mid))) <= self.max_spread_s:
+                tau[p] = mid
+        if np.sum(np.isfinite(tau)) <= self.array.n_pairs // 2:  # the residual is the median over the pairs
+            return False
         self._obs.append((tau, faces))
         return True
 
@@ -223,16 +229,22 @@ class ArrayYawCalibration:
         r = np.median(np.abs(tau[owner][None] - scales[:, None, None] * predicted[None]), axis=2)  # (S, F)
         return np.minimum.reduceat(r, starts, axis=1)
 
-    def fit(self) -> YawFit | None:
+    def fit(self, incumbent_rad: float = 0.0) -> YawFit | None:
         """The turn the most one-source observations agree with, refined on them; None while fewer than
-        ``min_inliers`` agree."""
+        ``min_inliers`` agree. ``incumbent_rad``, the turn in use (0: the rig file's placement), stays unless
+        another explains ``switch_margin`` times as many observations: the rig is believed until the data clearly
+        says otherwise, and one talker out of view that a wrong turn maps onto a face does not move it."""
         if len(self._obs) < self.min_inliers:
             return None
         obs = list(self._obs)
         every = max(1, len(obs) // self.coarse_observations)
         scales = np.arange(self.scale_range[0], self.scale_range[1] + 1e-9, self.coarse_scale)
         yaws = np.deg2rad(np.arange(-self.max_yaw_deg, self.max_yaw_deg + 1e-9, self.coarse_deg))
-        (yaw, scale), _ = self._best(yaws, scales, _stacked(obs[::every]), None)
+        sub = _stacked(obs[::every])
+        (yaw, scale), inside = self._best(yaws, scales, sub, None)
+        held = self._residuals(incumbent_rad, scales, *sub) <= self.tolerance_s  # (S, O)
+        if inside.sum() < self.switch_margin * held.sum(axis=1).max():
+            yaw, scale = incumbent_rad, float(scales[int(np.argmax(held.sum(axis=1)))])
         data = _stacked(obs)
         keep = self._residuals(yaw, np.array([scale]), *data)[0] <= self.tolerance_s
         if keep.sum() < self.min_inliers:

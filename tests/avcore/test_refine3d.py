@@ -9,6 +9,7 @@ from avcore.refine3d import (
     compact_groups,
     group_from_members,
     merge_close,
+    merge_within_width,
 )
 
 BODY = np.array([0.12, 0.25, 0.08])
@@ -131,3 +132,28 @@ def test_a_body_keeps_its_groups_parts_outside_the_cylinder() -> None:
     assert np.linalg.norm(centre - pts.mean(axis=0)) < 0.01
     with pytest.raises(TypeError, match="body_keeps_groups"):
         MotionGuidedParams(body_keeps_groups=1)  # type: ignore[arg-type]
+
+
+def _strip(rng: np.random.Generator, x: float, n: int = 300, half_width: float = 0.04) -> np.ndarray:
+    """Moving points along one vertical edge of a body 2 m away: a strip ``2 half_width`` wide, 0.5 m tall."""
+    return np.c_[x + rng.uniform(-half_width, half_width, n), rng.uniform(-0.1, 0.4, n), 2.0 + rng.normal(0, 0.02, n)]
+
+
+def test_a_body_moving_at_both_sides_is_one_person_its_neighbour_is_not() -> None:
+    """A torso swaying gives its two edges, strips 0.33 m apart spanning 0.41 m: one person at width 0.6 m (not
+    merged by distance alone, 0.3 m). A neighbour whose moving points fill a body 0.4 m wide, centred 0.55 m away,
+    stays apart: the narrowest pair (the two strips) goes first, then the three together span 0.9 m. A strip 0.3 m
+    higher is not at one height (merge_close's work)."""
+    rng = np.random.default_rng(7)
+    neighbour = np.c_[rng.uniform(0.35, 0.75, 300), rng.uniform(-0.1, 0.4, 300), 2.0 + rng.normal(0, 0.02, 300)]
+    pts = np.concatenate([_strip(rng, -0.165), _strip(rng, 0.165), neighbour])
+    groups = [group_from_members(pts, np.repeat(np.eye(3)[k], 300)) for k in range(3)]
+    apart = merge_close(groups, pts, 0.3)
+    assert sorted(map(sorted, apart)) == [[0], [1], [2]]
+    assert sorted(map(sorted, merge_within_width(groups, pts, apart, 0.6))) == [[0, 1], [2]]
+    assert sorted(map(sorted, merge_within_width(groups, pts, apart, 0.35))) == [[0], [1], [2]]
+    raised = np.concatenate([pts[:300], pts[300:600] + [0.0, 0.3, 0.0]])
+    pair = [group_from_members(raised, np.repeat(np.eye(2)[k], 300)) for k in range(2)]
+    assert sorted(map(sorted, merge_within_width(pair, raised, [[0], [1]], 0.6))) == [[0], [1]]
+    with pytest.raises(ValueError, match="width_m"):
+        merge_within_width(groups, pts, apart, 0.0)
