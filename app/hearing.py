@@ -217,19 +217,16 @@ class SelfCalibrating:
 
     One pair: its c1, c0 (eq. itd_up) from :class:`SelfCalibration`. Several pairs (an array, whose geometry comes
     from its maker and whose placement from the rig file): the array's turn about the vertical and the ITDs' common
-    scale (:class:`ArrayYawCalibration`), the scale becoming every pair's c1; with ``fit_pairs`` each pair's own c1,
-    c0 are then fitted where the turn puts it (off by default for arrays: a pair whose faces span little of its
-    ITD range, such as NAO's front-back pairs, gets a line far from the truth). ``state()`` says where each pair
-    stands."""
+    scale (:class:`ArrayYawCalibration`), the scale becoming every pair's c1. Not a line per pair: a pair whose
+    faces span little of its ITD range (NAO's front-back pair) gets one far from the truth (docs/method.md).
+    ``state()`` says where each pair stands."""
 
-    def __init__(self, hearing: FaceGuidedHearing, every: int = 30, fit_pairs: bool | None = None) -> None:
+    def __init__(self, hearing: FaceGuidedHearing, every: int = 30) -> None:
         self.hearing = hearing
         self.every = every
         self._given = hearing.array
         several = hearing.array.n_pairs > 1
-        self.fit_pairs = not several if fit_pairs is None else fit_pairs
-        self._cals = [SelfCalibration(hearing.array.pair(p)) for p in range(hearing.array.n_pairs)] \
-            if self.fit_pairs else []
+        self._cals = [] if several else [SelfCalibration(hearing.array.pair(0))]
         self._fits: list[SelfCalibrationFit | None] = [None] * len(self._cals)
         self._yaw = ArrayYawCalibration(hearing.array) if several else None
         self._yaw_fit: YawFit | None = None
@@ -258,12 +255,10 @@ class SelfCalibrating:
         if self._yaw is not None:
             self._yaw_fit = self._yaw.fit(self._yaw_fit.yaw_rad if self._yaw_fit else 0.0) or self._yaw_fit
             if self._yaw_fit is None:
-                return  # the pairs are fitted where the turn puts them: wait for it
+                return
             a = a.turned(self._yaw_fit.yaw_rad)
             c1 = tuple(self._yaw_fit.scale * c for c in a.c1)  # type: ignore[union-attr]
         if self._cals:
-            for p, cal in enumerate(self._cals):
-                cal.mics = a.pair(p)
             fits = [cal.fit() for cal in self._cals]
             self._fits = [f if f is not None else old for f, old in zip(fits, self._fits)]
             c1 = tuple(f.c1 if f is not None else c for f, c in zip(self._fits, c1))  # type: ignore[arg-type]

@@ -13,12 +13,12 @@ refines its fit. A talker out of view gives observations paired only with the wr
 ``fit()`` returns None until the inliers span ``min_span_s`` of raw ITD (two people at least ten degrees apart,
 or one who moved) and number ``min_inliers``; its ``confidence`` is the share of the one-source observations the
 line explains. Observations older than ``memory`` are forgotten, so the estimate follows a microphone that moved.
-The faces are kept, not their mapping, so that a pair moved by the array's turn (below) is fitted where it now is.
 
 With several pairs, the array's turn about the vertical relative to the camera (a rig file that places it wrongly,
 a head that turned) is learned first (:class:`ArrayYawCalibration`): a source's ITD vector over the pairs points
 in one direction of the array's own frame, so one face talking alone fixes the turn; the turn most one-source
-observations agree with is searched over the plausible range, then refined on its inliers.
+observations agree with (and a common scale of the ITDs) is searched over the plausible range, then refined on
+its inliers; the rig's placement stands until another turn clearly explains more.
 """
 from __future__ import annotations
 
@@ -83,7 +83,7 @@ class SelfCalibration:
         tau = float(np.median(itds))
         if 1.4826 * float(np.median(np.abs(itds - tau))) > self.max_spread_s:
             return False
-        self._obs.append((tau, faces))
+        self._obs.append((tau, self.mics.raw_itd(faces).reshape(-1)))
         return True
 
     def fit(self) -> SelfCalibrationFit | None:
@@ -92,8 +92,9 @@ class SelfCalibration:
         if len(self._obs) < self.min_inliers:
             return None
         tau = np.array([t for t, _ in self._obs])
-        owner = np.concatenate([np.full(f.shape[0], k) for k, (_, f) in enumerate(self._obs)])
-        x_all = self.mics.raw_itd(np.concatenate([f for _, f in self._obs])).reshape(-1)  # on the pair as it is now
+        xs = [x for _, x in self._obs]
+        owner = np.concatenate([np.full(x.size, k) for k, x in enumerate(xs)])
+        x_all = np.concatenate(xs)
         y_all = tau[owner]
         rng = np.random.default_rng(self.seed)
         i = rng.integers(0, x_all.size, self.trials)
@@ -142,8 +143,8 @@ class SelfCalibration:
 @dataclass(frozen=True)
 class YawFit:
     """The array's turn about the vertical (radians, :meth:`avcore.geometry.MicArray.turned`); scale: the ITDs'
-    common scale found with it (the pairs' own c1 are fitted after); inliers: one-source observations it explains; observations: those kept; confidence: inliers / observations; scale_s: the inliers'
-    root-mean-square residual over the pairs."""
+    common scale found with it (every pair's c1); inliers: one-source observations it explains; observations: those
+    kept; confidence: inliers / observations; scale_s: the inliers' root-mean-square residual over the pairs."""
 
     yaw_rad: float
     scale: float

@@ -449,5 +449,8 @@ def test_a_self_calibrating_array_learns_its_turn(tmp_path) -> None:  # noqa: AN
     assert len(stats.self_calibration) == real.n_pairs
     yaws = {s["array_yaw_deg"] for s in stats.self_calibration}
     assert len(yaws) == 1 and abs(yaws.pop() + 10.0) < 2.0
+    # an array's pairs share the ITDs' common scale as their c1 (no line of their own), c0 stays 0
+    assert len({s["c1"] for s in stats.self_calibration}) == 1 and {s["c0_s"] for s in stats.self_calibration} == {0.0}
+    assert 0.7 <= stats.self_calibration[0]["c1"] <= 1.1
     heard = pipeline._hearing.array  # the hearing the fusion thread ended with
     assert np.max(np.abs(np.asarray(heard.positions) - np.asarray(real.positions))) < 0.01

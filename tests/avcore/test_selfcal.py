@@ -93,7 +93,8 @@ def test_the_arrays_turn_is_learned_from_people_talking_alone(preset: str) -> No
     """The rig file places the array 12 degrees off its real turn about the vertical: three faces talking alone in
     turn give that turn within 0.2 degrees and the ITDs' common shrink within 0.01 (the ITDs computed from distances
     written out, not by avhear's mapping);
-    two at once are not one source; a talker out of view does not move it; nothing before 20 observations."""
+    two at once are not one source; a talker out of view does not move it; nothing before 20 observations; a time
+    frame counts with one pair silent, not with half of them."""
     rig = MicArray.preset(preset, speed_of_sound=SOUND_M_S)
     real = _turned_by_hand(rig, 12.0)
     rng = np.random.default_rng(3)
@@ -113,5 +114,11 @@ def test_the_arrays_turn_is_learned_from_people_talking_alone(preset: str) -> No
     again = cal.fit()
     assert again is not None and abs(np.degrees(again.yaw_rad) - 12.0) < 0.2
     assert not cal.push(np.zeros((0, 3)), _vectors(rng, real, rig.pairs, FACES[1]))  # nobody in view
+    one_short = _vectors(rng, real, rig.pairs, FACES[1])
+    one_short[:, 2] = np.nan  # a pair without ITDs in this time frame: the others still count
+    assert cal.push(FACES, one_short)
+    half = one_short.copy()
+    half[:, : rig.n_pairs // 2] = np.nan  # but no more than half of them may be missing
+    assert not cal.push(FACES, half)
     with pytest.raises(ValueError, match="two pairs"):
         ArrayYawCalibration(MicArray.from_pair(MICS))
