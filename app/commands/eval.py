@@ -90,6 +90,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     sce.add_argument("--timeline", type=Path, default=None, metavar="DIR",
                      help="also save each run's speaking states over time, beside the truth, as DIR/S1_seed0.png "
                           "and so on: spoken numbers, misses, false stretches, faces not found")
+    sce.add_argument("--array-turned", type=float, default=None, metavar="DEG",
+                     help="with an array of several pairs (--mics): tell the pipeline the array is turned DEG degrees "
+                          "about the vertical from where the room has it, as a rig file placed wrongly would (default "
+                          f"{START_YAW_ERROR_DEG:g} with --self-calibrate, which learns it back, else 0)")
     sce.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
     sce.set_defaults(func=run_scenarios)
 
@@ -150,6 +154,13 @@ def run_scenarios(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     calibration: CalibrationFit | None = None
     one_pair = MicArray.preset(args.mics).n_pairs == 1
+    start_yaw = args.array_turned
+    if start_yaw is None:
+        start_yaw = START_YAW_ERROR_DEG if config.self_calibrate and not one_pair else 0.0
+    elif one_pair:
+        raise UserError(f"--array-turned turns an array of several pairs; --mics {args.mics} has one pair")
+    elif not -45.0 <= start_yaw <= 45.0:
+        raise UserError(f"--array-turned must be within -45..45 degrees, got {start_yaw:g}")
     if args.calibrate and not one_pair:
         _progress(f"--mics {args.mics}: no audio-visual calibration (it fits one pair; the simulated microphones are "
                   "exact)")
@@ -164,9 +175,9 @@ def run_scenarios(args: argparse.Namespace) -> int:
         # the self-calibration's start: 20 % off in c1 and 30 us off in c0 from the loudspeaker's fit
         start_mics = calibration.mics.with_correction(1.2 * calibration.mics.c1, calibration.mics.c0 + 30e-6)
         _progress(f"self-calibration from c1 = {start_mics.c1:.4f}, c0 = {signed_us(start_mics.c0 * 1e6)} us")
-    start_yaw = START_YAW_ERROR_DEG if config.self_calibrate and not one_pair else 0.0
     if start_yaw:
-        _progress(f"self-calibration from the array turned {start_yaw:.0f} degrees about the vertical from where it is")
+        _progress(f"the array turned {start_yaw:g} degrees about the vertical from where the room has it"
+                  + (" (the self-calibration's start)" if config.self_calibrate else ""))
     scores: list[ScenarioScore] = []
     for name in args.scenario:
         merged: ScenarioScore | None = None

@@ -360,3 +360,16 @@ def test_a_face_model_that_is_not_a_model_is_one_line(tmp_path: Path, capsys: py
     err = capsys.readouterr().err
     assert f"--face-model: {bad}: OpenCV cannot read it as a TFLite model" in err
     assert "Traceback" not in err and "preparing" not in err
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--array-turned", "5"], "--array-turned turns an array of several pairs; --mics pair has one pair"),
+    (["--mics", "nao", "--array-turned", "50"], "--array-turned must be within -45..45 degrees, got 50"),
+    (["--mics", "nao", "--array-turned", "nan"], "--array-turned must be within -45..45 degrees"),
+])
+def test_an_array_turned_the_evaluation_cannot_make_is_one_line(argv: list[str], message: str,
+                                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """--array-turned: a one-pair preset or a turn outside the self-calibration's search is refused before any run."""
+    assert main(["eval", "scenarios", *argv]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
