@@ -183,6 +183,7 @@ class ArrayYawCalibration:
     switch_margin: float = 1.25
     memory: int = 600
     _obs: deque = field(init=False, repr=False)
+    _turned: dict = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.array.n_pairs < 2:
@@ -226,7 +227,12 @@ class ArrayYawCalibration:
                    starts: np.ndarray) -> np.ndarray:
         """(scales, observations): each observation's residual (seconds) with its best face, on the array turned by
         ``yaw_rad`` with its ITDs times each scale."""
-        predicted = self.array.turned(yaw_rad).itd(faces)  # (F, P)
+        turned = self._turned.get(yaw_rad)
+        if turned is None:
+            turned = self.array.turned(yaw_rad)
+            if len(self._turned) < 1000:  # the coarse grid's arrays, made once
+                self._turned[yaw_rad] = turned
+        predicted = turned.itd(faces)  # (F, P)
         r = np.median(np.abs(tau[owner][None] - scales[:, None, None] * predicted[None]), axis=2)  # (S, F)
         return np.minimum.reduceat(r, starts, axis=1)
 
