@@ -326,6 +326,7 @@ class ScenarioScore:
             self.voices = other.voices if self.voices is None else self.voices.add(other.voices)
 
     def as_dict(self) -> dict[str, Any]:
+        n_spoken = self.utterances.tp + self.utterances.fn
         return {
             "scenario": self.scenario,
             "inference": self.inference,
@@ -350,7 +351,8 @@ class ScenarioScore:
             "speech_clips": self.speech,
             "face_images": self.faces,
             **({"self_calibration": self.self_calibration} if self.self_calibration else {}),
-            **({"voices_out_of_view": self.voices.as_dict()} if self.voices is not None else {}),
+            **({"voices_out_of_view": dict(self.voices.as_dict(), false_voice_stretches_per_spoken_number=_clean(
+                self.voices.false_stretches / n_spoken if n_spoken else math.nan))} if self.voices is not None else {}),
         }
 
 
@@ -367,24 +369,29 @@ class VoiceCounts:
     """The voices out of view against the truth, per result: ``talking`` results where a person out of view speaks,
     ``found`` of them with a voice within :data:`VOICE_TOLERANCE_DEG` of that person's azimuth (``errors_deg`` the
     nearest voice's error in each); ``quiet`` results where nobody out of view speaks within
-    :data:`VOICE_SILENT_HOLD_S`, ``false`` of them with a voice."""
+    :data:`VOICE_SILENT_HOLD_S`, ``false`` of them with a voice, ``false_stretches`` the runs of such results in a row
+    (an invented voice, counted once however long it lasts, as a false stretch of speaking is)."""
 
     talking: int = 0
     found: int = 0
     quiet: int = 0
     false: int = 0
     errors_deg: list[float] = field(default_factory=list, repr=False)
+    false_stretches: int = 0
 
     def add(self, other: VoiceCounts) -> VoiceCounts:
         return VoiceCounts(self.talking + other.talking, self.found + other.found, self.quiet + other.quiet,
-                           self.false + other.false, self.errors_deg + other.errors_deg)
+                           self.false + other.false, self.errors_deg + other.errors_deg,
+                           self.false_stretches + other.false_stretches)
 
     def as_dict(self) -> dict[str, Any]:
         median = float(np.median(self.errors_deg)) if self.errors_deg else math.nan
+        within_10 = float(np.mean(np.asarray(self.errors_deg) <= 10.0)) if self.errors_deg else math.nan
         return {"results_unseen_talking": self.talking, "found_within_15deg": self.found,
                 "found_share": _clean(self.found / self.talking if self.talking else math.nan),
-                "median_azimuth_error_deg": _clean(median), "results_nobody_unseen_talking": self.quiet,
-                "false_voice_results": self.false}
+                "median_azimuth_error_deg": _clean(median), "within_10deg_share": _clean(within_10),
+                "results_nobody_unseen_talking": self.quiet, "false_voice_results": self.false,
+                "false_voice_stretches": self.false_stretches}
 
 
 def voice_counts(scenario: Scenario, fused: Sequence[Result]) -> VoiceCounts | None:
@@ -392,6 +399,7 @@ def voice_counts(scenario: Scenario, fused: Sequence[Result]) -> VoiceCounts | N
     if not fused or all(r.voices is None for r in fused):
         return None
     out = VoiceCounts()
+    in_false = False
     for r in fused:
         t = float(r.stamp_s)
         unseen = ~scenario.visible(t)
@@ -407,6 +415,10 @@ def voice_counts(scenario: Scenario, fused: Sequence[Result]) -> VoiceCounts | N
         elif not (scenario.speaking_at([t], hold_s=VOICE_SILENT_HOLD_S)[0] & unseen).any():
             out.quiet += 1
             out.false += int(azimuths.size > 0)
+            out.false_stretches += int(azimuths.size > 0 and not in_false)
+            in_false = azimuths.size > 0
+            continue
+        in_false = False
     return out
 
 

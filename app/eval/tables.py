@@ -239,15 +239,19 @@ def _voice_lines(scores: list[ScenarioScore]) -> list[str]:
     with_voices = [s for s in scores if s.voices is not None]
     if not with_voices:
         return []
-    header = f"{'Scen.':6s} {'talking':>8s} {'found':>7s} {'share':>7s} {'median err':>11s} {'quiet':>7s} {'false':>6s}"
+    header = (f"{'Scen.':6s} {'talking':>8s} {'found':>7s} {'share':>7s} {'median err':>11s} {'<=10 deg':>9s} "
+              f"{'quiet':>7s} {'false':>6s} {'stretches':>10s} {'per spoken':>11s}")
     lines = ["Voices out of view (several pairs), per result: found = a voice within 15 degrees of the unseen talker's "
-             "azimuth; false = a voice while nobody out of view talks (0.4 s either side).", header]
+             "azimuth; false = a voice while nobody out of view talks (0.4 s either side); stretches = those results "
+             "in runs, per spoken number of the people in view.", header]
     for s in with_voices:
-        v = s.voices.as_dict()  # the JSON's figures, the table's too
-        share, median = (math.nan if v[k] is None else v[k] for k in ("found_share", "median_azimuth_error_deg"))
+        v = s.as_dict()["voices_out_of_view"]  # the JSON's figures, the table's too
+        share, median, within, per = (math.nan if v[k] is None else v[k] for k in (
+            "found_share", "median_azimuth_error_deg", "within_10deg_share", "false_voice_stretches_per_spoken_number"))
         lines.append(f"{s.scenario:6s} {v['results_unseen_talking']:8d} {v['found_within_15deg']:7d} "
-                     f"{_pct1(share):>7s} {_num(median, '.1f'):>11s} {v['results_nobody_unseen_talking']:7d} "
-                     f"{v['false_voice_results']:6d}")
+                     f"{_pct1(share):>7s} {_num(median, '.1f'):>11s} {_pct1(within):>9s} "
+                     f"{v['results_nobody_unseen_talking']:7d} {v['false_voice_results']:6d} "
+                     f"{v['false_voice_stretches']:10d} {_num(per, '.3f'):>11s}")
     return lines
 
 

@@ -365,7 +365,8 @@ def test_identity_scores_as_the_mot_literature_defines_them() -> None:
 
 def test_voices_out_of_view_are_scored_against_the_unseen_talkers_azimuth() -> None:
     """S4's person 0 sits out of view 53 degrees to the left: a result while they speak counts as found when a voice
-    lies within 15 degrees of them; a voice while nobody out of view speaks (0.4 s either side) is false."""
+    lies within 15 degrees of them; a voice while nobody out of view speaks (0.4 s either side) is false, and such
+    results in a row are one invented voice."""
     import math
     from types import SimpleNamespace
 
@@ -389,4 +390,16 @@ def test_voices_out_of_view_are_scored_against_the_unseen_talkers_azimuth() -> N
     assert (counts.talking, counts.found, counts.quiet, counts.false) == (3, 1, 2, 1)
     assert counts.errors_deg == pytest.approx([10.0, 20.0])
     assert counts.as_dict()["found_share"] == pytest.approx(1 / 3, abs=1e-6)
+    assert counts.as_dict()["within_10deg_share"] == pytest.approx(1 / 2)  # 10 degrees off is within, 20 is not
     assert voice_counts(scenario, [SimpleNamespace(stamp_s=1.0, voices=None)]) is None
+    # an invented voice is counted once per run of results in a row: quiet with a voice, twice; quiet without; quiet
+    # with a voice again; someone out of view talking (not quiet) ends a run too
+    runs = [result(quiet_t, 30.0), result(quiet_t, 31.0), result(quiet_t), result(quiet_t, 30.0), result(talking, 5.0),
+            result(quiet_t, 30.0)]
+    counts = voice_counts(scenario, runs)
+    assert (counts.quiet, counts.false, counts.false_stretches) == (5, 4, 3)
+    assert counts.add(counts).false_stretches == 6
+    from app.eval.scenarios import ScenarioScore, UtteranceCounts
+
+    score = ScenarioScore("S4", "face", [0], 20.0, utterances=UtteranceCounts(tp=50, fn=10), voices=counts)
+    assert score.as_dict()["voices_out_of_view"]["false_voice_stretches_per_spoken_number"] == pytest.approx(3 / 60)
