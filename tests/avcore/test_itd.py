@@ -434,3 +434,32 @@ def test_pairs_stream_passes_frames_of_every_pair_and_the_first_pairs_bands() ->
         every.push(noise[i:i + 512])
     _, all_bands = every.pop_band_itds()
     assert (np.isfinite(all_bands).sum(axis=1) == 1).all() and np.isfinite(all_bands[:, 1:]).any()
+
+
+def test_gcc_phats_band_is_80_hz_to_5_khz_inclusive_and_its_bins_unit_phasors():
+    """GCC-PHAT keeps the bins from 80 Hz to 5 kHz, both ends included (the correlogram's band by default), and
+    nothing above; each kept bin of the whitened cross-spectrum has unit magnitude, and the confidence's norm counts
+    each once with its rfft fold (2 / nfft, a pair of conjugate bins). With 1,600 points at 16 kHz the bins fall every
+    10 Hz, on both ends of the band (written out here, not taken from the class)."""
+    from avcore.itd.correlogram import Correlogram
+    from avcore.itd.gcc_phat import GccPhat
+
+    for cls in (GccPhat, Correlogram):
+        defaults = inspect.signature(cls.__init__).parameters
+        assert (defaults["low_hz"].default, defaults["high_hz"].default) == (80.0, 5000.0)
+    g = GccPhat(16000, 1550, 0.0007)
+    assert g.nfft == 1600 and g.n_used == 501  # bin 500 is 5 kHz, the last one used
+    k = np.arange(501)
+    band = ((k >= 8) & (k <= 500)).astype(float)
+    np.testing.assert_array_equal(g.band, band)
+    np.testing.assert_allclose(g._band_fold, band * 2.0 / 1600)
+    rng = np.random.default_rng(0)
+    left = rng.standard_normal(501) + 1j * rng.standard_normal(501)
+    right = rng.standard_normal(501) + 1j * rng.standard_normal(501)
+    weighted, norm = g.weighted_cross_spectrum(left, right)
+    np.testing.assert_allclose(np.abs(weighted), band, atol=1e-12)
+    assert norm == pytest.approx(band.sum() * 2.0 / 1600)
+    full = GccPhat(16000, 1550, 0.0007, low_hz=0.0)  # DC may be in the band
+    assert full.band[0] == 1.0 and full._band_fold[0] == pytest.approx(1.0 / 1600)
+    with pytest.raises(ValueError, match=r"need 0 <= low_hz < high_hz, got low_hz=500.0, high_hz=500.0"):
+        GccPhat(16000, 1550, 0.0007, low_hz=500.0, high_hz=500.0)
