@@ -463,3 +463,37 @@ def test_gcc_phats_band_is_80_hz_to_5_khz_inclusive_and_its_bins_unit_phasors():
     assert full.band[0] == 1.0 and full._band_fold[0] == pytest.approx(1.0 / 1600)
     with pytest.raises(ValueError, match=r"need 0 <= low_hz < high_hz, got low_hz=500.0, high_hz=500.0"):
         GccPhat(16000, 1550, 0.0007, low_hz=500.0, high_hz=500.0)
+
+
+def test_the_correlogram_normalises_each_channel_and_keeps_below_nyquist():
+    """The correlogram's confidence is the mean normalised correlation over its channels: 1 for a signal and itself,
+    and for it at half the level (each channel divided by sqrt(E_L E_R), Parseval over the folded rfft bins); a
+    silent channel weighs nothing; its top channel sits at 0.45 of the sampling rate when 5 kHz is above that (8 kHz:
+    3.6 kHz); the frequency-domain filtering pads to twice the window so that the filters' ringing does not wrap."""
+    import scipy.fft
+
+    from avcore.itd.correlogram import Correlogram
+
+    rng = np.random.default_rng(0)
+    x = 0.1 * rng.standard_normal(16000)
+    for right in (x, 0.5 * x):
+        track = extract_itds(x, right, 16000, method="correlogram")
+        assert track.confidence.size > 0
+        np.testing.assert_allclose(track.confidence, 1.0, atol=1e-9)
+        np.testing.assert_allclose(track.itds_s, 0.0, atol=1e-9)
+    assert inspect.signature(Correlogram.__init__).parameters["n_channels"].default == 32  # as its docstring says
+    c = Correlogram(8000, 1200, 0.0007)
+    assert c.center_hz.size == 32 and c.center_hz[-1] == pytest.approx(3600.0) and c.center_hz[0] == pytest.approx(80.0)
+    assert c.nfft == scipy.fft.next_fast_len(2 * 1200, real=True)
+    silent = np.zeros((1, c.n_used))
+    np.testing.assert_array_equal(c.channel_weights(silent, silent), 0.0)
+    # the weights against Parseval written out: E_c = sum over the whole spectrum of |G_c|^2 |X|^2 / nfft, each rfft
+    # bin but DC and Nyquist standing for two
+    spec_l = rng.standard_normal((2, c.n_used)) + 1j * rng.standard_normal((2, c.n_used))
+    spec_r = rng.standard_normal((2, c.n_used)) + 1j * rng.standard_normal((2, c.n_used))
+    fold = np.full(c.n_used, 2.0)
+    fold[0] = fold[-1] = 1.0  # nfft is even here
+    assert c.nfft % 2 == 0 and c.n_used == c.nfft // 2 + 1
+    e_l = (np.abs(spec_l) ** 2 * fold) @ c.power_response.T / c.nfft
+    e_r = (np.abs(spec_r) ** 2 * fold) @ c.power_response.T / c.nfft
+    np.testing.assert_allclose(c.channel_weights(spec_l, spec_r), 1.0 / np.sqrt(e_l * e_r), rtol=1e-12)
