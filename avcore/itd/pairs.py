@@ -56,9 +56,8 @@ def join_pairs(tracks: list[ItdTrack]) -> tuple[np.ndarray, np.ndarray]:
 
 def _one_pair_rows(tracks: list[ItdTrack]) -> tuple[np.ndarray, np.ndarray]:
     """Each pair's values on rows of their own: ``(times (L,), itds (L, P))`` with one finite entry per row."""
-    n_pairs = len(tracks)
-    times = np.concatenate([t.times_s for t in tracks]) if tracks else np.zeros(0)
-    out = np.full((times.size, n_pairs), np.nan)
+    times = np.concatenate([t.times_s for t in tracks])  # an array has one pair at least
+    out = np.full((times.size, len(tracks)), np.nan)
     row = 0
     for p, t in enumerate(tracks):
         out[row:row + len(t), p] = t.itds_s
@@ -78,7 +77,6 @@ class PairsItdStream:
     def __init__(self, array: MicArray, samplerate: float, method: str = "correlogram", *,
                  max_itd_scale: float = 1.2, frame_itds: bool = False, frame_bins: bool = False,
                  all_bands: bool = False, **options: Any) -> None:
-        self.array = array
         self.all_bands = all_bands
         self.frame_bins = frame_bins
         self.columns = [(array.channels[i], array.channels[j]) for i, j in array.pairs]  # type: ignore[index]

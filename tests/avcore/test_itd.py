@@ -497,3 +497,27 @@ def test_the_correlogram_normalises_each_channel_and_keeps_below_nyquist():
     e_l = (np.abs(spec_l) ** 2 * fold) @ c.power_response.T / c.nfft
     e_r = (np.abs(spec_r) ** 2 * fold) @ c.power_response.T / c.nfft
     np.testing.assert_allclose(c.channel_weights(spec_l, spec_r), 1.0 / np.sqrt(e_l * e_r), rtol=1e-12)
+
+
+
+def test_pairs_stream_gives_each_pair_its_own_search_and_every_option():
+    """Each pair's stream searches 1.2 times its own largest ITD, gets the options given (a window of 0.1 s here),
+    runs the correlogram unless told otherwise, and with a robust method models its own pair's diffuse field
+    (sinc(2 f d / c) with its own distance d); no pairs joined is no window."""
+    from avcore.geometry import MicArray
+    from avcore.itd.pairs import FrameBins, PairsItdStream, join_pairs
+
+    array = MicArray.preset("respeaker4")
+    plain = PairsItdStream(array, 16000, window_s=0.1)
+    robust = PairsItdStream(array, 16000, method="gcc-phat-robust")
+    for p in range(array.n_pairs):
+        pair = array.pair(p)
+        impl = plain._streams[p]._impl
+        assert impl.name == "correlogram" and impl.window_len == 1600
+        assert impl.max_itd_s == pytest.approx(1.2 * pair.max_itd_s)
+        r = robust._streams[p]._impl
+        np.testing.assert_allclose(r.diffuse_coherence, np.sinc(2 * r.freqs_hz[:r.n_used] * pair.distance_m / 343.0))
+    times, itds = join_pairs([])
+    assert times.shape == (0,) and itds.shape == (0, 0)
+    frames = FrameBins(np.array([0.0, 0.25, 0.5, 0.75]), np.zeros((4, 1, 2), np.complex64), np.array([100.0, 200.0]))
+    np.testing.assert_array_equal(frames.within(0.25, 0.25).times_s, [0.0, 0.25, 0.5])  # both ends inside
