@@ -134,9 +134,10 @@ class FaceGuided:
         if array.n_pairs < 2:
             return None
         found = unexplained_voice(itds, array, vision.xyz)
-        if found is None:
+        vid = None if found is None else self._voices.update(vision.stamp_s, found)
+        if vid is None:
             return ()
-        return (Voice(self._voices.update(vision.stamp_s, found), found.azimuth_rad, found.elevation_rad),)
+        return (Voice(vid, found.azimuth_rad, found.elevation_rad),)
 
 
 @dataclass(frozen=True)

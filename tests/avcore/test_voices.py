@@ -54,13 +54,23 @@ def test_what_the_faces_explain_is_no_voice() -> None:
 
 
 def test_a_voice_keeps_its_id_while_it_stays_and_is_remembered() -> None:
+    """A voice is reported once heard in three results in a row, and keeps its id while heard within 20 degrees of
+    where it was in the last 10 s."""
     tracks = VoiceTracks()
     from avcore.voices import VoiceDirection
 
     def at(deg: float) -> VoiceDirection:
         return VoiceDirection(np.radians(deg), None, 5)
 
-    assert tracks.update(0.0, at(-53.0)) == 0
-    assert tracks.update(5.0, at(-60.0)) == 0  # 7 degrees off, 5 s later: the same voice
-    assert tracks.update(5.1, at(90.0)) == 1  # elsewhere: another
-    assert tracks.update(16.0, at(-55.0)) == 2  # 11 s unheard: forgotten, a new id
+    def heard(t: float, deg: float) -> int | None:
+        """Three results in a row, 1/30 s apart, from ``t``: the id the third one reports."""
+        for k in range(2):
+            assert tracks.update(t + k / 30, at(deg)) is None  # not confirmed yet
+        return tracks.update(t + 2 / 30, at(deg))
+
+    assert heard(0.0, -53.0) == 0
+    assert heard(5.0, -60.0) == 0  # 7 degrees off, 5 s later: the same voice
+    assert heard(5.5, 90.0) == 1  # elsewhere: another
+    assert heard(16.0, -55.0) == 2  # 11 s unheard: forgotten, a new id
+    assert tracks.update(16.5, at(-55.0)) is None  # after a gap, three in a row again
+    assert tracks.update(16.5 + 1 / 30, at(-56.0)) is None and tracks.update(16.5 + 2 / 30, at(-55.0)) == 2
