@@ -403,3 +403,26 @@ def test_voices_out_of_view_are_scored_against_the_unseen_talkers_azimuth() -> N
 
     score = ScenarioScore("S4", "face", [0], 20.0, utterances=UtteranceCounts(tp=50, fn=10), voices=counts)
     assert score.as_dict()["voices_out_of_view"]["false_voice_stretches_per_spoken_number"] == pytest.approx(3 / 60)
+
+
+def test_one_person_moving_at_both_sides_of_the_body_is_one_person_with_one_id() -> None:
+    """S1's one person sways and moves both arms: their moving points gather at both edges of the body, two strips a
+    third of a metre apart. Algorithm 1 finds one person in every result, with one id (IDF1 1, no switch): with the
+    body's width left out (``body_width_m=None``) it found two in most results (docs/experiments.md)."""
+    from app.eval import scenarios
+    from avcore import inference
+
+    seen: list[int] = []
+    step = inference.MotionGuidedHearing.step
+
+    def counted(self: inference.MotionGuidedHearing, *args: object) -> inference.MotionGuidedOutput:
+        out = step(self, *args)
+        seen.append(out.n)
+        return out
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(inference.MotionGuidedHearing, "step", counted)
+        score = scenarios.evaluate_scenario("S1", 0, duration_s=8.0, config=PipelineConfig(inference="motion"),
+                                            bodies=True)
+    assert len(seen) >= 15 and set(seen) == {1}
+    assert score.identity.idf1 == 1.0 and score.identity.id_switches == 0
