@@ -273,10 +273,10 @@ class SelfCalibrating:
         not yet), the same in every pair."""
         a = self.hearing.array
         fits = self._fits if self._cals else [self._yaw_fit] * a.n_pairs
-        seen = [len(cal) for cal in self._cals] if self._cals else [len(self._yaw)] * a.n_pairs  # type: ignore[arg-type]
+        kept = [len(c) for c in self._cals] if self._cals else [len(self._yaw)] * a.n_pairs  # type: ignore[arg-type]
         out = [{"c1": float(c1), "c0_s": float(c0), "inliers": f.inliers if f else 0, "observations": n,
                 "confidence": f.confidence if f else None}
-               for c1, c0, f, n in zip(a.c1, a.c0, fits, seen)]  # type: ignore[arg-type]
+               for c1, c0, f, n in zip(a.c1, a.c0, fits, kept)]  # type: ignore[arg-type]
         if self._yaw is not None:
             yaw = None if self._yaw_fit is None else math.degrees(self._yaw_fit.yaw_rad)
             for d in out:
