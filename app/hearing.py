@@ -134,8 +134,8 @@ class FaceGuided:
         if array.n_pairs < 2:
             return None
         found = unexplained_voice(itds, array, vision.xyz)
-        vid = None if found is None else self._voices.update(vision.stamp_s, found)
-        if vid is None:
+        vid = self._voices.update(vision.stamp_s, found)
+        if vid is None or found is None:
             return ()
         return (Voice(vid, found.azimuth_rad, found.elevation_rad),)
 

@@ -107,26 +107,27 @@ def unexplained_voice(itds_s: np.ndarray, array: MicArray, faces_xyz: np.ndarray
 class VoiceTracks:
     """Stable ids for the voices out of view: a voice within ``same_rad`` of the azimuth of one heard in the last
     ``memory_s`` (10 s, as ROS4HRI's person manager remembers a person) keeps its id (the nearest such); otherwise
-    it gets the next id. A voice is reported once heard in ``confirm`` results in a row (no more than ``gap_s``
-    apart): a single result's stray fit is not a talker, as a tracker does not start a track on one detection.
-    ``update(stamp_s, voice)`` -> its id, or None while not confirmed."""
+    it gets the next id. A voice is reported once heard in ``confirm`` results in a row: a single result's stray fit
+    is not a talker, as a tracker does not start a track on one detection. ``update(stamp_s, voice)``, once per
+    result (``voice`` None where the result has none) -> its id, or None while not confirmed."""
 
     same_rad: float = np.radians(20.0)
     memory_s: float = 10.0
     confirm: int = 3
-    gap_s: float = 0.1
     _last: dict = field(default_factory=dict, init=False, repr=False)  # id -> (stamp, azimuth, results in a row)
     _next: int = field(default=0, init=False, repr=False)
 
-    def update(self, stamp_s: float, voice: VoiceDirection) -> int | None:
+    def update(self, stamp_s: float, voice: VoiceDirection | None) -> int | None:
         self._last = {i: v for i, v in self._last.items() if stamp_s - v[0] <= self.memory_s}
+        if voice is None:  # a result without a voice breaks every row
+            self._last = {i: (t, a, 0) for i, (t, a, _) in self._last.items()}
+            return None
         near = [(abs(np.angle(np.exp(1j * (a - voice.azimuth_rad)))), i) for i, (_, a, _) in self._last.items()]
         near = [(d, i) for d, i in near if d <= self.same_rad]
         run = 1
         if near:
             vid = min(near)[1]
-            last_s, _, last_run = self._last[vid]
-            run = last_run + 1 if stamp_s - last_s <= self.gap_s else 1
+            run = self._last[vid][2] + 1
         else:
             vid, self._next = self._next, self._next + 1
         self._last[vid] = (float(stamp_s), voice.azimuth_rad, run)

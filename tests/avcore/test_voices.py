@@ -63,7 +63,8 @@ def test_a_voice_keeps_its_id_while_it_stays_and_is_remembered() -> None:
         return VoiceDirection(np.radians(deg), None, 5)
 
     def heard(t: float, deg: float) -> int | None:
-        """Three results in a row, 1/30 s apart, from ``t``: the id the third one reports."""
+        """A result without a voice, then three with it, 1/30 s apart, from ``t``: the id the third one reports."""
+        assert tracks.update(t - 1 / 30, None) is None
         for k in range(2):
             assert tracks.update(t + k / 30, at(deg)) is None  # not confirmed yet
         return tracks.update(t + 2 / 30, at(deg))
@@ -72,5 +73,7 @@ def test_a_voice_keeps_its_id_while_it_stays_and_is_remembered() -> None:
     assert heard(5.0, -60.0) == 0  # 7 degrees off, 5 s later: the same voice
     assert heard(5.5, 90.0) == 1  # elsewhere: another
     assert heard(16.0, -55.0) == 2  # 11 s unheard: forgotten, a new id
-    assert tracks.update(16.5, at(-55.0)) is None  # after a gap, three in a row again
-    assert tracks.update(16.5 + 1 / 30, at(-56.0)) is None and tracks.update(16.5 + 2 / 30, at(-55.0)) == 2
+    assert tracks.update(16.1, at(-55.0)) == 2  # still in a row: reported at once
+    assert tracks.update(16.2, None) is None  # a result without it breaks the row: three in a row again
+    assert tracks.update(16.3, at(-55.0)) is None and tracks.update(16.4, at(-56.0)) is None
+    assert tracks.update(16.5, at(-55.0)) == 2
