@@ -77,7 +77,7 @@ class MotionGuidedParams:
         other (``avcore.refine3d.merge_close``'s ``reach_per_m``): a gesturing hand is found beside and below its head.
     body_width_m : if set, groups at about one height whose points together span no more than this (between their
         5th and 95th percentiles) are one person (``avcore.refine3d.merge_within_width``): a body moving at both
-        its sides (swaying, both hands gesturing) gives two strips about 0.3 m apart that ``merge_distance_m`` keeps.
+        its sides (swaying, both hands gesturing) gives two strips a torso apart that ``merge_distance_m`` keeps.
     body_radius_m : if set, an object's position is the alpha-weighted mean of its clusters' points within this
         horizontal radius (and ``merge_vertical_m`` vertically) of its groups, not the groups' mean alone.
     body_keeps_groups : with ``body_radius_m``, the body's points are the union of its groups' members and its

@@ -279,10 +279,10 @@ def merge_within_width(groups: list[Group3D], points: np.ndarray, clusters: list
     """``clusters`` (lists of indices into ``groups``) merged while two of them are one body's width across.
 
     A person who sways or gestures with both hands moves at both sides of the body: the moving points gather in two
-    strips at the body's edges about 0.3-0.35 m apart at one height (the rendered scenes' people, the skeletons'
-    gesturing arms), which ``merge_close`` keeps apart, as it must keep two heads side by side. What tells them
-    apart is the extent: the two strips' points together span one body (about 0.5 m between their 5th and 95th
-    percentiles along the horizontal line through their means), two people side by side span two. Clusters at
+    strips at the body's edges, a torso's width apart at one height, which ``merge_close`` keeps apart, as it must
+    keep two heads side by side. What tells them apart is the extent: the two strips' points together span one body
+    (between their 5th and 95th percentiles along the horizontal line through their means), two people side by side
+    span two (docs/method.md). Clusters at
     about one height (means within ``max_dy_m``) whose members together span at most ``width_m`` are merged,
     the narrowest pair first. Its limit: two people whose moving points are heads alone, closer than about
     ``width_m`` minus a head's width, are taken for one.

@@ -183,7 +183,7 @@ class ArrayYawCalibration:
     switch_margin: float = 1.25
     memory: int = 600
     _obs: deque = field(init=False, repr=False)
-    _turned: dict = field(init=False, repr=False, default_factory=dict)
+    _turned: list = field(init=False, repr=False, default_factory=list)
 
     def __post_init__(self) -> None:
         if self.array.n_pairs < 2:
@@ -223,15 +223,17 @@ class ArrayYawCalibration:
         self._obs.append((tau, faces))
         return True
 
-    def _residuals(self, yaw_rad: float, scales: np.ndarray, tau: np.ndarray, faces: np.ndarray, owner: np.ndarray,
-                   starts: np.ndarray) -> np.ndarray:
-        """(scales, observations): each observation's residual (seconds) with its best face, on the array turned by
-        ``yaw_rad`` with its ITDs times each scale."""
-        turned = self._turned.get(yaw_rad)
-        if turned is None:
-            turned = self.array.turned(yaw_rad)
-            if len(self._turned) < 1000:  # the coarse grid's arrays, made once
-                self._turned[yaw_rad] = turned
+    def _coarse(self) -> list[tuple[float, MicArray]]:
+        """The coarse grid's turns and the array turned by each, made on the first fit and kept."""
+        if not self._turned:
+            yaws = np.deg2rad(np.arange(-self.max_yaw_deg, self.max_yaw_deg + 1e-9, self.coarse_deg))
+            self._turned = [(float(y), self.array.turned(float(y))) for y in yaws]
+        return self._turned
+
+    def _residuals(self, turned: MicArray, scales: np.ndarray, tau: np.ndarray, faces: np.ndarray,
+                   owner: np.ndarray, starts: np.ndarray) -> np.ndarray:
+        """(scales, observations): each observation's residual (seconds) with its best face, on the array
+        ``turned`` with its ITDs times each scale."""
         predicted = turned.itd(faces)  # (F, P)
         r = np.median(np.abs(tau[owner][None] - scales[:, None, None] * predicted[None]), axis=2)  # (S, F)
         return np.minimum.reduceat(r, starts, axis=1)
@@ -246,21 +248,20 @@ class ArrayYawCalibration:
         obs = list(self._obs)
         every = max(1, len(obs) // self.coarse_observations)
         scales = np.arange(self.scale_range[0], self.scale_range[1] + 1e-9, self.coarse_scale)
-        yaws = np.deg2rad(np.arange(-self.max_yaw_deg, self.max_yaw_deg + 1e-9, self.coarse_deg))
         sub = _stacked(obs[::every])
-        (yaw, scale), inside = self._best(yaws, scales, sub, None)
-        held = self._residuals(incumbent_rad, scales, *sub) <= self.tolerance_s  # (S, O)
+        (yaw, scale), inside = self._best(self._coarse(), scales, sub, None)
+        held = self._residuals(self.array.turned(incumbent_rad), scales, *sub) <= self.tolerance_s  # (S, O)
         if inside.sum() < self.switch_margin * held.sum(axis=1).max():
             yaw, scale = incumbent_rad, float(scales[int(np.argmax(held.sum(axis=1)))])
         data = _stacked(obs)
-        keep = self._residuals(yaw, np.array([scale]), *data)[0] <= self.tolerance_s
+        keep = self._residuals(self.array.turned(yaw), np.array([scale]), *data)[0] <= self.tolerance_s
         if keep.sum() < self.min_inliers:
             return None
         # within half a coarse step (and a little) of the coarse best, on its inliers
         yaws = yaw + np.deg2rad(np.arange(-0.6, 0.6 + 1e-9, 0.2) * self.coarse_deg)
         scales = scale + np.arange(-0.6, 0.6 + 1e-9, 0.2) * self.coarse_scale
-        (yaw, scale), _ = self._best(yaws, scales, data, keep)
-        r = self._residuals(yaw, np.array([scale]), *data)[0]
+        (yaw, scale), _ = self._best([(float(y), self.array.turned(float(y))) for y in yaws], scales, data, keep)
+        r = self._residuals(self.array.turned(yaw), np.array([scale]), *data)[0]
         inside = r <= self.tolerance_s
         n = int(inside.sum())
         if n < self.min_inliers:
@@ -268,13 +269,13 @@ class ArrayYawCalibration:
         rms = float(np.sqrt(np.mean(r[inside] ** 2)))
         return YawFit(float(yaw), float(scale), n, len(obs), n / len(obs), rms)
 
-    def _best(self, yaws: np.ndarray, scales: np.ndarray, data: tuple, keep: np.ndarray | None
+    def _best(self, turns: list[tuple[float, MicArray]], scales: np.ndarray, data: tuple, keep: np.ndarray | None
               ) -> tuple[tuple[float, float], np.ndarray]:
-        """Over the grid: the most inliers, then the smallest mean squared residual among them (``keep`` given:
-        the smallest mean squared residual of those observations)."""
+        """Over the grid of turns (each with its turned array) and scales: the most inliers, then the smallest mean
+        squared residual among them (``keep`` given: the smallest mean squared residual of those observations)."""
         best_key, best = None, None
-        for yaw in yaws:
-            res = self._residuals(float(yaw), scales, *data)  # (S, O)
+        for yaw, turned in turns:
+            res = self._residuals(turned, scales, *data)  # (S, O)
             inside = res <= self.tolerance_s if keep is None else np.broadcast_to(keep, res.shape)
             counts = inside.sum(axis=1)
             mse = (np.where(inside, res, 0.0) ** 2).sum(axis=1) / np.maximum(counts, 1)
