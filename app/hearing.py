@@ -128,13 +128,15 @@ class FaceGuided:
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return vision.xyz
 
-    def voices(self, array: MicArray, vision: Vision, itds: np.ndarray) -> tuple[Voice, ...] | None:
+    def voices(self, array: MicArray, vision: Vision, itds: np.ndarray,
+               new_id: Callable[[], int] | None = None) -> tuple[Voice, ...] | None:
         """With several pairs, the voice out of view this result's ITDs hold, if any (:mod:`avcore.voices`), with
-        its id; None with one pair (it cannot tell a direction)."""
+        its id (drawn by ``new_id``: the people's tracker, so that a voice and a person never share a number);
+        None with one pair (it cannot tell a direction)."""
         if array.n_pairs < 2:
             return None
         found = unexplained_voice(itds, array, vision.xyz)
-        vid = self._voices.update(vision.stamp_s, found)
+        vid = self._voices.update(vision.stamp_s, found, new_id)
         if vid is None or found is None:
             return ()
         return (Voice(vid, found.azimuth_rad, found.elevation_rad),)
@@ -142,7 +144,7 @@ class FaceGuided:
 
 @dataclass(frozen=True)
 class Voice:
-    """A voice that no visible person explains: its id (its own numbering, apart from the people's) and its
+    """A voice that no visible person explains: its id (from the people's numbering, never a person's) and its
     direction (azimuth from straight ahead, positive to the right; elevation up, None where the array cannot tell);
     its distance is unknown."""
 
@@ -207,7 +209,8 @@ class MotionGuided:
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return output.positions
 
-    def voices(self, array: MicArray, vision: Vision, itds: np.ndarray) -> None:
+    def voices(self, array: MicArray, vision: Vision, itds: np.ndarray,
+               new_id: Callable[[], int] | None = None) -> None:
         """Algorithm 1 gives every sound a cluster of its own: no voice is left over."""
         return None
 

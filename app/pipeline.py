@@ -535,7 +535,7 @@ class Pipeline:
         output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
         ids = tracker.update(self.mode.people_xyz(vision, output), vision.stamp_s)
         result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,
-                        frame.depth_m, vision.lip_activity, self.mode.voices(hearing.array, vision, a))
+                        frame.depth_m, vision.lip_activity, self.mode.voices(hearing.array, vision, a, tracker.new_id))
         for voted in self._vote.push(result, ids, output.speaking, output.probability):
             self._emit_voted(*voted)  # the result whose vote this one completed (itself without a vote)
         self._fused += 1

@@ -43,6 +43,12 @@ class NearestTracker:
         self._missed = np.empty(0, dtype=np.int64)
         self._next = 0
 
+    def new_id(self) -> int:
+        """An id no person has had nor will have: for what the tracker does not follow (a voice out of view) but
+        that must not share a number with a person."""
+        self._next += 1
+        return self._next - 1
+
     def update(self, positions: object, stamp_s: float | None = None) -> np.ndarray:
         """positions : (N, 3) metres -> (N,) int ids, in the order of ``positions``; stamp_s : the update's time,
         seconds (then ``memory_s`` decides who is forgotten, else ``max_missed``)."""

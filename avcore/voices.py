@@ -14,6 +14,7 @@ elevation positive upwards. A pair alone cannot tell front from back; an array w
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -109,7 +110,9 @@ class VoiceTracks:
     ``memory_s`` (10 s, as ROS4HRI's person manager remembers a person) keeps its id (the nearest such); otherwise
     it gets the next id. A voice is reported once heard in ``confirm`` results in a row: a single result's stray fit
     is not a talker, as a tracker does not start a track on one detection. ``update(stamp_s, voice)``, once per
-    result (``voice`` None where the result has none) -> its id, or None while not confirmed."""
+    result (``voice`` None where the result has none) -> its id, or None while not confirmed. ``new_id`` draws a
+    new voice's id (e.g. :meth:`avcore.tracking.NearestTracker.new_id`, so that people and voices share one
+    numbering); without it the voices count from 0."""
 
     same_rad: float = np.radians(20.0)
     memory_s: float = 10.0
@@ -117,7 +120,8 @@ class VoiceTracks:
     _last: dict = field(default_factory=dict, init=False, repr=False)  # id -> (stamp, azimuth, results in a row)
     _next: int = field(default=0, init=False, repr=False)
 
-    def update(self, stamp_s: float, voice: VoiceDirection | None) -> int | None:
+    def update(self, stamp_s: float, voice: VoiceDirection | None,
+               new_id: Callable[[], int] | None = None) -> int | None:
         self._last = {i: v for i, v in self._last.items() if stamp_s - v[0] <= self.memory_s}
         if voice is None:  # a result without a voice breaks every row
             self._last = {i: (t, a, 0) for i, (t, a, _) in self._last.items()}
@@ -128,6 +132,8 @@ class VoiceTracks:
         if near:
             vid = min(near)[1]
             run = self._last[vid][2] + 1
+        elif new_id is not None:
+            vid = int(new_id())
         else:
             vid, self._next = self._next, self._next + 1
         self._last[vid] = (float(stamp_s), voice.azimuth_rad, run)

@@ -14,8 +14,9 @@ FACE = 2, VOICE = 4) and TF frames on ``tf``. Topics REP-155 latches are sent wi
 avhear's ids: a tracked person ``N`` (:class:`avcore.tracking.NearestTracker`; the results file's ``id``) is the
 person ``pN`` with the face ``fN`` (face-guided runs) and the voice ``vN``, matched with confidence 1.0 (the voice is
 the sound from that person's place); persons are anonymous (followed, not recognised). A voice out of view (several
-microphone pairs: the results' ``voices``) is the voice ``voN``, matched to no face or person, its frame
-``voice_voN`` 1 m along its direction (:data:`UNSEEN_VOICE_RANGE_M`: its distance is unknown). Frames ``person_pN`` (at the
+microphone pairs: a person of the results without a position, its id from the same numbering) is the person ``pN``
+with the voice ``vN`` and no face, its location unknown (``location_confidence`` 0, no person frame), and the frame
+``voice_vN`` 1 m along its direction (:data:`UNSEEN_VOICE_RANGE_M`: its distance is unknown). Frames ``person_pN`` (at the
 face while seen, at the last place while remembered), ``face_fN`` and ``voice_vN`` are children of :data:`RIG_FRAME`,
 the scene frame of docs/architecture.md, with identity rotation. Headers carry the result's capture stamp on the
 source's clock, the JSON's ``stamp_s``.
@@ -140,11 +141,6 @@ def voice_id(person: int) -> str:
     return f"v{int(person)}"
 
 
-def outside_voice_id(voice: int) -> str:
-    """A voice out of view (no person, no face): its own numbering, apart from the people's voices."""
-    return f"vo{int(voice)}"
-
-
 # a voice out of view has a direction and no distance: its voice_<id> frame is put this far along its ray, a unit
 # distance that says "direction only" (REP-155 gives voices no distance field)
 UNSEEN_VOICE_RANGE_M = 1.0
@@ -172,7 +168,8 @@ class Topics:
         """Every message of one result, given as its :func:`app.sinks.results_file.result_record`."""
         t = self._t
         header = make_header(record["stamp_s"])
-        people = record["people"]
+        people = [p for p in record["people"] if p["position_m"] is not None]
+        heard = [p for p in record["people"] if p["position_m"] is None]  # out of view: a direction, no face
         face = record["mode"] == "face"
         out: list[tuple[str, str | None, bytes]] = []
 
@@ -180,13 +177,12 @@ class Topics:
             out.append((topic, typename, encode(message, typename)))
 
         voices = [voice_id(p["id"]) for p in people]
-        outside = record.get("voices") or []  # voices out of view: a direction, no face, no person
-        unseen = [outside_voice_id(v["id"]) for v in outside]
+        unseen = [voice_id(v["id"]) for v in heard]
         add("humans/voices/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=voices + unseen))
         for p, vid in zip(people, voices):
             add(f"humans/voices/{vid}/is_speaking", BOOL, t[BOOL](data=bool(p["speaking"])))
         transforms = [self._transform(header, f"voice_{vid}", p["position_m"]) for p, vid in zip(people, voices)]
-        for v, vid in zip(outside, unseen):  # heard now: speaking; its frame on its ray, at an unknown distance
+        for v, vid in zip(heard, unseen):  # heard now: speaking; its frame on its ray, at an unknown distance
             add(f"humans/voices/{vid}/is_speaking", BOOL, t[BOOL](data=True))
             az = np.radians(v["azimuth_deg"])
             transforms.append(self._transform(header, f"voice_{vid}", [UNSEEN_VOICE_RANGE_M * np.sin(az), 0.0,
@@ -201,22 +197,34 @@ class Topics:
                 add("humans/candidate_matches", IDS_MATCH,
                     t[IDS_MATCH](id1=fid, id1_type=FACE, id2=vid, id2_type=VOICE, confidence=1.0))
                 transforms.append(self._transform(header, f"face_{fid}", p["position_m"]))
-        transforms += self._persons(record, add, header)
+        transforms += self._persons(float(record["stamp_s"]), face, people, heard, add, header)
         add("tf", TF, t[TF](transforms=transforms))
         out.append((RESULTS_KEY, None, json.dumps(record, separators=(",", ":")).encode()))
         return out
 
-    def _persons(self, record: dict[str, Any], add: Any, header: Any) -> list[Any]:
-        """The persons' messages (module docstring); returns their TF transforms."""
-        t, stamp, face = self._t, float(record["stamp_s"]), record["mode"] == "face"
-        for p in record["people"]:
+    def _persons(self, stamp: float, face: bool, people: list[dict[str, Any]], heard: list[dict[str, Any]],
+                 add: Any, header: Any) -> list[Any]:
+        """The persons' messages (module docstring): the people in view and remembered, then the voices out of
+        view (a person with a voice only, its location unknown: confidence 0, no frame); returns the TF
+        transforms."""
+        t = self._t
+        for p in people:
             self._last_seen[int(p["id"])] = (stamp, list(p["position_m"]), face)
         confidence = {n: 1.0 - max(stamp - seen, 0.0) / self.memory_s for n, (seen, _, _) in self._last_seen.items()}
         self._last_seen = {n: v for n, v in self._last_seen.items() if confidence[n] > 0}
-        now = [int(p["id"]) for p in record["people"]]
-        add("humans/persons/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=[person_id(n) for n in now]))
+        now = [int(p["id"]) for p in people]
+        voiced = [int(p["id"]) for p in heard]
+        add("humans/persons/tracked", IDS_LIST, t[IDS_LIST](header=header, ids=[person_id(n) for n in now + voiced]))
         add("humans/persons/known", IDS_LIST, t[IDS_LIST](header=header,
-                                                           ids=[person_id(n) for n in sorted(self._last_seen)]))
+                                                           ids=[person_id(n) for n in sorted(self._last_seen)] +
+                                                           [person_id(n) for n in voiced]))
+        for n in voiced:
+            pid = person_id(n)
+            add(f"humans/persons/{pid}/anonymous", BOOL, t[BOOL](data=True))
+            add(f"humans/persons/{pid}/voice_id", STRING, t[STRING](data=voice_id(n)))
+            add(f"humans/persons/{pid}/location_confidence", FLOAT32, t[FLOAT32](data=0.0))
+            add("humans/candidate_matches", IDS_MATCH,
+                t[IDS_MATCH](id1=pid, id1_type=PERSON, id2=voice_id(n), id2_type=VOICE, confidence=1.0))
         transforms = []
         for n in sorted(self._last_seen):
             _, position, has_face = self._last_seen[n]

@@ -17,12 +17,18 @@ Schema of one line (one fused result; fields may be added, never renamed):
              "box_px": [x, y, w, h],    # face-guided only: the face box in the left image, pixels
              "lip_activity": float | null  # with --read-lips only: how much the lips moved over 0.4 s (the
                                            # spread of the mouth's opening); null: no opinion (face just seen)
-            }, ...],
- "voices": [{"id": int,                 # several microphone pairs, face-guided only: a voice no visible person
-             "azimuth_deg": float,      # explains, its direction from straight ahead (positive: to the right),
-             "elevation_deg": float | null,  # up (null: the array cannot tell), and no distance (unknown)
+            },
+            {"id": int,                 # several microphone pairs, face-guided only: a voice no visible person
+             "position_m": null,        # explains, heard now (speaking) from a direction: a person without a face
+             "speaking": true,          # or a position; its id is from the people's numbering, never a seen
+             "probability": null,       # person's, and kept while the voice is heard about the same way
+             "itd_mean_s": null,
+             "azimuth_deg": float,      # from straight ahead, positive to the right
+             "elevation_deg": float | null  # up (null: the array cannot tell); its distance is unknown
             }, ...]}
 ```
+
+Readers that want the people in view only keep those whose ``position_m`` is not null.
 """
 from __future__ import annotations
 
@@ -67,6 +73,10 @@ def result_record(result: Any) -> dict[str, Any]:
         if p.lip_activity is not None:
             person["lip_activity"] = None if p.lip_activity != p.lip_activity else round(float(p.lip_activity), 4)
         people.append(person)
+    for v in getattr(result, "voices", None) or ():  # a voice out of view: a person without a face or position
+        people.append({"id": v.id, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
+                       "azimuth_deg": round(math.degrees(v.azimuth_rad), 1),
+                       "elevation_deg": None if v.elevation_rad is None else round(math.degrees(v.elevation_rad), 1)})
     record = {
         "stamp_s": round(float(result.stamp_s), 6),
         "index": int(result.index),
@@ -75,11 +85,6 @@ def result_record(result: Any) -> dict[str, Any]:
         "latency_s": _num(result.latency_s),
         "people": people,
     }
-    voices = getattr(result, "voices", None)
-    if voices is not None:
-        record["voices"] = [{"id": v.id, "azimuth_deg": round(math.degrees(v.azimuth_rad), 1),
-                             "elevation_deg": None if v.elevation_rad is None else
-                             round(math.degrees(v.elevation_rad), 1)} for v in voices]
     return record
 
 

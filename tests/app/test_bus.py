@@ -350,16 +350,29 @@ def test_a_ros2_graph_behind_rmw_zenohs_router_sees_avhear(rmw_router: str) -> N
     assert all(m.header.frame_id == "avhear_rig" for m in messages) and any(m.ids for m in messages)
 
 
-def test_a_voice_out_of_view_is_a_voice_of_its_own_on_its_ray() -> None:
-    """A voice out of view (the results' `voices`) is tracked and speaking, matched to no person or face, and its
-    frame lies 1 m along its direction (x = sin azimuth, z = cos azimuth: 53 degrees to the left)."""
-    record = dict(RECORD, voices=[{"id": 2, "azimuth_deg": -53.0, "elevation_deg": None}])
-    messages = Topics().messages(record)
-    got = {topic: payload for topic, _, payload in messages}
-    assert decode(got["humans/voices/tracked"], "hri_msgs/msg/IdsList").ids == ["v0", "v3", "vo2"]
-    assert decode(got["humans/voices/vo2/is_speaking"], "std_msgs/msg/Bool").data is True
-    matches = [decode(p, "hri_msgs/msg/IdsMatch") for topic, _, p in messages if topic == "humans/candidate_matches"]
-    assert all("vo2" not in (m.id1, m.id2) for m in matches)
-    frames = {t.child_frame_id: t for t in decode(got["tf"], "tf2_msgs/msg/TFMessage").transforms}
-    v = frames["voice_vo2"].transform.translation
+def test_a_voice_out_of_view_is_a_person_with_a_voice_only_on_its_ray() -> None:
+    """A voice out of view (a person of the results without a position) is a voice tracked and speaking, and a
+    person with that voice, no face and its location unknown (confidence 0, no person frame); the voice's frame lies
+    1 m along its direction (x = sin azimuth, z = cos azimuth: 53 degrees to the left)."""
+    heard = {"id": 2, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
+             "azimuth_deg": -53.0, "elevation_deg": None}
+    topics = Topics()
+    topics.messages(RECORD)  # p0 and p3 seen a second before
+    messages = topics.messages(dict(RECORD, stamp_s=13.25, people=RECORD["people"][:1] + [heard]))
+    got: dict[str, list[bytes]] = {}
+    for topic, _, payload in messages:
+        got.setdefault(topic, []).append(payload)
+    assert decode(got["humans/voices/tracked"][0], "hri_msgs/msg/IdsList").ids == ["v0", "v2"]
+    assert decode(got["humans/voices/v2/is_speaking"][0], "std_msgs/msg/Bool").data is True
+    assert decode(got["humans/persons/tracked"][0], "hri_msgs/msg/IdsList").ids == ["p0", "p2"]
+    assert decode(got["humans/persons/known"][0], "hri_msgs/msg/IdsList").ids == ["p0", "p3", "p2"]
+    assert decode(got["humans/persons/p2/voice_id"][0], "std_msgs/msg/String").data == "v2"
+    assert decode(got["humans/persons/p2/location_confidence"][0], "std_msgs/msg/Float32").data == 0.0
+    assert decode(got["humans/persons/p3/location_confidence"][0], "std_msgs/msg/Float32").data == pytest.approx(0.9)
+    assert "humans/persons/p2/face_id" not in got and "humans/faces/f2/roi" not in got
+    matches = [decode(p, "hri_msgs/msg/IdsMatch") for p in got["humans/candidate_matches"]]
+    assert {(m.id1, m.id2) for m in matches if "2" in m.id1 + m.id2} == {("p2", "v2")}
+    frames = {t.child_frame_id: t for t in decode(got["tf"][0], "tf2_msgs/msg/TFMessage").transforms}
+    assert "person_p2" not in frames and "face_f2" not in frames
+    v = frames["voice_v2"].transform.translation
     assert (v.x, v.y, v.z) == pytest.approx((-0.7986, 0.0, 0.6018), abs=1e-4)

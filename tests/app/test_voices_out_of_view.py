@@ -1,5 +1,6 @@
 """Voices out of view in the application: with NAO's array, S4's talker outside the cameras' view is in the results
-as a voice with its direction and one id; with one pair there is no direction to give."""
+as a person without a face or position, with its direction and one id that no person in view has; with one pair
+there is no direction to give."""
 from __future__ import annotations
 
 import json
@@ -18,13 +19,14 @@ def test_s4s_talker_out_of_view_is_a_voice_in_its_direction(tmp_path: Path) -> N
     assert main(["run", "--source", "sim:S4", "--mics", "nao", "--duration", "5", "--fast", "--headless",
                  "--results-jsonl", str(out)]) == 0
     rows = [json.loads(line) for line in out.read_text().splitlines()]
-    assert all("voices" in r for r in rows)
-    voices = [v for r in rows for v in r["voices"]]
+    voices = [p for r in rows for p in r["people"] if p["position_m"] is None]
+    seen = {p["id"] for r in rows for p in r["people"] if p["position_m"] is not None}
     scenario = make_scenario("S4", clip_durations_s=[[0.5] * 10] * 3, seed=0)
     unseen = scenario.actors[0].path.at(0.0)  # the talker outside the view, 53 degrees to the left (a still place)
     truth = math.degrees(math.atan2(unseen[0], unseen[2]))
     assert len(voices) >= 10  # they count first
-    assert {v["id"] for v in voices} == {0}
+    assert len({v["id"] for v in voices}) == 1 and not {v["id"] for v in voices} & seen
+    assert all(v["speaking"] and "box_px" not in v for v in voices)
     assert all(abs(v["azimuth_deg"] - truth) < 20 for v in voices)
     assert sorted(abs(v["azimuth_deg"] - truth) for v in voices)[len(voices) // 2] < 8
     assert all(v["elevation_deg"] is None for v in voices)
@@ -33,7 +35,7 @@ def test_s4s_talker_out_of_view_is_a_voice_in_its_direction(tmp_path: Path) -> N
 
     timing = SimSource.from_preset("S4", duration_s=5.0, seed=0, mics="nao").scenario
     silent = [r for r in rows if not timing.speaking_at([r["stamp_s"]], hold_s=0.4)[0][0]]
-    assert len(silent) > 50 and not any(r["voices"] for r in silent)
+    assert len(silent) > 50 and all(p["position_m"] is not None for r in silent for p in r["people"])
 
 
 def test_one_pair_gives_no_voices(tmp_path: Path) -> None:
@@ -41,4 +43,5 @@ def test_one_pair_gives_no_voices(tmp_path: Path) -> None:
     out = tmp_path / "r.jsonl"
     assert main(["run", "--source", "sim:S4", "--duration", "2", "--fast", "--headless", "--results-jsonl",
                  str(out)]) == 0
-    assert not any("voices" in json.loads(line) for line in out.read_text().splitlines())
+    rows = [json.loads(line) for line in out.read_text().splitlines()]
+    assert rows and all(p["position_m"] is not None for r in rows for p in r["people"])

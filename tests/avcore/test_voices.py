@@ -77,3 +77,16 @@ def test_a_voice_keeps_its_id_while_it_stays_and_is_remembered() -> None:
     assert tracks.update(16.2, None) is None  # a result without it breaks the row: three in a row again
     assert tracks.update(16.3, at(-55.0)) is None and tracks.update(16.4, at(-56.0)) is None
     assert tracks.update(16.5, at(-55.0)) == 2
+
+
+def test_voices_draw_their_ids_from_the_peoples_tracker() -> None:
+    """Given the people's tracker's ``new_id``, a new voice takes the next number no person has, and a person seen
+    after it another: people and voices never share an id."""
+    from avcore.tracking import NearestTracker
+    from avcore.voices import VoiceDirection
+
+    people, tracks = NearestTracker(), VoiceTracks(confirm=1)
+    assert people.update([[0.0, 0.0, 2.0], [1.0, 0.0, 2.0]], 0.0).tolist() == [0, 1]
+    assert tracks.update(0.0, VoiceDirection(np.radians(-53.0), None, 5), people.new_id) == 2
+    assert tracks.update(0.1, VoiceDirection(np.radians(-50.0), None, 5), people.new_id) == 2  # the same voice
+    assert people.update([[0.0, 0.0, 2.0], [1.0, 0.0, 2.0], [-1.0, 0.0, 2.0]], 0.2).tolist() == [0, 1, 3]
