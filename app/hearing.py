@@ -21,7 +21,7 @@ from avcore.depth import locate_faces_depth, motion_points_depth
 from avcore.facemesh import mouth_opening
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
-from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing
+from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing, MotionGuidedParams
 from avcore.itd import gives_frame_itds
 from avcore.lips import LipTracks, veto_still_lips
 from avcore.mono import locate_faces_mono
@@ -182,7 +182,9 @@ class MotionGuided:
         return None
 
     def hearing(self, mics: MicPair | MicArray) -> MotionGuidedHearing:
-        return MotionGuidedHearing(mics)
+        """avhear's Algorithm 1, or the paper's as written (``config.motion_variant``)."""
+        paper = self.config.motion_variant == "paper"
+        return MotionGuidedHearing(mics, MotionGuidedParams.paper() if paper else MotionGuidedParams())
 
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector | None) -> Vision | None:
         """The HM3D points once an interval is gathered (stamped at its centre, shown on its middle frame)."""

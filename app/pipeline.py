@@ -70,7 +70,8 @@ class PipelineConfig:
     vote_frames : face-guided: each person's speaking state is the majority of their states over this many
         consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
         thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
-    interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7).
+    interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7). motion_variant :
+        "avhear" (the default) or "paper" (Algorithm 1 as written, :meth:`MotionGuidedParams.paper`).
     *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
         possible waits for room instead). Motion-guided, the frames' queue holds at least one interval at 60 FPS:
         HM3D runs once per interval, all at once, and the next interval's frames arrive meanwhile.
@@ -108,6 +109,7 @@ class PipelineConfig:
     lips: bool = False
     lip_still_below: float = 0.012
     interval_s: float = 0.4
+    motion_variant: Literal["avhear", "paper"] = "avhear"
     frame_queue: int = 4
     audio_queue: int = 256
     fusion_queue: int = 1024
@@ -123,6 +125,8 @@ class PipelineConfig:
             raise ValueError(f"tflite_runtime must be 'opencv' or 'litert', got {self.tflite_runtime!r}")
         if self.inference not in ("face", "motion"):
             raise ValueError(f"inference must be 'face' or 'motion', got {self.inference!r}")
+        if self.motion_variant not in ("avhear", "paper"):
+            raise ValueError(f"motion_variant must be 'avhear' or 'paper', got {self.motion_variant!r}")
         for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")

@@ -33,12 +33,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from avcore.stereo import StereoRig
-from sim.render import Person, drawing_order
+from sim.render import Person, distance_to_quad, drawing_order
 
-__all__ = ["interval_times", "visible_moving_centres"]
+__all__ = ["LABEL_M", "interval_times", "labelled_point_means", "visible_moving_centres"]
 
 GRID = 6  # points per side of each part
 MOVED_PX = 1.0  # a point whose image moves this much during the interval counts fully; one that moves less, less
+LABEL_M = 0.25  # an HM3D point this close to a person's surface at some instant of its interval is that person's
 
 
 def interval_times(stamp_s: float, interval_s: float, n: int = 5) -> np.ndarray:
@@ -109,3 +110,37 @@ def visible_moving_centres(rig: StereoRig, people_at: Sequence[Sequence[Person]]
     found = weight > 0
     faces[found] = total[found] / weight[found, None]
     return faces.reshape(-1, 3)
+
+
+def labelled_point_means(points: np.ndarray, people_at: Sequence[Sequence[Person]],
+                         times_s: Sequence[float]) -> np.ndarray:
+    """(N, 3) metres: the paper's truth for Algorithm 1 (section 7.1, D_ij = ||mu_i - hat mu_j||), each person's
+    mean of its ground-truth points, NaN for a person none of the points belongs to.
+
+    points : (M, 3) the HM3D points of one interval, where the method saw them. A point belongs to the person whose
+    surface (any part: head, torso, arms, hands) comes nearest to it at some instant of ``times_s``, if that is
+    within :data:`LABEL_M` (stereo places a point a few centimetres off at 2-3 m, and a hand moves during the
+    interval); farther from everybody it is an outlier of the room and no one's. The generators label their points
+    as they draw them; rendered frames have no labels, so the surfaces give them. Unlike
+    :func:`visible_moving_centres` this follows the points the detector found: a person seen only by a textured
+    collar is at the collar, as the paper's truth would have it.
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n = len(people_at[0]) if len(people_at) else 0
+    if len(people_at) != len(times_s) or not len(times_s):
+        raise ValueError(f"need the people at each instant: {len(people_at)} lists for {len(times_s)} instants")
+    near = np.full((pts.shape[0], n), np.inf)
+    for people, t in zip(people_at, times_s):
+        for i, person in enumerate(people):
+            for _, corners, _ in person.parts(float(t)):
+                near[:, i] = np.minimum(near[:, i], distance_to_quad(pts, corners))
+    out = np.full((n, 3), np.nan)
+    if not pts.shape[0] or not n:
+        return out
+    owner = np.argmin(near, axis=1)
+    owned = near[np.arange(pts.shape[0]), owner] <= LABEL_M
+    for i in range(n):
+        mine = owned & (owner == i)
+        if mine.any():
+            out[i] = pts[mine].mean(axis=0)
+    return out

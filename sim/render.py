@@ -33,6 +33,7 @@ __all__ = [
     "VisualRoom",
     "RenderedFrame",
     "StereoSceneRenderer",
+    "distance_to_quad",
     "load_face_textures",
     "drawn_face_texture",
     "default_scene",
@@ -507,7 +508,7 @@ class StereoSceneRenderer:
         names = np.full(pts.shape[0], "", dtype=object)
         for p in self.people:
             for name, corners, _ in p.parts(t):
-                d = _distance_to_quad(pts, corners)
+                d = distance_to_quad(pts, corners)
                 names[d < best] = name
                 best = np.minimum(best, d)
         return best, names
@@ -522,7 +523,7 @@ def drawing_order(people: Sequence[Person], t: float) -> list[tuple[int, str, np
     return quads
 
 
-def _distance_to_quad(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
+def distance_to_quad(points: np.ndarray, corners: np.ndarray) -> np.ndarray:
     """Distance from points (m, 3) to a planar parallelogram given by its corners TL, TR, BR, BL (4, 3)."""
     origin = corners[0]
     a, b = corners[1] - origin, corners[3] - origin

@@ -9,6 +9,7 @@ import argparse
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -94,6 +95,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help="with an array of several pairs (--mics): tell the pipeline the array is turned DEG degrees "
                           "about the vertical from where the room has it, as a rig file placed wrongly would (default "
                           f"{START_YAW_ERROR_DEG:g} with --self-calibrate, which learns it back, else 0)")
+    sce.add_argument("--motion-variant", choices=("avhear", "paper"), default="avhear",
+                     help="with --motion: avhear's Algorithm 1 (default) or the paper's as written (its BIC "
+                          "search, the determinant test, no 3D refinement), to print beside it")
     sce.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
     sce.set_defaults(func=run_scenarios)
 
@@ -149,6 +153,10 @@ def run_scenarios(args: argparse.Namespace) -> int:
     if args.duration is not None and not (2.0 <= args.duration <= 3600.0):
         raise UserError(f"--duration must be between 2 and 3600 seconds, got {args.duration}")
     config = pipeline_config(args)
+    if args.motion_variant != "avhear":
+        if not args.motion:
+            raise UserError("--motion-variant chooses between versions of Algorithm 1: add --motion")
+        config = replace(config, motion_variant=args.motion_variant)
     if args.timeline is not None:
         output_dir(args.timeline, "--timeline")
     start = time.perf_counter()
@@ -220,6 +228,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
                          "count": "one number spoken by a visible person (targets); also one visible person during "
                                   "one interval", "tau_loc_m": 0.35},
             "inference": config.inference,
+            **({"motion_variant": config.motion_variant} if config.inference == "motion" else {}),
             "itd_method": config.itd_method,
             "face_detector": None if config.inference == "motion" else detector_name(config),
             "tflite_runtime": config.tflite_runtime,

@@ -253,6 +253,7 @@ class ScenarioScore:
     f3d_errors_m: list[float] = field(default_factory=list, repr=False)
     f3d_depths_m: list[tuple[float, float]] = field(default_factory=list, repr=False)  # (true, found) depth per face
     people_errors_m: list[float] = field(default_factory=list, repr=False)  # every result's matched people
+    people_errors_paper_m: list[float] = field(default_factory=list, repr=False)  # motion: against their points
     identity: IdentityCounts = field(default_factory=lambda: IdentityCounts())
     itd_errors_s: list[float] = field(default_factory=list, repr=False)
     itd_true_s: list[float] = field(default_factory=list, repr=False)
@@ -289,6 +290,12 @@ class ScenarioScore:
         return float(np.mean(self.people_errors_m)) if self.people_errors_m else math.nan
 
     @property
+    def people_ale_paper_m(self) -> float:
+        """Motion-guided: the mean localisation error of the people found against the paper's truth (section 7.1),
+        each person's mean of the result's HM3D points that lie on them (NaN face-guided: the faces are the truth)."""
+        return float(np.mean(self.people_errors_paper_m)) if self.people_errors_paper_m else math.nan
+
+    @property
     def itd_accuracy(self) -> float:
         e = np.abs(self.itd_errors_s)
         return float(np.mean(e <= ITD_TOLERANCE_S)) if e.size else math.nan
@@ -318,6 +325,7 @@ class ScenarioScore:
         self.f3d_errors_m += other.f3d_errors_m
         self.f3d_depths_m += other.f3d_depths_m
         self.people_errors_m += other.people_errors_m
+        self.people_errors_paper_m += other.people_errors_paper_m
         self.identity.add(other.identity)
         self.itd_errors_s += other.itd_errors_s
         self.itd_true_s += other.itd_true_s
@@ -342,6 +350,7 @@ class ScenarioScore:
             "f3d_median_error_m": _clean(self.f3d_median_m),
             "f3d_depth_error_1_3m": _clean(self.depth_error_1_3m),
             "people_ale_m": _clean(self.people_ale_m),
+            "people_ale_paper_m": _clean(self.people_ale_paper_m),
             "identity": self.identity.as_dict(),
             "itd_windows_one_talker": len(self.itd_errors_s),
             "itd_accuracy_40us": _clean(self.itd_accuracy),
@@ -451,6 +460,10 @@ def _open(name: str, seed: int, duration_s: float | None, progress: Progress | N
     return source
 
 
+def _point_means(stream: Any, interval_s: float, result: Result) -> np.ndarray:
+    return stream.point_means(result.xyz, result.stamp_s, interval_s)
+
+
 def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, config: PipelineConfig | None = None,
                         progress: Progress | None = None, camera: str = "stereo",
                         mic_array: str = "pair") -> CalibrationFit:
@@ -493,8 +506,10 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     gesture, the seated behind a table; camera : the stereo pair or an RGB-D camera
     (:class:`app.sources.sim.SimSource`). array_yaw_deg : the pipeline is told the array is turned this much about
     the vertical from where the room has it (a wrong rig file; :meth:`avcore.geometry.MicArray.turned`). A
-    motion-guided run is scored against the centre of each person's visible moving body
-    (:meth:`app.sources.sim.SimSource.body_centres`), a face-guided one against the faces.
+    motion-guided run is matched and scored against the centre of each person's visible moving body
+    (:meth:`app.sources.sim.SimSource.body_centres`), and scored against the paper's truth too (each person's
+    mean of the result's HM3D points on them, :meth:`~app.sources.sim.SimSource.point_means`); a face-guided one
+    against the faces.
     """
     if mics is not None and MicArray.preset(mic_array).n_pairs != 1:
         raise ValueError("an audio-visual correction (mics) applies to one pair; use a preset of one pair with it")
@@ -519,10 +534,13 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     scenario: Scenario = stream.scenario  # type: ignore[attr-defined]
     audio = np.concatenate([b.samples for b in stream.audio_blocks()], axis=0).astype(np.float64)
     positions_at: Positions | None = None
+    points_truth: Callable[[Result], np.ndarray] | None = None
     if cfg.inference == "motion":  # the centre of the visible moving body over the result's interval
         positions_at = partial(stream.body_centres, interval_s=cfg.interval_s)  # type: ignore[attr-defined]
+        points_truth = partial(_point_means, stream, cfg.interval_s)  # the paper's: each person's own points
     score = score_run(scenario, fused, audio[:, list(source.channels)], float(stream.samplerate_hz), source.mics,
-                      cfg, frame_stamps_s=np.asarray(stream.frame_stamps_s), positions_at=positions_at)
+                      cfg, frame_stamps_s=np.asarray(stream.frame_stamps_s), positions_at=positions_at,
+                      points_truth=points_truth)
     score.seeds = [seed]
     score.voices = voice_counts(scenario, fused)
     if stats.self_calibration:
@@ -591,9 +609,11 @@ def _truth_per_interval(truths: list, frame_interval: np.ndarray, n_intervals: i
 
 
 def _judge(table: TruthTable, n_people: int, fused: Sequence[Result], n_intervals: int, score: ScenarioScore,
-           face_figures: bool, positions_at: Positions | None = None) -> _Judged:
+           face_figures: bool, positions_at: Positions | None = None,
+           points_truth: Callable[[Result], np.ndarray] | None = None) -> _Judged:
     """Match every result's people to the truth of its instant (the faces, or ``positions_at(stamp)``); with
-    ``face_figures``, also the per-frame visual figures (the F3D faces) into ``score``."""
+    ``face_figures``, also the per-frame visual figures (the F3D faces) into ``score``; with ``points_truth``
+    (result -> (N, 3), NaN where unknown) the matched people's errors against it too."""
     ordered = sorted(fused, key=lambda f: f.stamp_s)
     out = _Judged(np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people)), np.zeros(n_intervals),
                   np.zeros(n_intervals), np.full((len(ordered), n_people), -1),
@@ -618,6 +638,10 @@ def _judge(table: TruthTable, n_people: int, fused: Sequence[Result], n_interval
             matched.add(d)
         out.false_speaking[k] += bool(any(judged_speaking[d] for d in range(xyz.shape[0]) if d not in matched))
         score.people_errors_m += [float(e) for e in match.errors_m]
+        if points_truth is not None and match.pairs:
+            paper = points_truth(r)
+            score.people_errors_paper_m += [float(np.linalg.norm(xyz[d] - paper[g])) for g, d in match.pairs
+                                            if np.isfinite(paper[g]).all()]
         if face_figures:
             vis = np.flatnonzero(tr.visible)
             hit = {g for g, _ in match.pairs}
@@ -631,15 +655,17 @@ def _judge(table: TruthTable, n_people: int, fused: Sequence[Result], n_interval
 
 
 def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, samplerate_hz: float, mics: MicPair,
-              config: PipelineConfig, *, frame_stamps_s: np.ndarray, positions_at: Positions | None = None
-              ) -> ScenarioScore:
+              config: PipelineConfig, *, frame_stamps_s: np.ndarray, positions_at: Positions | None = None,
+              points_truth: Callable[[Result], np.ndarray] | None = None) -> ScenarioScore:
     """Score the fused results of one run of ``scenario`` (see the module docstring for the protocol).
 
     fused : the results in any order (stamps in seconds from the scenario's start); what counts of each is its
     people's positions and speaking states (:attr:`Result.positions`, ``speaking``). audio : (n, 2) the microphone
     signals (left, right), full scale 1. frame_stamps_s : (F,) the stamps of the camera frames, seconds.
     positions_at : where the people are for the matching, ``stamp -> (N, 3)`` metres; default the faces of
-    :meth:`Scenario.truth` (see :func:`evaluate_scenario` for the motion-guided truth).
+    :meth:`Scenario.truth` (see :func:`evaluate_scenario` for the motion-guided truth). points_truth : the
+    paper's truth of a motion-guided result, ``result -> (N, 3)`` (each person's mean of its own points), scored
+    as a second error of the people matched.
     """
     motion = config.inference == "motion"
     n_people = len(scenario.actors)
@@ -653,7 +679,8 @@ def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, sa
     truths = [table.at(float(t)) for t in frame_stamps_s]
     frame_interval = np.minimum((np.asarray(frame_stamps_s) / INTERVAL_S + 1e-9).astype(int), n_intervals - 1)
     visible, speaking, spoke, frames_per = _truth_per_interval(truths, frame_interval, n_intervals, n_people)
-    j = _judge(table, n_people, fused, n_intervals, score, face_figures=not motion, positions_at=positions_at)
+    j = _judge(table, n_people, fused, n_intervals, score, face_figures=not motion, positions_at=positions_at,
+               points_truth=points_truth)
     score.counts = _interval_counts(visible, speaking, spoke, j.found, j.judged, j.false_speaking, j.results_per)
     score.identity = identity_counts(j.id_matches, j.n_true, j.n_found)
     # the timing reference: the truth itself, each speaking state held TIMING_REFERENCE_S longer at both ends

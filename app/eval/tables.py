@@ -223,14 +223,20 @@ def _front_end_lines(scores: list[ScenarioScore]) -> list[str]:
 
 
 def _identity_lines(scores: list[ScenarioScore]) -> list[str]:
+    motion = any(s.inference == "motion" for s in scores)
     lines = [("Who is who over time, per result: IDF1 = 2 IDTP / (2 IDTP + IDFP + IDFN) under the best one-to-one map "
               "of true people to avhear's ids; switches = a person matched to another id than before; ALE = mean "
-              "distance of the people found to their truth (faces, or moving bodies' centres).")]
-    lines.append(f"{'Scen.':6s} {'IDF1':>7s} {'switches':>9s} {'IDTP':>7s} {'IDFP':>6s} {'IDFN':>6s} {'ALE [m]':>8s}")
+              "distance of the people found to their truth: the faces, or (motion-guided) the paper's, each "
+              "person's mean of its own HM3D points" + ("; body = to the centre of the visible moving body "
+                                                        "instead." if motion else "."))]
+    lines.append(f"{'Scen.':6s} {'IDF1':>7s} {'switches':>9s} {'IDTP':>7s} {'IDFP':>6s} {'IDFN':>6s} {'ALE [m]':>8s}"
+                 + (f" {'body [m]':>8s}" if motion else ""))
     for s in scores:
         i = s.identity
+        ale = s.people_ale_paper_m if s.inference == "motion" else s.people_ale_m
+        body = f" {_num(s.people_ale_m, '.3f'):>8s}" if s.inference == "motion" else f" {'-':>8s}"
         lines.append(f"{s.scenario:6s} {_num(i.idf1, '.3f'):>7s} {i.id_switches:9d} {i.idtp:7d} {i.idfp:6d} "
-                     f"{i.idfn:6d} {_num(s.people_ale_m, '.3f'):>8s}")
+                     f"{i.idfn:6d} {_num(ale, '.3f'):>8s}" + (body if motion else ""))
     return lines
 
 
@@ -283,7 +289,8 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
                           calibration: CalibrationFit | None) -> str:
     """The table of section 7.3 with the paper's rows beside ours (per spoken number, then per 0.4 s interval), the
     per-scenario front-end figures, and the targets."""
-    label = f"avhear {config.inference}-guided"
+    label = ("paper's Alg. 1 (here)" if config.inference == "motion" and config.motion_variant == "paper"
+             else f"avhear {config.inference}-guided")
     reference = f"truth held +-{TIMING_REFERENCE_S * 1e3:.0f} ms"
     sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration),
                 _per_number_lines(scores, label), _per_interval_lines(scores, label, reference),

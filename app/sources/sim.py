@@ -40,7 +40,7 @@ from sim.render import (
     StereoSceneRenderer,
 )
 from sim.audio import SimAudio, load_clip_bank, render_audio
-from sim.body_truth import interval_times, visible_moving_centres
+from sim.body_truth import interval_times, labelled_point_means, visible_moving_centres
 from sim.depth import DepthRenderer
 from sim.mouths import MouthTracks
 from sim.render import load_textures
@@ -223,6 +223,12 @@ class SimSource(ReplayStream):
         on ``stamp_s`` (:mod:`sim.body_truth`), the truth of a motion-guided result."""
         times = interval_times(stamp_s, interval_s)
         return visible_moving_centres(self.stereo, [self.people(float(t)) for t in times], times)
+
+    def point_means(self, points: np.ndarray, stamp_s: float, interval_s: float) -> np.ndarray:
+        """(N, 3) metres: the paper's truth of a motion-guided result, each actor's mean of the result's HM3D
+        ``points`` that lie on them over its interval (:func:`sim.body_truth.labelled_point_means`; NaN: none)."""
+        times = interval_times(stamp_s, interval_s)
+        return labelled_point_means(points, [self.people(float(t)) for t in times], times)
 
     def _images(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         t = float(self.frame_stamps_s[k])

@@ -234,6 +234,29 @@ def test_eval_scenarios_motion_guided(capsys: pytest.CaptureFixture[str]) -> Non
     assert s["tp"] + s["fn"] + s["fp"] - s["fp_false_face"] + s["tn"] == 8
     assert row["n_frames"] == 0 and row["f3d_median_error_m"] is None  # no F3D faces in the motion-guided variant
     assert 0.0 < row["people_ale_m"] < 0.15  # against the moving body's centre
+    # against the paper's truth, the mean of the person's own points: Algorithm 1's cluster mean is that mean
+    # when the person's points are grouped whole, as one person's are
+    assert 0.0 <= row["people_ale_paper_m"] < 0.02
+
+
+def test_eval_scenarios_runs_the_papers_algorithm_1_beside_avhears(capsys: pytest.CaptureFixture[str]) -> None:
+    """--motion-variant paper runs Algorithm 1 as written and names it so; without --motion it is refused."""
+    assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3", "--no-calibrate", "--motion",
+                 "--motion-variant", "paper"]) == 0
+    out = capsys.readouterr().out
+    assert "paper's Alg. 1 (here)" in out and "avhear motion-guided" not in out and "body [m]" in out
+    assert main(["eval", "scenarios", "--scenario", "S1", "--motion-variant", "paper"]) == 2
+    assert "add --motion" in capsys.readouterr().err
+    from app.hearing import hearing_mode
+    from app.pipeline import PipelineConfig
+    from avcore.geometry import MicPair
+    from avcore.inference import MotionGuidedParams
+
+    def params(variant: str) -> MotionGuidedParams:
+        config = PipelineConfig(inference="motion", motion_variant=variant)  # type: ignore[arg-type]
+        return hearing_mode(config).hearing(MicPair()).params
+
+    assert params("paper") == MotionGuidedParams.paper() and params("avhear") == MotionGuidedParams()
 
 
 def test_calibration_on_the_preset_shrinks_the_residuals() -> None:

@@ -59,3 +59,35 @@ def test_only_the_visible_parts_count():
 def test_the_people_must_be_given_at_every_instant():
     with pytest.raises(ValueError, match="at each instant"):
         visible_moving_centres(RIG, [[]], TIMES)
+
+
+class _Plate:
+    """A person of one square part 0.4 m wide facing the camera, its centre at ``centre`` (what
+    :func:`labelled_point_means` reads of a person: its parts)."""
+
+    def __init__(self, centre: tuple[float, float, float]) -> None:
+        x, y, z = centre
+        self.corners = np.array([[x - 0.2, y - 0.2, z], [x + 0.2, y - 0.2, z], [x + 0.2, y + 0.2, z],
+                                 [x - 0.2, y + 0.2, z]])
+
+    def parts(self, t: float) -> list:
+        return [("shirt", self.corners, None)]
+
+
+def test_the_papers_truth_is_the_mean_of_each_persons_own_points():
+    """Points on or near a person (a stereo error of 10 cm in depth) are theirs; one 40 cm off everybody is an
+    outlier of the room; a person without points has no truth (NaN). The mean is of the points as found."""
+    from sim.body_truth import LABEL_M, labelled_point_means
+
+    people = [_Plate((-0.5, 0.0, 2.0)), _Plate((0.6, 0.0, 3.0)), _Plate((0.0, 0.0, 6.0))]
+    points = np.array([[-0.6, 0.1, 2.0], [-0.4, -0.1, 2.1],  # the first person, one 10 cm behind the plate
+                       [0.5, 0.0, 2.95], [0.7, 0.1, 3.0], [0.6, 0.2, 3.05],  # the second
+                       [0.0, 0.0, 2.4]])  # 40 cm in front of the first's plate: nobody's
+    assert LABEL_M < 0.4
+    truth = labelled_point_means(points, [people] * len(TIMES), TIMES)
+    np.testing.assert_allclose(truth[0], [-0.5, 0.0, 2.05])
+    np.testing.assert_allclose(truth[1], [0.6, 0.1, 3.0])
+    assert np.isnan(truth[2]).all()
+    assert np.isnan(labelled_point_means(np.empty((0, 3)), [people], [1.0])).all()
+    with pytest.raises(ValueError, match="the people at each instant"):
+        labelled_point_means(points, [people], TIMES)
