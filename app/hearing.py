@@ -65,6 +65,7 @@ class FaceGuided:
     _mesh: Any = field(default=None, init=False, repr=False)
     _lips: LipTracks | None = field(default=None, init=False, repr=False)
     _voices: VoiceTracks = field(default_factory=VoiceTracks, init=False, repr=False)
+    _unexplained: tuple = field(default=(None, None), init=False, repr=False)  # (stamp, VoiceDirection | None)
 
     def __post_init__(self) -> None:
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
@@ -117,8 +118,16 @@ class FaceGuided:
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
         """The hearing's step on this result's faces and ITDs, with the single frames' ITDs near it (``near()``);
-        with the lips' cue, the faces whose lips are still are not speaking."""
-        out = hearing.step(vision.xyz, itds, times_s - vision.stamp_s, *near())
+        with the lips' cue, the faces whose lips are still are not speaking.
+
+        With several pairs, where the ITDs hold a voice that no visible face explains (:func:`unexplained_voice`),
+        the bins' look is not taken for this result: a bin of that voice agrees best with whichever visible person
+        lies nearest its direction (a small array tells directions 30 degrees apart poorly), and would claim them
+        as speaking; the windows', frames' and bands' looks still decide."""
+        frames, bands, bins = near()
+        found = unexplained_voice(itds, hearing.array, vision.xyz) if hearing.array.n_pairs >= 2 else None
+        self._unexplained = (vision.stamp_s, found)
+        out = hearing.step(vision.xyz, itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
         if vision.lip_activity is None:
             return out
         speaking, probability = veto_still_lips(out.speaking, out.probability, vision.lip_activity,
@@ -135,7 +144,9 @@ class FaceGuided:
         None with one pair (it cannot tell a direction)."""
         if array.n_pairs < 2:
             return None
-        found = unexplained_voice(itds, array, vision.xyz)
+        stamp, found = self._unexplained  # the step's search on the same result
+        if stamp != vision.stamp_s:
+            found = unexplained_voice(itds, array, vision.xyz)
         vid = self._voices.update(vision.stamp_s, found, new_id)
         if vid is None or found is None:
             return ()

@@ -45,3 +45,34 @@ def test_one_pair_gives_no_voices(tmp_path: Path) -> None:
                  str(out)]) == 0
     rows = [json.loads(line) for line in out.read_text().splitlines()]
     assert rows and all(p["position_m"] is not None for r in rows for p in r["people"])
+
+
+def test_the_bins_claim_nobody_while_a_voice_out_of_view_holds_the_itds() -> None:
+    """With several pairs, a result whose ITDs hold a voice no visible face explains is decided without the frames'
+    bins (a bin of that voice agrees best with the visible person nearest its direction and would claim them);
+    a result whose ITDs are the face's own keeps them. ITDs computed from distances written out, not by
+    ``MicArray.itd``."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from app.hearing import FaceGuided, Vision
+    from app.pipeline import PipelineConfig
+    from avcore.geometry import SPEED_OF_SOUND, MicArray
+
+    array = MicArray.preset("respeaker4")
+    mics = np.asarray(array.positions)
+
+    def itds_from(point: list[float]) -> np.ndarray:  # left minus right arrival, every pair, 6 windows
+        d = np.linalg.norm(mics - np.asarray(point), axis=1) / SPEED_OF_SOUND
+        return np.tile([d[i] - d[j] for i, j in array.pairs], (6, 1))
+
+    seen: list = []
+    hearing = SimpleNamespace(array=array, step=lambda *a: seen.append(a[-1]) or "out")
+    mode = FaceGuided(PipelineConfig())
+    face = np.array([[0.3, 0.0, 2.0]])
+    vision = Vision(1.0, None, np.array([[300, 200, 40, 40]]), face)  # type: ignore[arg-type]
+    unseen = [2.0 * np.sin(np.radians(-60)), 0.0, 2.0 * np.cos(np.radians(-60))]
+    near = lambda: (None, None, "the bins")  # noqa: E731
+    assert mode.step(hearing, vision, itds_from(unseen), np.zeros(6), near) == "out" and seen[-1] is None
+    assert mode.step(hearing, vision, itds_from(face[0]), np.zeros(6), near) == "out" and seen[-1] == "the bins"
