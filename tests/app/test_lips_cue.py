@@ -12,6 +12,7 @@ import pytest
 from app.cli import main
 from app.hearing import FaceGuided, Vision
 from app.pipeline import PipelineConfig
+from avcore.geometry import MicArray, MicPair
 
 
 @dataclass(frozen=True)
@@ -21,6 +22,8 @@ class _Output:  # the fields of FaceGuidedOutput the veto reads and replaces
 
 
 class _Hearing:
+    array = MicArray.from_pair(MicPair())  # one pair: no voice out of view is looked for
+
     def step(self, *args: object) -> _Output:
         return _Output(np.array([True, True, False]), np.array([0.9, 0.8, 0.1]))
 
@@ -30,12 +33,12 @@ def test_still_lips_silence_a_face_the_itds_call_speaking(monkeypatch: pytest.Mo
     monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
     mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
     vision = Vision(1.0, None, np.zeros((3, 4)), np.zeros((3, 3)), np.array([0.004, 0.05, 0.004]))
-    out = mode.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: ())
+    out = mode.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
     assert out.speaking.tolist() == [False, True, False]
     assert out.probability.tolist() == [0.5, 0.8, 0.1]
     # without the cue the hearing's answer stands
     plain = FaceGuided(PipelineConfig()).step(_Hearing(), Vision(1.0, None, np.zeros((3, 4)), np.zeros((3, 3))),
-                                              np.zeros((0, 1)), np.zeros(0), lambda: ())
+                                              np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
     assert plain.speaking.tolist() == [True, True, False]
 
 
