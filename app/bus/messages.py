@@ -16,10 +16,10 @@ person ``pN`` with the face ``fN`` (face-guided runs) and the voice ``vN``, matc
 the sound from that person's place); persons are anonymous (followed, not recognised). A voice out of view (several
 microphone pairs: a person of the results without a position, its id from the same numbering) is the person ``pN``
 with the voice ``vN`` and no face, its location unknown (``location_confidence`` 0, no person frame), and the frame
-``voice_vN`` 1 m along its direction (:data:`UNSEEN_VOICE_RANGE_M`: its distance is unknown). Frames ``person_pN`` (at the
-face while seen, at the last place while remembered), ``face_fN`` and ``voice_vN`` are children of :data:`RIG_FRAME`,
-the scene frame of docs/architecture.md, with identity rotation. Headers carry the result's capture stamp on the
-source's clock, the JSON's ``stamp_s``.
+``voice_vN`` 1 m along its direction (:data:`UNSEEN_VOICE_RANGE_M`: its distance is unknown). Frames ``person_pN``
+(at the face while seen, at the last place while remembered), ``face_fN`` and ``voice_vN`` are children of
+:data:`RIG_FRAME`, the scene frame of docs/architecture.md, with identity rotation. Headers carry the result's
+capture stamp on the source's clock, the JSON's ``stamp_s``.
 
 Message definitions not in rosbags' ROS 2 Jazzy store are declared here from their sources:
 
