@@ -86,7 +86,8 @@ class MotionGuidedParams:
         cylinder's points alone, or the groups' members alone when they weigh more.
     warm_start_candidates : for every N, start EM from the better (on the new data) of the paper's initialisation
         and the previous interval's fit with N components: people move little between intervals, so EM needs
-        fewer iterations (a speed-up; the paper initialises every N from the selected model only).
+        fewer iterations (a speed-up; the paper initialises every N from the selected model only). The fit can
+        differ too: EM from another start may end at another optimum, and BIC may then pick another N.
     """
 
     n_max: int = 10
