@@ -23,7 +23,7 @@ from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing, MotionGuidedParams
 from avcore.itd import gives_frame_itds
-from avcore.lips import LipTracks, veto_still_lips
+from avcore.lips import LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
 from avcore.selfcal import ArrayYawCalibration, SelfCalibration, SelfCalibrationFit, YawFit
@@ -54,6 +54,7 @@ class Vision:
     boxes: np.ndarray | None
     xyz: np.ndarray
     lip_activity: np.ndarray | None = None
+    lip_relative: np.ndarray | None = None
 
 
 @dataclass(eq=False)
@@ -109,16 +110,19 @@ class FaceGuided:
             faces = locate_faces_mono(frame.left, rig, detector=detector)
         else:
             faces = locate_faces(frame.left, frame.right, rig, detector=detector)
-        activity = None
+        activity = relative = None
         if self._lips is not None:
             openings = mouth_opening(self._mesh.run(frame.left, faces.boxes).landmarks)
             activity = self._lips.update(frame.stamp_s, faces.boxes, openings)
-        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity)
+            relative = self._lips.relative
+        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity, relative)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
         """The hearing's step on this result's faces and ITDs, with the single frames' ITDs near it (``near()``);
-        with the lips' cue, the faces whose lips are still are not speaking.
+        with the lips' cue, faces that direction cannot tell apart (:func:`avcore.lips.same_direction_groups`,
+        within ``lip_same_direction_s``) are one object for the hearing, whose words go to the face whose lips move
+        (:func:`avcore.lips.choose_by_lips`), and the faces whose lips are still are not speaking.
 
         With several pairs, where the ITDs hold a voice that no visible face explains (:func:`unexplained_voice`),
         the bins' look is not taken for this result: a bin of that voice agrees best with whichever visible person
@@ -127,10 +131,27 @@ class FaceGuided:
         frames, bands, bins = near()
         found = unexplained_voice(itds, hearing.array, vision.xyz) if hearing.array.n_pairs >= 2 else None
         self._unexplained = (vision.stamp_s, found)
-        out = hearing.step(vision.xyz, itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
         if vision.lip_activity is None:
-            return out
-        speaking, probability = veto_still_lips(out.speaking, out.probability, vision.lip_activity,
+            return hearing.step(vision.xyz, itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
+        xyz = np.asarray(vision.xyz, dtype=np.float64).reshape(-1, 3)
+        groups = same_direction_groups(hearing.array.itd(xyz).reshape(len(xyz), -1), self.config.lip_same_direction_s)
+        ones = np.array([g[np.argmin(xyz[g, 2])] for g in groups], dtype=int)  # each group heard from its nearest
+        owner = np.zeros(len(xyz), dtype=int)
+        for k, g in enumerate(groups):
+            owner[g] = k
+        out = hearing.step(xyz[ones], itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
+        if len(ones) < len(xyz):
+            out = replace(out, speaking=out.speaking[owner], probability=out.probability[owner],
+                          itd_means=out.itd_means[owner], itd_counts=out.itd_counts[owner],
+                          pair_itd_means=None if out.pair_itd_means is None else out.pair_itd_means[owner])
+            speaking, probability = choose_by_lips(out.speaking, out.probability, vision.lip_relative, groups,
+                                                   self.config.lip_both_above)
+            out = replace(out, speaking=speaking, probability=probability)
+        alone = np.ones(len(xyz), dtype=bool)  # in a group the sound says one of them speaks: the lips chose who
+        for g in groups:
+            alone[g] = len(g) == 1
+        speaking, probability = veto_still_lips(out.speaking, out.probability,
+                                                np.where(alone, vision.lip_activity, np.nan),
                                                 self.config.lip_still_below)
         return replace(out, speaking=speaking, probability=probability)
 

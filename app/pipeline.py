@@ -89,7 +89,10 @@ class PipelineConfig:
         alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
     lips : face-guided: the face mesh on every face (:mod:`avcore.facemesh`), each face's lip activity
         (:class:`avcore.lips.LipTracks`), and a face that the ITDs call speaking whose lips are still
-        (activity under ``lip_still_below``) not speaking (:func:`avcore.lips.veto_still_lips`).
+        (activity under ``lip_still_below``) not speaking (:func:`avcore.lips.veto_still_lips`); faces whose
+        ITDs are within ``lip_same_direction_s`` on every pair (an ITD's accuracy: direction cannot tell them
+        apart) heard as one, their words given to the face whose lips move most for that face, and to another too
+        whose lips move at least ``lip_both_above`` of their own range (:func:`avcore.lips.choose_by_lips`).
     """
 
     inference: Literal["face", "motion"] = "face"
@@ -108,6 +111,8 @@ class PipelineConfig:
     tflite_runtime: Literal["opencv", "litert"] = "opencv"
     lips: bool = False
     lip_still_below: float = 0.012
+    lip_same_direction_s: float = 40e-6
+    lip_both_above: float = 0.5
     interval_s: float = 0.4
     motion_variant: Literal["avhear", "paper"] = "avhear"
     frame_queue: int = 4
@@ -133,6 +138,12 @@ class PipelineConfig:
         if not 0 < self.lip_still_below < 1:
             raise ValueError(f"lip_still_below must be a spread of the mouth's opening in (0, 1), got "
                              f"{self.lip_still_below!r}")
+        if not 0 <= self.lip_same_direction_s < 1e-3:
+            raise ValueError(f"lip_same_direction_s must be an ITD in [0, 1 ms) seconds, got "
+                             f"{self.lip_same_direction_s!r}")
+        if not 0 < self.lip_both_above <= 1:
+            raise ValueError(f"lip_both_above must be a share of a face's own lip range in (0, 1], got "
+                             f"{self.lip_both_above!r}")
         FaceGuidedParams(decision_window_s=self.decision_window_s)  # the hearing's own check, here at once
         least = max(self.frame_window_s, self.interval_s) + self.window_s + self.hop_s
         if self.max_audio_lead_s <= least:

@@ -11,6 +11,11 @@ with fewer than ``min_samples`` openings in that window (just arrived, turned aw
 clearly still (activity under ``still_below``) is not speaking. Only this direction is taken: moving lips without
 sound (mouthing, chewing) do not make a speaker, and no opinion changes nothing; so the lips can remove the false
 alarms of two people in similar directions, and cannot add any.
+
+Where direction cannot tell faces apart at all (:func:`same_direction_groups`: their mouths' ITDs within an ITD's
+accuracy on every pair, one behind the other), the hearing takes them as one object and :func:`choose_by_lips`
+gives that object's words to the face whose lips move most *for that face*: each track's activity over its own
+floor (:attr:`LipTracks.relative`), since a distant face's mesh jitters more than a near one's.
 """
 from __future__ import annotations
 
@@ -18,17 +23,28 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["LipTracks", "veto_still_lips"]
+__all__ = ["LipTracks", "choose_by_lips", "same_direction_groups", "veto_still_lips"]
 
 
 @dataclass(eq=False)
 class LipTracks:
-    """``update(stamp_s, boxes, openings)`` -> each face's lip activity (N,) (NaN: no opinion)."""
+    """``update(stamp_s, boxes, openings)`` -> each face's lip activity (N,) (NaN: no opinion).
+
+    After each update, :attr:`relative` (N,) is each face's activity over its track's floor, the ``floor_quantile``
+    of its activities over the last ``floor_window_s`` (the jitter of a still mouth at that size; NaN with fewer
+    than ``min_floor`` of them).
+    """
 
     window_s: float = 0.4
     min_samples: int = 6
     max_jump: float = 0.5  # of the face's width, between two frames
-    _tracks: list = field(default_factory=list, init=False, repr=False)  # [centre (2,), width, [(t, opening)]]
+    floor_window_s: float = 10.0
+    floor_quantile: float = 20.0
+    top_quantile: float = 90.0
+    min_floor: int = 15
+    relative: np.ndarray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
+    # each track: [centre (2,), width, [(t, opening)], [(t, activity)]]
+    _tracks: list = field(default_factory=list, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not self.window_s > 0:
@@ -46,6 +62,7 @@ class LipTracks:
         self._tracks = [t for t in self._tracks if t[2] and t[2][-1][0] >= stamp_s - self.window_s]
         free = list(range(len(self._tracks)))
         activity = np.full(len(b), np.nan)
+        self.relative = np.full(len(b), np.nan)
         for i in np.argsort(-b[:, 2]):  # the nearest (largest) faces choose first
             best, best_d = None, self.max_jump * b[i, 2]
             for k in free:
@@ -53,7 +70,7 @@ class LipTracks:
                 if d <= best_d:
                     best, best_d = k, d
             if best is None:
-                self._tracks.append([centres[i], b[i, 2], []])
+                self._tracks.append([centres[i], b[i, 2], [], []])
                 best = len(self._tracks) - 1
             else:
                 free.remove(best)
@@ -64,6 +81,11 @@ class LipTracks:
             values = values[np.isfinite(values)]
             if values.size >= self.min_samples:
                 activity[i] = float(np.std(values))
+                track[3] = [(t, a) for t, a in track[3] if t > stamp_s - self.floor_window_s]
+                track[3].append((float(stamp_s), activity[i]))
+                if len(track[3]) >= self.min_floor:
+                    floor, top = np.percentile([a for _, a in track[3]], [self.floor_quantile, self.top_quantile])
+                    self.relative[i] = (activity[i] - floor) / max(top - floor, 1e-6)
         return activity
 
 
@@ -74,3 +96,35 @@ def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.
     still = np.isfinite(activity) & (np.nan_to_num(activity, nan=np.inf) < still_below)
     veto = np.asarray(speaking, dtype=bool) & still
     return np.asarray(speaking, dtype=bool) & ~veto, np.where(veto, np.minimum(probability, 0.5), probability)
+
+
+def same_direction_groups(itds_s: np.ndarray, within_s: float) -> list[np.ndarray]:
+    """The faces that direction cannot tell apart: groups (index arrays, in order) of the rows of ``itds_s`` (N, P),
+    each face's ITD on every pair, linked when two rows are within ``within_s`` on every pair. A row with a NaN is
+    alone."""
+    x = np.asarray(itds_s, dtype=np.float64).reshape(len(itds_s), -1)
+    label = np.arange(len(x))
+    for i in range(len(x)):
+        for j in range(i + 1, len(x)):
+            if np.all(np.abs(x[i] - x[j]) <= within_s):  # False with a NaN
+                label[label == label[j]] = label[i]
+    return [np.flatnonzero(label == k) for k in dict.fromkeys(label.tolist())]
+
+
+def choose_by_lips(speaking: np.ndarray, probability: np.ndarray, relative: np.ndarray,
+                   groups: list[np.ndarray], both_above: float) -> tuple[np.ndarray, np.ndarray]:
+    """Within each group of faces that speaks as one object, the words go to the face whose lips move most over
+    their own floor (``relative``); another face of the group keeps them only if its own lips move at least
+    ``both_above`` times their floor (two talking at once). A group with fewer than two faces with an opinion is
+    left as it is. Those that lose the words keep a probability of at most 0.5."""
+    speaking = np.asarray(speaking, dtype=bool).copy()
+    probability = np.asarray(probability, dtype=np.float64).copy()
+    for g in groups:
+        seen = g[np.isfinite(relative[g])]
+        if len(seen) < 2 or not speaking[g].any():
+            continue
+        best = seen[np.argmax(relative[seen])]
+        lose = seen[(seen != best) & (relative[seen] < both_above)]
+        speaking[lose] = False
+        probability[lose] = np.minimum(probability[lose], 0.5)
+    return speaking, probability

@@ -22,6 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from app.commands.options import add_method_arguments, pipeline_config
 from app.eval.scenarios import (
     PAPER_PERCENT,
+    SCENARIO_CHOICES,
     SCENARIOS,
     ScenarioScore,
     calibrate_on_preset,
@@ -39,7 +40,7 @@ def _num(x: float) -> str:
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", nargs="+", choices=SCENARIOS, default=list(SCENARIOS))
+    parser.add_argument("--scenario", nargs="+", choices=SCENARIO_CHOICES, default=list(SCENARIOS))
     parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
     parser.add_argument("--duration", type=float, default=None, help="seconds per scenario (default the preset's)")
     add_method_arguments(parser)
@@ -79,7 +80,8 @@ def main() -> int:
 def _row(name: str, seed: str, s: ScenarioScore, elapsed: float) -> None:
     c = s.counts
     print(f"{name:6s} {seed:>5s} {c.tp:4d} {c.fn:4d} {c.fp:4d} {c.tn:4d} {_pct(c.tp_rate):>7s} "
-          f"{PAPER_PERCENT[name][1]:6.1f}% {c.fn_missed_face:8d} {c.fn_overlap:7d} {_pct(s.all_found_share):>7s} "
+          f"{PAPER_PERCENT.get(name, (math.nan, math.nan))[1]:6.1f}% {c.fn_missed_face:8d} {c.fn_overlap:7d} "
+          f"{_pct(s.all_found_share):>7s} "
           f"{s.f3d_median_m:6.3f} {_pct(s.itd_accuracy):>7s} {_num(s.itd_pull_s * 1e6):>8s} "
           f"{'' if math.isnan(elapsed) else f'{elapsed:5.0f}s':>6s}", flush=True)
 

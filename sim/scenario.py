@@ -12,6 +12,10 @@ Presets (section 7.3, "Results on NAO"; the paper's room is about 5 x 5 m, the r
 - ``S3``: as S2, with one of them standing (a higher elevation).
 - ``S4``: as S2, with one of the talkers outside the cameras' field of view.
 - ``S5``: three people speaking independently (overlaps happen), one walking while speaking, and hand claps.
+- ``S6`` (beyond the paper): two people in one direction at different depths, both in view: one seated at 1.3 m,
+  one standing behind at 2.7 m whose face shows above the first one's head. Their mouths give the 12 cm pair the same
+  ITD (and a planar array nearly so), so direction cannot tell them apart; they count in turns for the first half
+  and independently (at times at once) for the second.
 - ``calibration`` (section 5.3): one person holding a loudspeaker just below the face, playing white noise, walking
   a zig-zag across the whole field of view. The noise comes in bursts of 150 ms every 0.5 s (``CALIBRATION_BURST_S``),
   not continuously as in the paper: see :data:`avcore.calibration.CALIBRATION_BURST_S` for why.
@@ -57,8 +61,8 @@ __all__ = [
     "default_acoustic_room",
 ]
 
-PRESETS: tuple[str, ...] = ("S1", "S2", "S3", "S4", "S5", "calibration")
-DEFAULT_DURATION_S: dict[str, float] = {"S1": 20.0, "S2": 20.0, "S3": 20.0, "S4": 20.0, "S5": 25.0,
+PRESETS: tuple[str, ...] = ("S1", "S2", "S3", "S4", "S5", "S6", "calibration")
+DEFAULT_DURATION_S: dict[str, float] = {"S1": 20.0, "S2": 20.0, "S3": 20.0, "S4": 20.0, "S5": 25.0, "S6": 25.0,
                                         "calibration": 40.0}
 EventKind = Literal["speech", "clap", "noise"]
 # where each kind of sound leaves the person, relative to the face centre (metres, scene frame): the mouth, the hands
@@ -487,6 +491,7 @@ _DESCRIPTIONS = {
     "S3": "three people counting in turns, one of them standing",
     "S4": "three people counting in turns, one of them outside the field of view",
     "S5": "three people speaking independently, one walking while speaking, hand claps",
+    "S6": "two people in one direction, one standing behind the other, counting in turns, then independently",
     "calibration": "a person holding a loudspeaker (white-noise bursts) below the face, walking a zig-zag over the "
                    "view",
 }
@@ -544,6 +549,14 @@ def make_scenario(name: str, *, clip_durations_s: Sequence[Sequence[float]], dur
         for i in range(3):
             events += _independent(i, voices[i], durations, rng, dur)
         events += _claps(3, rng, dur)
+    elif name == "S6":
+        # the far face centre is placed where its mouth gives the 12 cm pair the near mouth's ITD (within 1 us)
+        actors = [actor(0, Path3D.still((0.30, -0.05, 1.3))), actor(1, Path3D.still((0.646, -0.65, 2.7)), "standing")]
+        half = round(dur / 2, 3)
+        events = _counting([0, 1], voices[:2], durations, rng, half, (0.25, 0.6))
+        for i in range(2):
+            events += [replace(e, start_s=e.start_s + half, end_s=e.end_s + half)
+                       for e in _independent(i, voices[i], durations, rng, dur - half)]
     else:  # calibration
         actors = [Actor("person0", _zigzag(rig, dur, rng), voice=0, face=faces[0], shirt_bgr=_SHIRTS[0],
                         nod_rad=0.0, posture="walking")]

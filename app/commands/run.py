@@ -76,19 +76,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                           description="Runs the simulated room (three people counting in turns, scenario S2 by "
                           "default) through the real pipeline and shows it in the Rerun viewer; without a display "
                           f"it saves {DEMO_RRD} and says how to open it.")
-    demo.add_argument("--scenario", default="S2", choices=PRESETS, help="S1..S5 or calibration (default S2)")
+    demo.add_argument("--scenario", default="S2", choices=PRESETS, help="S1..S6 or calibration (default S2)")
     demo.add_argument("--seed", type=count(0), default=0, help="seed of the simulated room")
     _common(demo, duration_help=f"seconds of the simulated room to run (default 20, at most {MAX_SIMULATED_S:g})",
             max_duration_s=MAX_SIMULATED_S)
     demo.set_defaults(func=run_demo, duration=20.0)
     run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER, live, bus or ros",
                          description="Runs the pipeline (who is there, where, who speaks) on a source: the simulated "
-                         "room (sim:S1..S5), a recording folder (replay:FOLDER), cameras and a microphone (live, "
+                         "room (sim:S1..S6), a recording folder (replay:FOLDER), cameras and a microphone (live, "
                          "with --rig), a robot's `avhear sensors` on the bus (bus), or a ROS 2 robot's RGB-D camera "
                          "and microphone topics (ros). Results go to the Rerun console, a results file "
                          "(--results-jsonl) and the bus (--publish). Ctrl-C stops and keeps everything.")
     run.add_argument("--source", default="sim:S2",
-                     help="sim:S1..S5|calibration, replay:FOLDER, live, webcam (one camera and the computer's "
+                     help="sim:S1..S6|calibration, replay:FOLDER, live, webcam (one camera and the computer's "
                           "microphones, no calibration), bus (a robot's `avhear sensors`) or ros (a ROS 2 robot's "
                           "camera and microphone topics)")
     run.add_argument("--fov", type=_fov, default=None, metavar="DEGREES",

@@ -26,7 +26,7 @@ from sim.scenario import DEFAULT_DURATION_S, PRESETS
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "simulate", help="write a simulated-room scenario (S1-S5, calibration) as a raw recording",
+        "simulate", help="write a simulated-room scenario (S1-S6, calibration) as a raw recording",
         description=("Simulate one of the paper's scenarios (section 7.3: S1 one person counting; S2 three seated "
                      "people counting in turns; S3 one of them standing; S4 one outside the field of view; S5 "
                      "independent speakers, one walking, hand claps; and the section 5.3 calibration: a loudspeaker "

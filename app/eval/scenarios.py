@@ -39,6 +39,7 @@ __all__ = [
     "PAPER_PERCENT",
     "PAPER_SCENARIOS",
     "SCENARIOS",
+    "SCENARIO_CHOICES",
     "CalibrationFit",
     "ScenarioScore",
     "SpeakingCounts",
@@ -51,6 +52,9 @@ __all__ = [
 ]
 
 SCENARIOS: tuple[str, ...] = ("S1", "S2", "S3", "S4", "S5")
+"""The paper's scenarios: what ``avhear eval scenarios`` runs by default."""
+SCENARIO_CHOICES: tuple[str, ...] = (*SCENARIOS, "S6")
+"""Every scenario that can be scored: the paper's and S6 (two people in one direction), which the paper has not."""
 INTERVAL_S = 0.4
 """One count of the speaking-state table: a person during 0.4 s (the Delta t of section 7)."""
 ITD_TOLERANCE_S = 40e-6
@@ -513,8 +517,8 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     """
     if mics is not None and MicArray.preset(mic_array).n_pairs != 1:
         raise ValueError("an audio-visual correction (mics) applies to one pair; use a preset of one pair with it")
-    if name not in SCENARIOS:
-        raise ValueError(f"scenario must be one of {', '.join(SCENARIOS)}, got {name!r}")
+    if name not in SCENARIO_CHOICES:
+        raise ValueError(f"scenario must be one of {', '.join(SCENARIO_CHOICES)}, got {name!r}")
     cfg = config or PipelineConfig()
     source = _open(name, seed, duration_s, progress, mic_array, bodies, camera, lips)
     if mics is not None:

@@ -98,7 +98,7 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
                 bodies: bool = False, camera: str = "stereo", fov_deg: float = DEFAULT_FOV_DEG, lips: bool = False,
                 mic_spacing_m: float | None = None, progress=None  # noqa: ANN001
                 ) -> StreamAdapter | LiveSource:
-    """``sim:PRESET`` (S1..S5, calibration), ``replay:FOLDER``, ``live`` (with ``rig_path`` and ``live``) or
+    """``sim:PRESET`` (S1..S6, calibration), ``replay:FOLDER``, ``live`` (with ``rig_path`` and ``live``) or
     ``webcam`` (:func:`webcam`); ``mics`` names the simulated room's (or the webcam's) microphones
     (:data:`avcore.geometry.ARRAY_PRESETS`); ``bodies`` draws the simulated people with arms, hands and a table,
     ``camera`` is the simulated stereo pair, RGB-D camera or one camera, ``lips`` opens the simulated people's

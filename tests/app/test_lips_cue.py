@@ -32,7 +32,8 @@ def test_still_lips_silence_a_face_the_itds_call_speaking(monkeypatch: pytest.Mo
     monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))  # no mesh runs in this test
     monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
     mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
-    vision = Vision(1.0, None, np.zeros((3, 4)), np.zeros((3, 3)), np.array([0.004, 0.05, 0.004]))
+    apart = np.array([[-0.8, 0.0, 2.0], [0.0, 0.0, 2.0], [0.8, 0.0, 2.0]])  # directions the ITDs tell apart
+    vision = Vision(1.0, None, np.zeros((3, 4)), apart, np.array([0.004, 0.05, 0.004]))
     out = mode.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
     assert out.speaking.tolist() == [False, True, False]
     assert out.probability.tolist() == [0.5, 0.8, 0.1]
@@ -40,6 +41,51 @@ def test_still_lips_silence_a_face_the_itds_call_speaking(monkeypatch: pytest.Mo
     plain = FaceGuided(PipelineConfig()).step(_Hearing(), Vision(1.0, None, np.zeros((3, 4)), np.zeros((3, 3))),
                                               np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
     assert plain.speaking.tolist() == [True, True, False]
+
+
+@dataclass(frozen=True)
+class _GroupOutput:  # the fields of FaceGuidedOutput that follow each face
+    speaking: np.ndarray
+    probability: np.ndarray
+    itd_means: np.ndarray
+    itd_counts: np.ndarray
+    pair_itd_means: np.ndarray
+
+
+class _EveryoneSpeaks:
+    array = MicArray.from_pair(MicPair())
+
+    def __init__(self) -> None:
+        self.heard: list[np.ndarray] = []
+
+    def step(self, xyz: np.ndarray, *args: object) -> _GroupOutput:
+        self.heard.append(xyz)
+        n = len(xyz)
+        return _GroupOutput(np.ones(n, bool), np.full(n, 0.9), np.arange(n) * 1e-4, np.full(n, 5.0),
+                            np.arange(n)[:, None] * 1e-4)
+
+
+def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_lips(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    mode = FaceGuided(PipelineConfig(lips=True))
+    # one behind the other on one ray from the microphones (the same ITD), and a third 0.8 m to the left
+    xyz = np.array([[0.3, 0.0, 1.3], [0.6, 0.0, 2.6], [-0.8, 0.0, 2.0]])
+    hearing = _EveryoneSpeaks()
+    lips = np.array([0.02, 0.02, 0.02])  # no still lips: the absolute veto stays out of this
+    vision = Vision(1.0, None, np.zeros((3, 4)), xyz, lips, np.array([0.1, 0.9, 0.0]))
+    out = mode.step(hearing, vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    np.testing.assert_array_equal(hearing.heard[0], xyz[[0, 2]])  # the group heard from its nearest face
+    assert out.speaking.tolist() == [False, True, True]  # the far face's lips move: the words are its
+    assert out.probability.tolist() == [0.5, 0.9, 0.9]
+    assert out.itd_means.tolist() == [0.0, 0.0, 1e-4] and out.pair_itd_means.shape == (3, 1)
+    both = Vision(1.0, None, np.zeros((3, 4)), xyz, lips, np.array([0.7, 0.9, 0.0]))
+    assert mode.step(hearing, both, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None)).speaking.all()
+    # a still mouth in a group is not vetoed on its own: the sound says one of the group speaks
+    still = Vision(1.0, None, np.zeros((3, 4)), xyz, np.array([0.004, 0.004, 0.02]), np.array([0.9, 0.1, 0.0]))
+    out = mode.step(hearing, still, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    assert out.speaking.tolist() == [True, False, True]
 
 
 def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path) -> None:
@@ -80,6 +126,14 @@ def test_moving_mouths_are_the_simulated_rooms(capsys: pytest.CaptureFixture[str
 def test_the_still_lips_threshold_is_checked(bad: float) -> None:
     with pytest.raises(ValueError, match="lip_still_below"):
         PipelineConfig(lip_still_below=bad)
+
+
+@pytest.mark.parametrize(("name", "bad"), [("lip_same_direction_s", -1e-6), ("lip_same_direction_s", 1e-3),
+                                           ("lip_same_direction_s", float("nan")), ("lip_both_above", 0.0),
+                                           ("lip_both_above", 1.5)])
+def test_the_same_direction_settings_are_checked(name: str, bad: float) -> None:
+    with pytest.raises(ValueError, match=name):
+        PipelineConfig(**{name: bad})
 
 
 def test_a_missing_face_mesh_is_one_line_before_any_preparation(monkeypatch: pytest.MonkeyPatch,

@@ -214,6 +214,17 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert "S2 seed 0" in captured.err  # progress on stderr, the JSON alone on stdout
 
 
+def test_eval_scenarios_runs_s6_which_the_paper_has_not(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    (row,) = out["results"]
+    assert row["scenario"] == "S6" and out["paper"] == {"S6": None}
+    target = out["targets"]["per_spoken_number"]["S6"]
+    assert target["paper_fp_per_speaking_count"] is None and target["fp_at_most_half_paper"] is None
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate"]) == 0
+    assert "S6     paper: not in it" in capsys.readouterr().out
+
+
 def test_eval_scenarios_table(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["eval", "scenarios", "--scenario", "S1", "--duration", "3", "--no-calibrate"]) == 0
     out = capsys.readouterr().out

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from avcore.lips import LipTracks, veto_still_lips
+from avcore.lips import LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
 
 
 def test_activity_is_the_spread_of_each_faces_opening_over_the_window() -> None:
@@ -61,3 +61,47 @@ def test_the_veto_removes_still_lipped_speakers_only() -> None:
     # just either side of the threshold
     assert veto_still_lips(np.array([True]), np.array([0.9]), np.array([0.0119]), 0.012)[0].tolist() == [False]
     assert veto_still_lips(np.array([True]), np.array([0.9]), np.array([0.012]), 0.012)[0].tolist() == [True]
+
+
+def test_relative_activity_is_placed_between_the_tracks_own_still_and_moving_levels() -> None:
+    tracks = LipTracks(window_s=0.4, min_samples=6, floor_window_s=10.0, min_floor=15)
+    rng = np.random.default_rng(3)
+    t = np.arange(0, 6.0, 1 / 30)
+    # a near face whose mesh barely jitters and a far one whose mesh jitters four times more; each talks in turn
+    talks = [(t % 2.0) < 1.0, (t % 2.0) >= 1.0]
+    near = 0.1 + 0.005 * rng.standard_normal(t.size) + np.where(talks[0], 0.2 * np.sin(2 * np.pi * 5 * t), 0.0)
+    far = 0.1 + 0.02 * rng.standard_normal(t.size) + np.where(talks[1], 0.2 * np.sin(2 * np.pi * 5 * t), 0.0)
+    boxes = np.array([[100.0, 100.0, 80.0, 80.0], [300.0, 60.0, 30.0, 30.0]])
+    rel = []
+    for k, tk in enumerate(t):
+        tracks.update(tk, boxes, np.array([near[k], far[k]]))
+        rel.append(tracks.relative.copy())
+    rel = np.array(rel)
+    assert np.isnan(rel[:15]).all()  # too few activities for a floor yet
+    late = t > 3.0
+    mid_talk = [late & ((t % 2.0) > 0.5) & ((t % 2.0) < 1.0), late & ((t % 2.0) > 1.5)]
+    for i in (0, 1):  # each face: high while its own lips move, near its floor while they are still
+        assert np.all(rel[mid_talk[i], i] > 0.5)
+        assert np.all(rel[mid_talk[1 - i], i] < 0.3)
+
+
+def test_faces_direction_cannot_tell_apart_are_grouped_on_every_pair() -> None:
+    itds = np.array([[80e-6, 10e-6], [95e-6, 20e-6], [300e-6, 10e-6], [85e-6, 70e-6], [np.nan, np.nan]])
+    groups = same_direction_groups(itds, 40e-6)
+    assert [g.tolist() for g in groups] == [[0, 1], [2], [3], [4]]  # 3: near 0 on the first pair, not the second
+    chained = same_direction_groups(np.array([[0.0], [30e-6], [60e-6]]), 40e-6)
+    assert [g.tolist() for g in chained] == [[0, 1, 2]]  # 0 and 2 are 60 us apart, linked through 1
+
+
+def test_a_groups_words_go_to_the_face_whose_lips_move() -> None:
+    groups = [np.array([0, 1]), np.array([2])]
+    speaking = np.array([True, True, True])
+    probability = np.array([0.8, 0.8, 0.7])
+    s, p = choose_by_lips(speaking, probability, np.array([0.1, 0.9, 0.0]), groups, both_above=0.5)
+    assert s.tolist() == [False, True, True] and p.tolist() == [0.5, 0.8, 0.7]  # a face alone is left as it is
+    s, _ = choose_by_lips(speaking, probability, np.array([0.7, 0.9, 0.0]), groups, both_above=0.5)
+    assert s.tolist() == [True, True, True]  # both lips move: two talking at once
+    s, _ = choose_by_lips(speaking, probability, np.array([np.nan, 0.9, 0.0]), groups, both_above=0.5)
+    assert s.tolist() == [True, True, True]  # one opinion only: the lips cannot choose
+    s, _ = choose_by_lips(np.array([False, False, True]), probability, np.array([0.1, 0.9, 0.0]), groups, 0.5)
+    assert s.tolist() == [False, False, True]  # a silent group stays silent: the lips add no speaker

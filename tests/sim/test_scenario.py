@@ -95,6 +95,24 @@ def test_s5_has_independent_speakers_a_walker_and_claps():
     assert s.truth(t).sounding[clap.actor]
 
 
+
+def test_s6_puts_two_visible_people_in_one_direction_who_talk_in_turns_then_at_once():
+    s = _scenario("S6", duration_s=25.0)
+    truth = s.truth(1.0)
+    assert truth.visible.tolist() == [True, True]
+    near, far = truth.positions_m
+    assert far[2] - near[2] > 1.0 and far[1] < near[1]  # deeper, and higher: the far face shows above the near head
+    # the mouths' ITDs for microphones 12 cm apart on x, from distances written out (343 m/s)
+    mouths = truth.positions_m + np.array(SOURCE_OFFSETS_M["speech"])
+    left, right = np.array([-0.06, 0.0, 0.0]), np.array([0.06, 0.0, 0.0])
+    itds = (np.linalg.norm(mouths - left, axis=1) - np.linalg.norm(mouths - right, axis=1)) / 343.0
+    assert abs(itds[0] - itds[1]) < 1e-6 and itds[0] > 50e-6  # one direction, to the right
+    times = np.arange(0.0, 25.0, 0.01)
+    both = s.speaking_at(times).all(axis=1)
+    assert not both[times < 12.5].any()  # in turns first
+    assert both[times >= 12.5].sum() > 20  # then at times at once (over 0.2 s)
+    assert {e.actor for e in s.events if e.start_s < 12.5} == {0, 1}
+
 def test_calibration_sweeps_the_whole_field_of_view_with_white_noise():
     s = _scenario("calibration", duration_s=40.0)
     assert len(s.actors) == 1 and {e.kind for e in s.events} == {"noise"}
