@@ -2,6 +2,8 @@
 against the geometry, and a phantom between two talkers that the pairs' peaks fall into but the bins do not."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -96,3 +98,35 @@ def test_bin_shares_without_bins_or_people() -> None:
 def test_bad_bin_settings_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError, match="bin_"):
         SpeakingTest(**bad)
+
+
+def test_bin_shares_of_single_silent_faint_and_exactly_agreeing_bins() -> None:
+    # one bin of one pair, its phase that of a person 100 us to the left at 1 kHz: the whole share is theirs
+    tau = np.array([[100e-6], [-200e-6]])
+    one = np.exp(-2j * np.pi * 1000.0 * tau[0, 0]).astype(np.complex64).reshape(1, 1, 1)
+    assert bin_shares(one, np.array([1000.0]), tau) == pytest.approx([1.0, 0.0], abs=1e-6)
+    # faint bins (their weights sum to far less than 1) count as much as loud ones: a share is relative
+    assert bin_shares(1e-3 * one, np.array([1000.0]), tau) == pytest.approx([1.0, 0.0], abs=1e-6)
+    # silent bins (no weight at all): no share, one per person, not a division by zero
+    silent = bin_shares(np.zeros((4, 1, 3), np.complex64), np.array([500.0, 1000.0, 1500.0]), tau)
+    assert silent.shape == (2,) and silent.tolist() == [0.0, 0.0]
+    # a bin at 0 Hz agrees exactly (a = 1) with everyone, and an agreement of exactly 1 takes it (a >= agreement)
+    dc = np.ones((1, 1, 1), np.complex64)
+    assert bin_shares(dc, np.array([0.0]), tau, agreement=1.0).tolist() == [1.0, 0.0]  # the first of equals
+
+
+def test_the_bins_look_keeps_drops_and_claims_with_its_probability() -> None:
+    test = SpeakingTest()  # confirms above 0.03 of the bins, claims above 0.1
+    speaking = np.array([True, True, False, False, True, False])
+    prob = np.array([0.9, 0.8, 0.3, 0.2, 0.7, 0.4])
+    share = np.array([0.2, 0.01, 0.25, 0.05, 0.03, 0.1])  # the last two exactly at the thresholds
+    out, p = test._bins(speaking, prob, share)
+    assert out.tolist() == [True, False, True, False, False, False]
+    # unchanged states keep the probability that decided them; a changed one gets its share against the threshold
+    # that decided it (a dropped talker against the confirmation, a claimed person against the claim)
+    assert p == pytest.approx([0.9, 0.01 / 0.04, 0.25 / 0.35, 0.2, 0.5, 0.4])
+    # with a confirmation of 0, a talker with no bins at all is dropped with probability 0: no 0/0, no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out, p = SpeakingTest(bin_confirm_share=0.0)._bins(np.array([True]), np.array([0.9]), np.array([0.0]))
+    assert out.tolist() == [False] and p.tolist() == [0.0]
