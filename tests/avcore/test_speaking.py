@@ -1,5 +1,7 @@
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -152,8 +154,8 @@ def test_vote_takes_each_persons_majority_over_the_window() -> None:
     assert voted.tolist() == [True, False, False]
     np.testing.assert_allclose(prob, [0.8, 0.5, 0.5])
     np.testing.assert_array_equal(prob > 0.5, voted)
-    alone, _ = vote_speaking(ids, spk, np.array([0.3, 0.8, 0.9]), [window[1]])  # a window of one: unchanged
-    assert alone.tolist() == spk.tolist()
+    alone, kept = vote_speaking(ids, spk, np.array([0.3, 0.8, 0.9]), [window[1]])  # a window of one: unchanged
+    assert alone.tolist() == spk.tolist() and kept.tolist() == [0.3, 0.8, 0.9]  # states the vote keeps keep theirs
     with pytest.raises(ValueError, match="one entry per person"):
         vote_speaking(np.array([1, 2]), np.array([True]), np.array([0.9]), window)
 
@@ -222,3 +224,45 @@ def test_a_trailing_vote_releases_each_result_at_once_over_the_past() -> None:
     # majority of the results pushed so far, at most three: T | T,F | T,F,T | F,T,T | T,T,F | T,F,F
     assert [bool(o[0][1][0]) for o in out] == [True, False, True, True, True, False]
     assert vote.waiting == 0 and vote.flush() == []
+
+
+def test_frame_rescue_chance_is_the_poisson_mean_its_docstring_writes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The frames' look, its chance count written out from SpeakingTest._rescue's docstring with loops: frames that
+    stray uniformly (a share of them, the tightest pair's box) plus those another person's frames spill over
+    (Laplacian errors of scale b), summed over groups of frames that have different pairs; a frame exactly at
+    frame_within_s counts; a person speaks at max(quantile + 1, frame_min) frames or more."""
+    lams: list[np.ndarray] = []
+
+    def quantile(q: float, lam: np.ndarray) -> np.ndarray:
+        lams.append(np.asarray(lam, dtype=np.float64).copy())
+        return np.full(np.shape(lam), 3.0)
+
+    monkeypatch.setattr("avcore.speaking._poisson_quantile", quantile)
+    delta, b, share = 25e-6, 20e-6, 0.2
+    test = SpeakingTest(frame_within_s=delta, frame_min=2, outlier_share=share)
+    means = np.array([[0.0, 0.0], [40e-6, 100e-6]])  # two people, two pairs
+    u = np.array([1 / 30e-6, 1 / 0.8e-3])  # the pairs' uniform densities (pair 0's box is wider than its interval)
+    nan = np.nan
+    both = [[0.0, 0.0], [10e-6, -5e-6], [25e-6, 0.0], [40e-6, 100e-6]]  # 3 for person 0 (one at delta), 1 for 1
+    first = [[-10e-6, nan], [30e-6, nan], [45e-6, nan], [50e-6, nan]]  # pair 0 only: 1 for person 0, 3 for 1
+    obs = np.array(both + first)
+    speaking, prob = test._rescue(np.array([False, False]), np.array([0.1, 0.1]), obs, means, u, b)
+    expected = np.zeros(2)
+    for counts, pairs in (([3, 1], [0, 1]), ([1, 3], [0])):
+        stray = share * 4 * min(min(2 * delta * u[p], 1.0) for p in pairs)
+        for n in range(2):
+            spilt = 0.0
+            for s in range(2):
+                if s != n:
+                    per_pair = []
+                    for p in pairs:
+                        g = abs(means[s, p] - means[n, p])
+                        lo, hi = max(g / 2, g - delta), g + delta
+                        per_pair.append(0.5 * (math.exp(-lo / b) - math.exp(-hi / b)))
+                    spilt += counts[s] / (1 - math.exp(-delta / b)) * min(per_pair)
+            expected[n] += stray + spilt
+    (lam,) = lams
+    np.testing.assert_allclose(lam, expected, rtol=1e-12)
+    # four frames each against a threshold of max(3 + 1, 2) = 4: both speak, at a probability of 4 / (4 + 4)
+    assert speaking.tolist() == [True, True]
+    np.testing.assert_allclose(prob, [0.5, 0.5], rtol=1e-6)
