@@ -6,10 +6,11 @@ serialises them (little-endian, 4-byte encapsulation header), built and read by 
 definitions, no ROS installation needed), which also gives each type's REP-2011 hash.
 
 ROS4HRI (REP-155) as avhear publishes it (the README's table): faces (``humans/faces/tracked``, each face's
-``roi``), voices (``humans/voices/tracked``, each voice's ``is_speaking``), persons (``humans/persons/tracked`` and
-``known``; each person's ``anonymous``, ``face_id``, ``voice_id`` and ``location_confidence``: 1 while seen, then
-down to 0 over :data:`PERSON_MEMORY_S`, REP-155's "Person frame" case 2), ``humans/candidate_matches`` (PERSON = 1,
-FACE = 2, VOICE = 4) and TF frames on ``tf``. Topics REP-155 latches are sent with every result instead.
+``roi``, and with the lips read its ``lip_activity``, an avhear topic), voices (``humans/voices/tracked``, each
+voice's ``is_speaking``), persons (``humans/persons/tracked`` and ``known``; each person's ``anonymous``,
+``face_id``, ``voice_id`` and ``location_confidence``: 1 while seen, then down to 0 over :data:`PERSON_MEMORY_S`,
+REP-155's "Person frame" case 2), ``humans/candidate_matches`` (PERSON = 1, FACE = 2, VOICE = 4) and TF frames on
+``tf``. Topics REP-155 latches are sent with every result instead.
 
 avhear's ids: a tracked person ``N`` (:class:`avcore.tracking.NearestTracker`; the results file's ``id``) is the
 person ``pN`` with the face ``fN`` (face-guided runs) and the voice ``vN``, matched with confidence 1.0 (the voice is
@@ -194,6 +195,8 @@ class Topics:
                 x, y, w, h = (max(int(v), 0) for v in p["box_px"])
                 add(f"humans/faces/{fid}/roi", ROI,  # a box in the rectified image
                     t[ROI](x_offset=x, y_offset=y, height=h, width=w, do_rectify=False))
+                if p.get("lip_activity") is not None:  # with --read-lips: the face's visual speech evidence
+                    add(f"humans/faces/{fid}/lip_activity", FLOAT32, t[FLOAT32](data=float(p["lip_activity"])))
                 add("humans/candidate_matches", IDS_MATCH,
                     t[IDS_MATCH](id1=fid, id1_type=FACE, id2=vid, id2_type=VOICE, confidence=1.0))
                 transforms.append(self._transform(header, f"face_{fid}", p["position_m"]))

@@ -39,6 +39,7 @@ def test_every_message_round_trips_through_rosbags() -> None:
     assert decode(got["humans/faces/tracked"], "hri_msgs/msg/IdsList").ids == ["f0", "f3"]
     roi = decode(got["humans/faces/f3/roi"], "sensor_msgs/msg/RegionOfInterest")
     assert (roi.x_offset, roi.y_offset, roi.width, roi.height) == (410, 100, 30, 33)
+    assert not [topic for topic in got if topic.endswith("lip_activity")]  # the lips were not read
     matches = [decode(p, "hri_msgs/msg/IdsMatch") for topic, _, p in messages if topic == "humans/candidate_matches"]
     assert {(m.id1, m.id1_type, m.id2, m.id2_type) for m in matches} == {
         ("f0", FACE, "v0", VOICE), ("f3", FACE, "v3", VOICE), ("p0", 1, "v0", 4), ("p0", 1, "f0", 2),
@@ -51,6 +52,13 @@ def test_every_message_round_trips_through_rosbags() -> None:
     assert json.loads(got["avhear/results"]) == RECORD
     # CDR as ROS 2 sends it: the 4-byte encapsulation header, little-endian (CDR_LE = 0x0001)
     assert all(payload[:4] == b"\x00\x01\x00\x00" for key, payload in got.items() if not key.endswith("results"))
+
+
+def test_each_face_s_lip_activity_goes_out_when_the_lips_are_read() -> None:
+    people = [dict(RECORD["people"][0], lip_activity=0.0123), dict(RECORD["people"][1], lip_activity=None)]
+    got = {topic: payload for topic, _, payload in Topics().messages(dict(RECORD, people=people))}
+    assert decode(got["humans/faces/f0/lip_activity"], "std_msgs/msg/Float32").data == pytest.approx(0.0123)
+    assert "humans/faces/f3/lip_activity" not in got  # no opinion (just arrived, turned away): nothing said
 
 
 def test_persons_are_followed_and_fade_when_no_longer_seen() -> None:
