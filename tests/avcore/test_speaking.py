@@ -189,6 +189,9 @@ def test_speaking_vote_of_one_passes_through() -> None:
     vote = SpeakingVote(1)
     got = vote.push("r", np.array([1, 2]), np.array([True, False]), np.array([0.8, 0.2]))
     assert got[0][0] == "r" and got[0][1].tolist() == [True, False] and vote.flush() == []
+    # states and probabilities leave as bool and float whatever they came as (0 / 1 from a caller's counts)
+    ((_, states, prob),) = vote.push("s", [1, 2], [1, 0], [1, 0])
+    assert states.dtype == bool and prob.dtype == float and prob.tolist() == [1.0, 0.0]
     with pytest.raises(ValueError, match="odd"):
         SpeakingVote(4)
 
@@ -223,7 +226,13 @@ def test_a_trailing_vote_releases_each_result_at_once_over_the_past() -> None:
     assert [len(o) for o in out] == [1] * 6 and [o[0][0] for o in out] == list(range(6))
     # majority of the results pushed so far, at most three: T | T,F | T,F,T | F,T,T | T,T,F | T,F,F
     assert [bool(o[0][1][0]) for o in out] == [True, False, True, True, True, False]
+    # a state the vote keeps keeps its probability; one it changes gets the share of speaking votes
+    assert [float(o[0][2][0]) for o in out] == [0.9, 0.1, 0.9, 0.9, 2 / 3, 0.1]
     assert vote.waiting == 0 and vote.flush() == []
+    # five results: over the four before each one too (a window of 2 * 2 + 1)
+    five = SpeakingVote(5, trailing=True)
+    got = [five.push(k, ids, np.array([s]), np.array([0.5])) for k, s in enumerate([True, True, True, False, False])]
+    assert bool(got[-1][0][1][0])  # T, T, T, F, F: three of five speak
 
 
 def test_frame_rescue_chance_is_the_poisson_mean_its_docstring_writes(monkeypatch: pytest.MonkeyPatch) -> None:
