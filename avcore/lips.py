@@ -14,8 +14,9 @@ alarms of two people in similar directions, and cannot add any.
 
 Where direction cannot tell faces apart at all (:func:`same_direction_groups`: their mouths' ITDs within an ITD's
 accuracy on every pair, one behind the other), the hearing takes them as one object and :func:`choose_by_lips`
-gives that object's words to the face whose lips move most *for that face*: each track's activity over its own
-floor (:attr:`LipTracks.relative`), since a distant face's mesh jitters more than a near one's.
+gives that object's words to the face whose lips move most *for that face*: each track's activity placed between
+its own still and moving levels (:attr:`LipTracks.relative`), since a distant face's mesh jitters more than a near
+one's and a face's range depends on its photograph.
 """
 from __future__ import annotations
 
@@ -30,9 +31,10 @@ __all__ = ["LipTracks", "choose_by_lips", "same_direction_groups", "veto_still_l
 class LipTracks:
     """``update(stamp_s, boxes, openings)`` -> each face's lip activity (N,) (NaN: no opinion).
 
-    After each update, :attr:`relative` (N,) is each face's activity over its track's floor, the ``floor_quantile``
-    of its activities over the last ``floor_window_s`` (the jitter of a still mouth at that size; NaN with fewer
-    than ``min_floor`` of them).
+    After each update, :attr:`relative` (N,) places each face's activity between its track's floor and top, the
+    ``floor_quantile`` and ``top_quantile`` of its activities over the last ``floor_window_s`` (0 at the jitter of
+    a still mouth at that size, 1 at its lips moving as much as they have lately; NaN with fewer than
+    ``min_floor`` activities).
     """
 
     window_s: float = 0.4

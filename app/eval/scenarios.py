@@ -507,8 +507,8 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     :func:`calibrate_on_preset`); default the simulator's nominal pair with c1 = 1, c0 = 0. mic_array : the
     robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); with several pairs the fusion uses them all and
     ``mics`` must be None (the simulated microphones are exact). bodies : people with a torso, arms and hands that
-    gesture, the seated behind a table (the default, as ``avhear eval scenarios``; False: flat heads); camera : the stereo pair or an RGB-D camera
-    (:class:`app.sources.sim.SimSource`). array_yaw_deg : the pipeline is told the array is turned this much about
+    gesture, the seated behind a table (the default, as ``avhear eval scenarios``; False: flat heads); camera : the
+    stereo pair or an RGB-D camera (:class:`app.sources.sim.SimSource`). array_yaw_deg : the pipeline is told the array is turned this much about
     the vertical from where the room has it (a wrong rig file; :meth:`avcore.geometry.MicArray.turned`). A
     motion-guided run is matched and scored against the centre of each person's visible moving body
     (:meth:`app.sources.sim.SimSource.body_centres`), and scored against the paper's truth too (each person's
