@@ -44,6 +44,24 @@ def test_paper_rule_is_tau_a() -> None:
     np.testing.assert_array_equal(prob > 0.5, speaking)
 
 
+def test_paper_rule_at_tau_a_exactly_and_its_probability() -> None:
+    """Eq. (audio_act): a person speaks when beta_bar_n exceeds tau_A; the probability is beta_bar_n / (beta_bar_n +
+    tau_A), 0 with no ITD at all. Responsibilities are given here, not fitted, so the counts are exact."""
+    paper = SpeakingTest(outlier_aware=False)
+    means, var, supports = np.array([[-1e-4], [1e-4]]), np.full((2, 1), 1e-10), np.array([[-3.5e-4, 3.5e-4]])
+    beta = np.array([[1.0, 0.0], [0.5, 0.5], [0.5, 0.0], [0.0, 0.0]])  # (K = 4, N = 2), the rest the outliers
+    speaking, prob, tau = paper.decide(beta, np.zeros(4), means, var, supports)
+    assert tau == 1.0 and beta.sum(axis=0)[0] == 2.0 and beta.sum(axis=0)[1] == 0.5
+    assert speaking.tolist() == [True, False]
+    np.testing.assert_allclose(prob, [2.0 / 3.0, 0.5 / 1.5])
+    tie = np.array([[1.0, 0.0], [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]])  # beta_bar_0 = tau_A = 1
+    exactly, prob, _ = paper.decide(tie, np.zeros(4), means, var, supports)
+    assert not exactly.any() and prob.tolist() == [0.5, 0.0]
+    one = np.array([[0.25, 0.0]])  # a single ITD, a quarter of it to person 0: tau_A = 1/4, a tie is silent
+    speaking, prob, tau = paper.decide(one, np.zeros(1), means, var, supports)
+    assert tau == 0.25 and speaking.tolist() == [False, False] and prob.tolist() == [0.5, 0.0]
+
+
 def test_outlier_aware_ignores_a_few_stray_itds() -> None:
     # three stray ITDs, one of them by chance on a person: the paper's tau_A = 3/4 fires, ours does not
     itds = np.array([-98e-6, 20e-6, 300e-6])
