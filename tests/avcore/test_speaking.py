@@ -293,3 +293,62 @@ def test_frame_rescue_chance_is_the_poisson_mean_its_docstring_writes(monkeypatc
     # four frames each against a threshold of max(3 + 1, 2) = 4: both speak, at a probability of 4 / (4 + 4)
     assert speaking.tolist() == [True, True]
     np.testing.assert_allclose(prob, [0.5, 0.5], rtol=1e-6)
+
+
+@pytest.mark.parametrize("count_by", ["posterior", "window"])
+def test_the_window_look_counts_and_chance_as_its_docstring_writes(monkeypatch: pytest.MonkeyPatch,
+                                                                   count_by: str) -> None:
+    """The outlier-aware window test's count and Poisson mean, written out: each person's window is +-window_sd
+    sigma (at least min_sd_s) on every pair a vector has, an ITD exactly at its edge inside; chance is a share of the
+    vectors times the window's share of the ITD interval, the tightest pair's, at most 1; rows with different
+    pairs count apart and add up."""
+    seen: list[tuple[np.ndarray, np.ndarray]] = []
+    original = SpeakingTest._count_test
+
+    def record(self: SpeakingTest, counts: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        seen.append((counts.copy(), lam.copy()))
+        return original(self, counts, lam)
+
+    monkeypatch.setattr(SpeakingTest, "_count_test", record)
+    test = SpeakingTest(count_by=count_by, frame_rescue=False)  # windows of 2 sd, 20 us at least, share 0.2
+    means = np.array([[0.0, 0.0], [200e-6, 100e-6]])
+    variances = np.array([[1e-12, 1e-12], [(50e-6) ** 2, 1e-12]])  # half windows 40 us; 100 us and 40 us
+    supports = np.array([[-50e-6, 50e-6], [-1e-3, 1e-3]])  # pair 0's interval narrower than a window
+    nan = np.nan
+    itds = np.array([[40e-6, 0.0], [10e-6, 30e-6], [250e-6, 100e-6], [41e-6, 0.0],  # both pairs
+                     [-40e-6, nan], [150e-6, nan]])  # pair 0 only
+    beta = np.array([[0.5, 0.0], [1.0, 0.0], [0.0, 0.8], [0.9, 0.0], [0.7, 0.0], [0.0, 0.6]])
+    test.decide(beta, itds, means, variances, supports)
+    ((counts, lam),) = seen
+    half = 2.0 * np.maximum(np.sqrt(variances), 20e-6)
+    u = 1.0 / (supports[:, 1] - supports[:, 0])
+    weight = beta if count_by == "posterior" else np.ones_like(beta)
+    expected_counts, expected_lam = np.zeros(2), np.zeros(2)
+    for rows, pairs in (([0, 1, 2, 3], [0, 1]), ([4, 5], [0])):
+        for n in range(2):
+            for r in rows:
+                if all(abs(itds[r, p] - means[n, p]) <= half[n, p] for p in pairs):
+                    expected_counts[n] += weight[r, n]
+            expected_lam[n] += 0.2 * len(rows) * min(min(2.0 * half[n, p] * u[p], 1.0) for p in pairs)
+    # row 0 lies exactly at person 0's edge on pair 0 and counts; row 3, 1 us beyond it, does not
+    assert expected_counts[0] == (2.2 if count_by == "posterior" else 3.0)
+    np.testing.assert_allclose(counts, expected_counts, rtol=1e-12)
+    np.testing.assert_allclose(lam, expected_lam, rtol=1e-12)
+
+
+@pytest.mark.parametrize("third", [(-100e-6, 0.0), (100e-6, 0.0)])
+def test_bands_find_a_person_level_with_a_talker_on_one_pair_as_not_between(third: tuple[float, float]) -> None:
+    """The bands' phantom rule spares only a person strictly between two talkers on every pair: one level with a
+    talker on a pair is not between them, and the bands' ITDs on them find them speaking."""
+    means = np.array([[-100e-6, -100e-6], [100e-6, 100e-6], list(third)])
+    variances, supports = np.full((3, 2), (10e-6) ** 2), np.array([[-350e-6, 350e-6]] * 2)
+    itds = np.repeat(means[:2], 8, axis=0)  # the two talkers' windows
+    beta = np.zeros((16, 3))
+    beta[:8, 0] = beta[8:, 1] = 1.0
+    bands = np.repeat(means[2:], 12, axis=0)  # the third's bands
+    speaking, _, _ = SpeakingTest().decide(beta, itds, means, variances, supports, band_itds=bands)
+    assert speaking.tolist() == [True, True, True]
+    between = np.array([[-100e-6, -100e-6], [100e-6, 100e-6], [0.0, 0.0]])  # strictly between: spared
+    spared, _, _ = SpeakingTest().decide(beta, itds, between, variances, supports,
+                                         band_itds=np.repeat(between[2:], 12, axis=0))
+    assert spared.tolist() == [True, True, False]
