@@ -352,3 +352,11 @@ def test_bands_find_a_person_level_with_a_talker_on_one_pair_as_not_between(thir
     spared, _, _ = SpeakingTest().decide(beta, itds, between, variances, supports,
                                          band_itds=np.repeat(between[2:], 12, axis=0))
     assert spared.tolist() == [True, True, False]
+
+
+def test_poisson_quantile_at_its_edges() -> None:
+    """Exactly 1 (an integer mean), 300 (the sum reaches its 400 terms), and no mean at all."""
+    lam = np.array([1.0, 300.0, 0.0])
+    np.testing.assert_array_equal(_poisson_quantile(0.99, lam), [stats.poisson.ppf(0.99, 1.0),
+                                                                 stats.poisson.ppf(0.99, 300.0), 0.0])
+    assert _poisson_quantile(0.99, np.zeros(0)).shape == (0,)
