@@ -130,3 +130,17 @@ def test_the_bins_look_keeps_drops_and_claims_with_its_probability() -> None:
         warnings.simplefilter("error")
         out, p = SpeakingTest(bin_confirm_share=0.0)._bins(np.array([True]), np.array([0.9]), np.array([0.0]))
     assert out.tolist() == [False] and p.tolist() == [0.0]
+
+
+def test_decide_passes_its_probabilities_through_the_bins_look() -> None:
+    itds = np.repeat([[-100e-6], [100e-6]], 8, axis=0)
+    means, variances, supports = np.array([[-100e-6], [100e-6]]), np.full((2, 1), 1e-10), np.array([[-3.5e-4, 3.5e-4]])
+    beta = np.zeros((16, 2))
+    beta[:8, 0] = 1.0
+    test = SpeakingTest()
+    speaking, prob, _ = test.decide(beta, itds, means, variances, supports)
+    assert speaking.tolist() == [True, False]
+    # the bins confirm the talker and do not claim the other: both states and probabilities stay as they were
+    kept, kept_prob, _ = test.decide(beta, itds, means, variances, supports, bin_share=np.array([0.5, 0.05]))
+    assert kept.tolist() == [True, False] and kept_prob.dtype == float and kept_prob.tolist() == prob.tolist()
+

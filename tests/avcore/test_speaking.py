@@ -179,10 +179,19 @@ def test_vote_takes_each_persons_majority_over_the_window() -> None:
 
 
 @pytest.mark.parametrize("bad", [{"count_by": "loudest"}, {"frame_within_s": 0.0}, {"frame_spread_s": -1e-6},
-                                 {"frame_quantile": 1.0}, {"band_spread_s": 0.0}])
+                                 {"frame_quantile": 1.0}, {"frame_quantile": 0.0}, {"band_spread_s": 0.0},
+                                 {"bin_agreement": -1.5}, {"bin_claim_share": 1.5}])
 def test_bad_settings_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         SpeakingTest(**bad)
+
+
+def test_settings_at_their_bounds_are_taken_and_a_bad_count_names_the_choices() -> None:
+    for good in ({"bin_agreement": -1.0}, {"bin_agreement": 1.0}, {"bin_confirm_share": 0.1, "bin_claim_share": 0.1},
+                 {"bin_claim_share": 1.0}):
+        SpeakingTest(**good)
+    with pytest.raises(ValueError, match="one of posterior, nearest, window"):
+        SpeakingTest(count_by="loudest")
 
 
 def test_speaking_vote_streams_the_majority_with_its_lag() -> None:
@@ -349,9 +358,11 @@ def test_bands_find_a_person_level_with_a_talker_on_one_pair_as_not_between(thir
     speaking, _, _ = SpeakingTest().decide(beta, itds, means, variances, supports, band_itds=bands)
     assert speaking.tolist() == [True, True, True]
     between = np.array([[-100e-6, -100e-6], [100e-6, 100e-6], [0.0, 0.0]])  # strictly between: spared
-    spared, _, _ = SpeakingTest().decide(beta, itds, between, variances, supports,
-                                         band_itds=np.repeat(between[2:], 12, axis=0))
+    spared, prob, _ = SpeakingTest().decide(beta, itds, between, variances, supports,
+                                            band_itds=np.repeat(between[2:], 12, axis=0))
     assert spared.tolist() == [True, True, False]
+    _, without_bands, _ = SpeakingTest().decide(beta, itds, between, variances, supports)
+    assert prob[2] == without_bands[2]  # the bands leave the spared person's probability as the windows gave it
 
 
 def test_poisson_quantile_at_its_edges() -> None:
