@@ -508,12 +508,12 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     robot's microphones (:data:`avcore.geometry.ARRAY_PRESETS`); with several pairs the fusion uses them all and
     ``mics`` must be None (the simulated microphones are exact). bodies : people with a torso, arms and hands that
     gesture, the seated behind a table (the default, as ``avhear eval scenarios``; False: flat heads); camera : the
-    stereo pair or an RGB-D camera (:class:`app.sources.sim.SimSource`). array_yaw_deg : the pipeline is told the array is turned this much about
-    the vertical from where the room has it (a wrong rig file; :meth:`avcore.geometry.MicArray.turned`). A
-    motion-guided run is matched and scored against the centre of each person's visible moving body
-    (:meth:`app.sources.sim.SimSource.body_centres`), and scored against the paper's truth too (each person's
-    mean of the result's HM3D points on them, :meth:`~app.sources.sim.SimSource.point_means`); a face-guided one
-    against the faces.
+    stereo pair or an RGB-D camera (:class:`app.sources.sim.SimSource`). array_yaw_deg : the pipeline is told the
+    array is turned this much about the vertical from where the room has it (a wrong rig file;
+    :meth:`avcore.geometry.MicArray.turned`). A motion-guided run is matched and scored against the centre of each
+    person's visible moving body (:meth:`app.sources.sim.SimSource.body_centres`), and scored against the paper's
+    truth too (each person's mean of the result's HM3D points on them,
+    :meth:`~app.sources.sim.SimSource.point_means`); a face-guided one against the faces.
     """
     if mics is not None and MicArray.preset(mic_array).n_pairs != 1:
         raise ValueError("an audio-visual correction (mics) applies to one pair; use a preset of one pair with it")
