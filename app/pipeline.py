@@ -87,12 +87,10 @@ class PipelineConfig:
         the face models, "opencv" (OpenCV's DNN) or "litert" (:mod:`avcore.tflite`).
     self_calibrate : face-guided: learn the correction c1, c0 of every pair while running, from people talking
         alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
-    lips : face-guided: the face mesh on every face (:mod:`avcore.facemesh`), each face's lip activity
-        (:class:`avcore.lips.LipTracks`), and a face that the ITDs call speaking whose lips are still
-        (activity under ``lip_still_below``) not speaking (:func:`avcore.lips.veto_still_lips`); faces whose
-        ITDs are within ``lip_same_direction_s`` on every pair (an ITD's accuracy: direction cannot tell them
-        apart) heard as one, their words given to the face whose lips move most for that face, and to another too
-        whose lips move at least ``lip_both_above`` of their own range (:func:`avcore.lips.choose_by_lips`).
+    lips : face-guided: the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): a
+        face whose lips are still (under ``lip_still_below``) is not speaking; faces within
+        ``lip_same_direction_s`` on every pair are heard as one, whose words go to the moving lips (to a second
+        face too above ``lip_both_above`` of its own range).
     """
 
     inference: Literal["face", "motion"] = "face"
