@@ -134,11 +134,13 @@ class FaceGuided:
         if vision.lip_activity is None:
             return hearing.step(vision.xyz, itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
         xyz = np.asarray(vision.xyz, dtype=np.float64).reshape(-1, 3)
-        groups = same_direction_groups(hearing.array.itd(xyz).reshape(len(xyz), -1), self.config.lip_same_direction_s)
+        itds_of_faces = hearing.array.itd(xyz).reshape(len(xyz), hearing.array.n_pairs)
+        groups = same_direction_groups(itds_of_faces, self.config.lip_same_direction_s)
         ones = np.array([g[np.argmin(xyz[g, 2])] for g in groups], dtype=int)  # each group heard from its nearest
-        owner = np.zeros(len(xyz), dtype=int)
+        owner = np.empty(len(xyz), dtype=int)
         for k, g in enumerate(groups):
             owner[g] = k
+        alone = np.bincount(owner, minlength=len(groups))[owner] == 1
         out = hearing.step(xyz[ones], itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
         if len(ones) < len(xyz):
             out = replace(out, speaking=out.speaking[owner], probability=out.probability[owner],
@@ -147,9 +149,7 @@ class FaceGuided:
             speaking, probability = choose_by_lips(out.speaking, out.probability, vision.lip_relative, groups,
                                                    self.config.lip_both_above)
             out = replace(out, speaking=speaking, probability=probability)
-        alone = np.ones(len(xyz), dtype=bool)  # in a group the sound says one of them speaks: the lips chose who
-        for g in groups:
-            alone[g] = len(g) == 1
+        # a face in a group is not vetoed on its own: the sound says one of them speaks, and the lips chose who
         speaking, probability = veto_still_lips(out.speaking, out.probability,
                                                 np.where(alone, vision.lip_activity, np.nan),
                                                 self.config.lip_still_below)

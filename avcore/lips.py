@@ -104,7 +104,8 @@ def same_direction_groups(itds_s: np.ndarray, within_s: float) -> list[np.ndarra
     """The faces that direction cannot tell apart: groups (index arrays, in order) of the rows of ``itds_s`` (N, P),
     each face's ITD on every pair, linked when two rows are within ``within_s`` on every pair. A row with a NaN is
     alone."""
-    x = np.asarray(itds_s, dtype=np.float64).reshape(len(itds_s), -1)
+    x = np.asarray(itds_s, dtype=np.float64)
+    x = x.reshape(len(x), x.size // max(len(x), 1))
     label = np.arange(len(x))
     for i in range(len(x)):
         for j in range(i + 1, len(x)):
@@ -115,10 +116,10 @@ def same_direction_groups(itds_s: np.ndarray, within_s: float) -> list[np.ndarra
 
 def choose_by_lips(speaking: np.ndarray, probability: np.ndarray, relative: np.ndarray,
                    groups: list[np.ndarray], both_above: float) -> tuple[np.ndarray, np.ndarray]:
-    """Within each group of faces that speaks as one object, the words go to the face whose lips move most over
-    their own floor (``relative``); another face of the group keeps them only if its own lips move at least
-    ``both_above`` times their floor (two talking at once). A group with fewer than two faces with an opinion is
-    left as it is. Those that lose the words keep a probability of at most 0.5."""
+    """Within each group of faces that speaks as one object, the words go to the face whose lips move most for that
+    face (``relative``, :attr:`LipTracks.relative`); another face of the group keeps them only if its own lips move
+    at least ``both_above`` of their own range (two talking at once). A group with fewer than two faces with an
+    opinion is left as it is. Those that lose the words keep a probability of at most 0.5."""
     speaking = np.asarray(speaking, dtype=bool).copy()
     probability = np.asarray(probability, dtype=np.float64).copy()
     for g in groups:

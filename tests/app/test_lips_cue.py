@@ -86,6 +86,9 @@ def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_li
     still = Vision(1.0, None, np.zeros((3, 4)), xyz, np.array([0.004, 0.004, 0.02]), np.array([0.9, 0.1, 0.0]))
     out = mode.step(hearing, still, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
     assert out.speaking.tolist() == [True, False, True]
+    # a frame without faces: nothing to group, nobody to decide
+    empty = Vision(1.0, None, np.zeros((0, 4)), np.zeros((0, 3)), np.zeros(0), np.zeros(0))
+    assert mode.step(hearing, empty, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None)).speaking.size == 0
 
 
 def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path) -> None:
