@@ -36,6 +36,7 @@ __all__ = [
     "distance_to_quad",
     "load_face_textures",
     "drawn_face_texture",
+    "mouthless",
     "default_scene",
     "drawing_order",
     "load_textures",
@@ -56,34 +57,43 @@ class FaceTexture:
 
     image : (h, w, 3) uint8 BGR; face_box : (x, y, w, h) pixels in ``image``, the labelled face.
     source : where it came from (file name and box index, or "drawn"). mouth_in_box : the mouth's centre and width
-    in the face box (fractions), where :meth:`with_mouth` opens it.
+    in the face box (fractions), where :meth:`with_mouth` opens it. drawn_mouth : the photographed mouth is
+    replaced by drawn lips at every opening, 0 included (the moving mouths); otherwise the photograph is left as
+    it is and opened only when asked.
     """
 
     image: np.ndarray
     face_box: tuple[float, float, float, float]
     source: str = ""
     mouth_in_box: tuple[float, float, float] = MOUTH_IN_FACE_BOX
+    drawn_mouth: bool = False
 
     def with_mouth(self, opening: float) -> np.ndarray:
-        """The texture with its mouth open by ``opening`` in [0, 1]; the texture itself at 0.
+        """The texture with its mouth open by ``opening`` in [0, 1]; the texture itself at 0 unless ``drawn_mouth``.
 
         As a jaw drops: the lower lip and the chin below the mouth's line move down by the gap (``opening *
         MOUTH_MAX_GAP`` of the mouth's width), fading to nothing at the chin and beside the mouth, and the dark
-        cavity shows between the lips."""
+        cavity shows between the lips. With ``drawn_mouth`` the photographed mouth is first painted over with the
+        skin around it (:func:`mouthless`) and lips are drawn (:func:`_draw_lips`): on photographs of 96 px faces the
+        face mesh keeps reading the lips it found in the photograph, whatever is drawn over them
+        (docs/experiments.md, 2026-11-27)."""
         opening = float(np.clip(opening, 0.0, 1.0))
-        if opening <= 0.0:
+        if opening <= 0.0 and not self.drawn_mouth:
             return self.image
         bx, by, bw, bh = self.face_box
         fx, fy, fw = self.mouth_in_box
         width, cx, cy = fw * bw, bx + fx * bw, by + fy * bh
         gap = opening * MOUTH_MAX_GAP * width
-        h, w = self.image.shape[:2]
+        image = mouthless(self) if self.drawn_mouth else self.image
+        h, w = image.shape[:2]
         ys, xs = np.mgrid[0:h, 0:w].astype(np.float32)
         chin = by + bh + 0.1 * bh
         down = np.clip((chin - ys) / max(chin - cy, 1.0), 0.0, 1.0) * (ys >= cy)
         side = np.clip(1.0 - np.abs(xs - cx) / (0.9 * width), 0.0, 1.0)
         shift = (gap * down * np.minimum(1.0, 2.0 * side)).astype(np.float32)
-        out = cv2.remap(self.image, xs, ys - shift, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        out = cv2.remap(image, xs, ys - shift, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        if self.drawn_mouth:
+            return _draw_lips(out, (cx, cy), width, gap, skin_of(self))
         # the cavity: dark inside, the teeth's edges at its top and bottom (an open mouth shows them)
         cavity = np.zeros((h, w), np.uint8)
         cv2.ellipse(cavity, (round(cx), round(cy + gap / 2)), (max(1, round(0.4 * width)), max(1, round(gap / 2))),
@@ -92,6 +102,60 @@ class FaceTexture:
         colour = np.where(((ys < cy + teeth) | (ys > cy + gap - 0.6 * teeth))[..., None], TEETH_BGR, MOUTH_BGR)
         alpha = 0.85 * cavity[..., None].astype(np.float32) / 255.0
         return (out * (1.0 - alpha) + colour * alpha).astype(np.uint8)
+
+
+@lru_cache(maxsize=256)
+def mouthless(face: FaceTexture) -> np.ndarray:
+    """The face's texture with its photographed mouth painted over by the skin around it (OpenCV's inpainting, an
+    ellipse 1.5 by 0.9 mouth widths, enough for a laughing mouth), where :meth:`FaceTexture.with_mouth` draws lips."""
+    bx, by, bw, bh = face.face_box
+    fx, fy, fw = face.mouth_in_box
+    width = fw * bw
+    mask = np.zeros(face.image.shape[:2], np.uint8)
+    cv2.ellipse(mask, (round(bx + fx * bw), round(by + fy * bh)), (round(0.75 * width), round(0.45 * width)),
+                0, 0, 360, 255, -1)
+    out = cv2.inpaint(face.image, mask, 3, cv2.INPAINT_TELEA)
+    out.flags.writeable = False
+    return out
+
+
+LIP_SHADE = (0.62, 0.55, 0.85)  # lips against the skin, B, G, R: darker and redder
+_SUB = 8  # sub-pixel steps of the lips' outlines (cv2's ``shift`` of 3 bits)
+
+
+def _draw_lips(image: np.ndarray, centre: tuple[float, float], width: float, gap: float,
+               skin: tuple[float, float, float]) -> np.ndarray:
+    """Lips drawn on ``image`` (a copy): an upper lip 0.13 widths thick with a dip at its middle, above the mouth's
+    line; the lower lip 0.17 thick, ``gap`` pixels below it; the dark cavity between and the upper teeth's edge.
+    The outlines are parabolas from corner to corner, softened by a blur of 0.6 px over the mouth alone."""
+    cx, cy = centre
+    half = width / 2.0
+    x = np.linspace(-half, half, 21)
+    bend = 1.0 - (x / half) ** 2
+    dip = 1.0 - 0.25 * np.exp(-(x / (0.12 * width)) ** 2)
+    upper_outer = np.column_stack([cx + x, cy - 0.13 * width * bend * dip])
+    upper_inner = np.column_stack([cx + x, cy - 0.02 * width * bend])[::-1]
+    lower_inner = np.column_stack([cx + x, cy + gap * bend ** 0.7])
+    lower_outer = np.column_stack([cx + x, cy + gap * bend ** 0.7 + 0.17 * width * bend])[::-1]
+    lip = tuple(float(c) * k for c, k in zip(skin, LIP_SHADE))
+
+    def poly(*parts: np.ndarray) -> list[np.ndarray]:
+        return [np.round(np.vstack(parts) * _SUB).astype(np.int32)]
+
+    out = image.copy()
+    cv2.fillPoly(out, poly(upper_inner, lower_inner), MOUTH_BGR, cv2.LINE_AA, shift=3)
+    if gap > 1.0:
+        tx = np.linspace(-0.6 * half, 0.6 * half, 11)
+        teeth = np.column_stack([cx + tx, cy + min(0.3 * gap, 0.07 * width) * (1.0 - (tx / (0.6 * half)) ** 2)])
+        cv2.fillPoly(out, poly(teeth), TEETH_BGR, cv2.LINE_AA, shift=3)  # its ends lie on the mouth's line
+    cv2.fillPoly(out, poly(upper_outer, upper_inner), lip, cv2.LINE_AA, shift=3)
+    cv2.fillPoly(out, poly(lower_inner, lower_outer), lip, cv2.LINE_AA, shift=3)
+    cv2.polylines(out, poly(upper_inner), False, tuple(0.6 * c for c in lip), 1, cv2.LINE_AA, shift=3)
+    x0, x1 = max(0, int(cx - width)), min(out.shape[1], int(cx + width) + 1)
+    y0, y1 = max(0, int(cy - 0.5 * width)), min(out.shape[0], int(cy + gap + 0.6 * width) + 1)
+    if x1 > x0 and y1 > y0:
+        out[y0:y1, x0:x1] = cv2.GaussianBlur(out[y0:y1, x0:x1], (0, 0), 0.6)
+    return out
 
 
 def _read_boxes(xml_path: Path) -> list[tuple[str, tuple[int, int, int, int]]]:

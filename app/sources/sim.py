@@ -84,29 +84,26 @@ class _FrameCache:
 
 
 def _with_mouths_located(textures: list[FaceTexture]) -> list[FaceTexture]:
-    """Each photographed face's mouth where the face mesh finds it in its texture (the median place of
-    :data:`sim.render.MOUTH_IN_FACE_BOX` without the mesh's model, or where the mesh finds no face), so that a
-    mouth opens between its own lips."""
+    """Each face's mouth drawn (``drawn_mouth``) where the face mesh finds it in its texture (the median place of
+    :data:`sim.render.MOUTH_IN_FACE_BOX` without the mesh's model, or where the mesh finds no face), so that drawn
+    lips replace the photographed ones in their place."""
     from app.models import facemesh_model  # the simulator itself knows no model files
     from avcore.facemesh import LIP_CORNERS, LIP_INNER_LOWER, LIP_INNER_UPPER, FaceMesh
 
     try:
         mesh = FaceMesh(facemesh_model())
     except UserError:
-        return textures
+        return [replace(tex, drawn_mouth=True) for tex in textures]
     out = []
     for tex in textures:
-        if tex.source == "drawn":
-            out.append(tex)
-            continue
-        marks = mesh.run(tex.image, np.array([tex.face_box])).landmarks[0, :, :2]
-        if np.isnan(marks).any():
-            out.append(tex)
+        marks = None if tex.source == "drawn" else mesh.run(tex.image, np.array([tex.face_box])).landmarks[0, :, :2]
+        if marks is None or np.isnan(marks).any():
+            out.append(replace(tex, drawn_mouth=True))
             continue
         bx, by, bw, bh = tex.face_box
         cx, cy = marks[[LIP_INNER_UPPER, LIP_INNER_LOWER]].mean(axis=0)
         width = float(np.linalg.norm(marks[LIP_CORNERS[1]] - marks[LIP_CORNERS[0]]))
-        out.append(replace(tex, mouth_in_box=((cx - bx) / bw, (cy - by) / bh, width / bw)))
+        out.append(replace(tex, mouth_in_box=((cx - bx) / bw, (cy - by) / bh, width / bw), drawn_mouth=True))
     return out
 
 
