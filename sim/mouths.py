@@ -5,7 +5,11 @@ over the 90th percentile of their speech's envelope, clipped to [0, 1]) and lead
 mouth moves 50-100 ms before the sound it shapes: Chandrasekaran et al. 2009, "The natural statistics of audiovisual
 speech"). A listener's mouth moves now and then without sound (a smile, chewing, mouthing words): bouts of
 0.6-1.5 s, ``bouts_per_min`` a minute on average, opening and closing at 2-4 Hz to 0.3-0.7, never while that person
-speaks. Everything is drawn from the scenario's seed, so a scenario's mouths are the same at every run.
+speaks. One person who speaks covers the mouth with a hand for ``hand_s`` seconds, from a little before one of
+their numbers (``covered``). Heads turn now and then (``yaw_rad``): ``turns_per_min`` bouts a person and minute,
+each held 1-3 s at 20-60 degrees to either side, turning in and out over 0.3 s. Everything is drawn from the
+scenario's seed (the mouths, the hand and the turns each from their own stream), so a scenario's faces are the same
+at every run.
 """
 from __future__ import annotations
 
@@ -26,14 +30,21 @@ class MouthTracks:
     """``opening(t)`` -> (N,) in [0, 1] for the scenario's N actors; ``speech_opening`` and ``silent_opening`` apart.
 
     lead_s : how long the mouth moves before the sound. bouts_per_min : silent mouth movements per person and minute.
+    hand_s : (shortest, longest) seconds of the hand over one talker's mouth (``(0, 0)``: nobody covers it).
+    turns_per_min : head turns per person and minute; max_turn_deg : the widest turn.
     """
 
     scenario: Scenario
     bank: ClipBank
     lead_s: float = 0.075
     bouts_per_min: float = 4.0
+    hand_s: tuple[float, float] = (3.0, 6.0)
+    turns_per_min: float = 3.0
+    max_turn_deg: float = 60.0
     _speech: np.ndarray = field(init=False, repr=False)
     _silent: np.ndarray = field(init=False, repr=False)
+    _covered: np.ndarray = field(init=False, repr=False)
+    _yaw: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.lead_s <= 0.3:
@@ -66,6 +77,31 @@ class MouthTracks:
                 self._silent[i, inside] = depth * 0.5 * (1 - np.cos(2 * np.pi * hz * (t[inside] - start)))
             speaking = sc.speaking_at(t, hold_s=0.3)[:, i] if len(sc.actors) else np.zeros(0, bool)
             self._silent[i, speaking] = 0.0  # a talker's mouth follows their speech alone
+        self._covered = self._hand(t)
+        self._yaw = self._turns(t)
+
+    def _hand(self, t: np.ndarray) -> np.ndarray:
+        sc, covered = self.scenario, np.zeros((len(self.scenario.actors), t.size), bool)
+        speech = [e for e in sc.events if e.kind == "speech"]
+        if not speech or not 0.0 < self.hand_s[1]:
+            return covered
+        rng = np.random.default_rng([sc.seed, 42])
+        e = speech[rng.integers(len(speech))]
+        start = e.start_s - rng.uniform(0.5, 1.5)
+        covered[e.actor] = (t >= start) & (t < start + rng.uniform(*self.hand_s))
+        return covered
+
+    def _turns(self, t: np.ndarray) -> np.ndarray:
+        sc, yaw = self.scenario, np.zeros((len(self.scenario.actors), t.size))
+        rng = np.random.default_rng([sc.seed, 43])
+        for i in range(len(sc.actors)):
+            for _ in range(rng.poisson(self.turns_per_min * sc.duration_s / 60.0)):
+                start, hold = rng.uniform(0.0, sc.duration_s), rng.uniform(1.0, 3.0)
+                angle = np.deg2rad(rng.uniform(20.0, self.max_turn_deg)) * rng.choice([-1.0, 1.0])
+                ramp = np.clip(np.minimum(t - start, start + hold - t) / 0.3, 0.0, 1.0)
+                bout = angle * 0.5 * (1.0 - np.cos(np.pi * ramp))
+                yaw[i] = np.where(np.abs(bout) > np.abs(yaw[i]), bout, yaw[i])
+        return yaw
 
     def _at(self, track: np.ndarray, t: float) -> np.ndarray:
         k = int(np.clip(round(t / HOP_S), 0, track.shape[1] - 1))
@@ -82,3 +118,11 @@ class MouthTracks:
     def opening(self, t: float) -> np.ndarray:
         """(N,) in [0, 1]: how far each actor's mouth is open at ``t`` seconds."""
         return np.maximum(self.speech_opening(t), self.silent_opening(t))
+
+    def covered(self, t: float) -> np.ndarray:
+        """(N,) bool: whose mouth a hand covers at ``t``."""
+        return self._at(self._covered, t)
+
+    def yaw_rad(self, t: float) -> np.ndarray:
+        """(N,) radians: how far each actor's head is turned at ``t`` (about the vertical axis)."""
+        return self._at(self._yaw, t)

@@ -37,6 +37,7 @@ __all__ = [
     "load_face_textures",
     "drawn_face_texture",
     "mouthless",
+    "hand_over_mouth",
     "default_scene",
     "drawing_order",
     "load_textures",
@@ -155,6 +156,24 @@ def _draw_lips(image: np.ndarray, centre: tuple[float, float], width: float, gap
     y0, y1 = max(0, int(cy - 0.5 * width)), min(out.shape[0], int(cy + gap + 0.6 * width) + 1)
     if x1 > x0 and y1 > y0:
         out[y0:y1, x0:x1] = cv2.GaussianBlur(out[y0:y1, x0:x1], (0, 0), 0.6)
+    return out
+
+
+def hand_over_mouth(face: FaceTexture, image: np.ndarray) -> np.ndarray:
+    """``image`` (the face's texture, its mouth drawn) with a hand held flat over the mouth: a palm of the face's
+    skin a little darker (:func:`skin_of`), 1.9 mouth widths across, from below the nose to past the chin, its
+    fingers lying across the mouth with the gaps between them drawn as three darker lines."""
+    bx, by, bw, bh = face.face_box
+    fx, fy, fw = face.mouth_in_box
+    width, cx, cy = fw * bw, bx + fx * bw, by + fy * bh
+    palm = tuple(0.92 * c for c in skin_of(face))
+    out = image.copy()
+    cv2.ellipse(out, (round(cx), round(cy + 0.1 * width)), (round(0.95 * width), round(0.6 * width)), 0, 0, 360,
+                palm, -1, cv2.LINE_AA)
+    for k in (-1, 0, 1):
+        y = round(cy + 0.1 * width + 0.3 * k * width)
+        cv2.line(out, (round(cx - 0.8 * width), y), (round(cx + 0.8 * width), y), tuple(0.8 * c for c in palm), 1,
+                 cv2.LINE_AA)
     return out
 
 
@@ -286,6 +305,8 @@ class Person:
     gesture_m, gesture_hz : how far (metres) and how fast the hands swing (a talker about 0.15 m, a listener a
     little); the shoulders rock with them. table : a table in front of a seated person hides the lower body (drawn by
     :meth:`props`). mouth_open : in [0, 1], how far the mouth is open (:meth:`FaceTexture.with_mouth`).
+    hand_over_mouth : a hand covers the mouth (:func:`hand_over_mouth`). yaw_rad : the head turned about the
+    vertical axis through the face's centre (a positive turn takes the face's right edge, image right, closer).
     """
 
     face: FaceTexture
@@ -302,6 +323,8 @@ class Person:
     gesture_hz: float = 0.8
     table: bool = False
     mouth_open: float = 0.0
+    hand_over_mouth: bool = False
+    yaw_rad: float = 0.0
 
     def __post_init__(self) -> None:
         pos = np.asarray(self.position, dtype=np.float64)
@@ -317,6 +340,11 @@ class Person:
         dx = self.sway_m * np.sin(2 * np.pi * self.sway_hz * t + self.phase)
         return np.asarray(self.position) + np.array([dx, 0.0, 0.0])
 
+    def across(self) -> np.ndarray:
+        """(3,) the unit vector along the face from its left edge to its right (image left to right), turned by
+        ``yaw_rad``: positive z is away from the cameras."""
+        return np.array([np.cos(self.yaw_rad), 0.0, -np.sin(self.yaw_rad)])
+
     def quads(self, t: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """The person's planes at time ``t``: [(corners (4, 3) metres TL, TR, BR, BL, texture), ...], body first."""
         return [(corners, tex) for _, corners, tex in self.parts(t)]
@@ -325,11 +353,13 @@ class Person:
         """The person's planes at time ``t`` with their names: [(name, corners, texture), ...], body first. A texture
         of four channels carries a binary alpha."""
         tex = self.face.with_mouth(self.mouth_open)
+        if self.hand_over_mouth:
+            tex = hand_over_mouth(self.face, tex)
         bx, by, bw, bh = self.face.face_box
         m_per_px = self.face_width_m / bw
         centre = self.face_centre(t)
         angle = self.nod_rad * np.sin(2 * np.pi * self.nod_hz * t + self.phase)
-        right = np.array([1.0, 0.0, 0.0])
+        right = self.across()
         down = np.array([0.0, np.cos(angle), np.sin(angle)])
         # texture pixel (px, py) sits at centre + right * (px - fx) * m + down * (py - fy) * m
         fx, fy = bx + bw / 2.0, by + bh / 2.0
@@ -525,8 +555,8 @@ class StereoSceneRenderer:
             bx, by, bw, bh = p.face.face_box
             m = p.face_width_m / bw
             c = p.face_centre(t)
-            corners = c + np.array([[-bw / 2, -bh / 2, 0], [bw / 2, -bh / 2, 0], [bw / 2, bh / 2, 0],
-                                    [-bw / 2, bh / 2, 0]]) * m
+            corners = c + np.outer([-bw / 2, bw / 2, bw / 2, -bw / 2], p.across() * m) \
+                + np.outer([-bh / 2, -bh / 2, bh / 2, bh / 2], [0.0, m, 0.0])
             uv = self._project(corners, "left")
             lo, hi = uv.min(axis=0), uv.max(axis=0)
             boxes.append([lo[0] + 0.5, lo[1] + 0.5, hi[0] - lo[0], hi[1] - lo[1]])  # OpenCV Rect convention

@@ -151,8 +151,10 @@ def add_bodies_argument(p: argparse.ArgumentParser) -> None:
 def add_lips_argument(p: argparse.ArgumentParser) -> None:
     """``--lips/--no-lips``: whether the simulated people's mouths move (:mod:`sim.mouths`)."""
     p.add_argument("--lips", action=argparse.BooleanOptionalAction, default=None,
-                   help="the simulated talkers' mouths open with their speech and listeners' now and then without "
-                        "sound; --no-lips (the default for now): still mouths, the faces every figure was measured on")
+                   help="the simulated talkers' mouths (drawn lips) open with their speech and listeners' now and "
+                        "then without sound, one talker covers the mouth with a hand for a while, heads turn up to "
+                        "60 degrees; --no-lips (the default for now): still mouths, the faces every figure was "
+                        "measured on")
 
 
 def wants_lips(args: argparse.Namespace) -> bool:

@@ -209,10 +209,14 @@ class SimSource(ReplayStream):
         def gesture(i: int) -> float:
             return LISTENING_GESTURE_M + (GESTURE_M - LISTENING_GESTURE_M) * talking[i] if b else 0.0
 
-        mouths = self.mouths.opening(t) if self.mouths is not None else np.zeros(len(pos))
+        m = self.mouths
+        mouths = m.opening(t) if m is not None else np.zeros(len(pos))
+        hands = m.covered(t) if m is not None else np.zeros(len(pos), bool)
+        yaws = m.yaw_rad(t) if m is not None else np.zeros(len(pos))
         return [Person(face=self.textures[self._face_of[i]], position=tuple(p), shirt_bgr=a.shirt_bgr,
                        nod_rad=float(nod), nod_hz=NOD_HZ, phase=1.3 * i, arms=b, gesture_m=gesture(i),
-                       table=b and a.posture == "seated", mouth_open=float(np.round(mouths[i], 2)))
+                       table=b and a.posture == "seated", mouth_open=float(np.round(mouths[i], 2)),
+                       hand_over_mouth=bool(hands[i]), yaw_rad=float(np.round(yaws[i], 3)))
                 for i, (a, p, nod) in enumerate(zip(self.scenario.actors, pos, nods))]
 
     def body_centres(self, stamp_s: float, interval_s: float) -> np.ndarray:
@@ -232,9 +236,9 @@ class SimSource(ReplayStream):
         people = self.people(t)
         angles = [p.nod_rad * np.sin(2 * np.pi * p.nod_hz * t + p.phase) for p in people]
         moving_hands = [t if p.gesture_m > 0 else 0.0 for p in people]
-        mouths = [p.mouth_open for p in people]
-        key = tuple(np.round(np.concatenate([np.ravel([p.position for p in people]), angles, moving_hands, mouths]),
-                             5))
+        faces = [(p.mouth_open, p.hand_over_mouth, p.yaw_rad) for p in people]
+        key = tuple(np.round(np.concatenate([np.ravel([p.position for p in people]), angles, moving_hands,
+                                             np.ravel(faces)]), 5))
         if key != self._cache.key:
             self._renderer.people = people
             frame = self._renderer.render(t)
