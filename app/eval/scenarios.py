@@ -41,6 +41,7 @@ __all__ = [
     "SCENARIOS",
     "SCENARIO_CHOICES",
     "CalibrationFit",
+    "LipCue",
     "ScenarioScore",
     "SpeakingCounts",
     "TIMING_REFERENCE_S",
@@ -267,6 +268,7 @@ class ScenarioScore:
     timeline: Timeline | None = field(default=None, repr=False)  # of a single run; None once seeds are merged
     self_calibration: list[dict[str, Any]] = field(default_factory=list)  # per seed: where the first pair ended
     voices: VoiceCounts | None = None  # several pairs, face-guided: the voices out of view
+    lips: LipCue | None = None  # with the lips' cue: each found visible face's lip activity against the truth
 
     @property
     def all_found_share(self) -> float:
@@ -336,6 +338,8 @@ class ScenarioScore:
         self.self_calibration += other.self_calibration
         if other.voices is not None:
             self.voices = other.voices if self.voices is None else self.voices.add(other.voices)
+        if other.lips is not None:
+            self.lips = other.lips if self.lips is None else self.lips.add(other.lips)
 
     def as_dict(self) -> dict[str, Any]:
         n_spoken = self.utterances.tp + self.utterances.fn
@@ -366,7 +370,38 @@ class ScenarioScore:
             **({"self_calibration": self.self_calibration} if self.self_calibration else {}),
             **({"voices_out_of_view": dict(self.voices.as_dict(), false_voice_stretches_per_spoken_number=_clean(
                 self.voices.false_stretches / n_spoken if n_spoken else math.nan))} if self.voices is not None else {}),
+            **({"lip_cue_alone": self.lips.as_dict()} if self.lips is not None else {}),
         }
+
+
+@dataclass
+class LipCue:
+    """The lips' cue alone as a speaking detector (no sound): each found visible face's lip activity in every result
+    (:attr:`app.result.Result.lip_activity`, NaN: no opinion), apart by whether the person speaks at that instant.
+    AUC: the chance that a talker's activity is above a non-talker's (ties half; over the faces with an opinion);
+    at the veto's threshold ``still_below``, the shares of talkers and of others whose lips move."""
+
+    still_below: float
+    talking: list[float] = field(default_factory=list, repr=False)
+    silent: list[float] = field(default_factory=list, repr=False)
+
+    def add(self, other: LipCue) -> LipCue:
+        return LipCue(self.still_below, self.talking + other.talking, self.silent + other.silent)
+
+    def as_dict(self) -> dict[str, Any]:
+        t, s = np.asarray(self.talking, dtype=np.float64), np.asarray(self.silent, dtype=np.float64)
+        n = t.size + s.size
+        t, s = t[np.isfinite(t)], s[np.isfinite(s)]
+        auc = math.nan
+        if t.size and s.size:
+            from scipy.stats import rankdata
+
+            ranks = rankdata(np.concatenate([t, s]))[:t.size]  # Mann-Whitney: average ranks for ties
+            auc = (ranks.sum() - t.size * (t.size + 1) / 2) / (t.size * s.size)
+        return {"face_results": n, "no_opinion_share": _clean((n - t.size - s.size) / n if n else math.nan),
+                "auc": _clean(auc), "still_below": self.still_below,
+                "talkers_moving": _clean(float(np.mean(t >= self.still_below)) if t.size else math.nan),
+                "others_moving": _clean(float(np.mean(s >= self.still_below)) if s.size else math.nan)}
 
 
 def _clean(x: float) -> float | None:
@@ -617,7 +652,8 @@ def _judge(table: TruthTable, n_people: int, fused: Sequence[Result], n_interval
            points_truth: Callable[[Result], np.ndarray] | None = None) -> _Judged:
     """Match every result's people to the truth of its instant (the faces, or ``positions_at(stamp)``); with
     ``face_figures``, also the per-frame visual figures (the F3D faces) into ``score``; with ``points_truth``
-    (result -> (N, 3), NaN where unknown) the matched people's errors against it too."""
+    (result -> (N, 3), NaN where unknown) the matched people's errors against it too; the visible matched faces'
+    lip activity into ``score.lips`` where the results carry it."""
     ordered = sorted(fused, key=lambda f: f.stamp_s)
     out = _Judged(np.zeros((n_intervals, n_people)), np.zeros((n_intervals, n_people)), np.zeros(n_intervals),
                   np.zeros(n_intervals), np.full((len(ordered), n_people), -1),
@@ -646,6 +682,10 @@ def _judge(table: TruthTable, n_people: int, fused: Sequence[Result], n_interval
             paper = points_truth(r)
             score.people_errors_paper_m += [float(np.linalg.norm(xyz[d] - paper[g])) for g, d in match.pairs
                                             if np.isfinite(paper[g]).all()]
+        if r.lip_activity is not None and score.lips is not None:
+            for g, d in match.pairs:
+                if tr.visible[g]:
+                    (score.lips.talking if tr.speaking[g] else score.lips.silent).append(float(r.lip_activity[d]))
         if face_figures:
             vis = np.flatnonzero(tr.visible)
             hit = {g for g, _ in match.pairs}
@@ -676,6 +716,7 @@ def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, sa
     score = ScenarioScore(scenario.name, config.inference, [scenario.seed], float(scenario.duration_s))
     n_intervals = math.ceil(scenario.duration_s / INTERVAL_S - 1e-9)
     score.n_intervals = n_intervals
+    score.lips = LipCue(config.lip_still_below) if config.lips else None
     track, one_talker = _itd_windows(scenario, audio, samplerate_hz, mics, config)
     speech = [e for e in scenario.events if e.kind == "speech"]
     table = TruthTable.of(scenario, frame_stamps_s, [r.stamp_s for r in fused],

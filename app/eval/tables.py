@@ -265,6 +265,24 @@ def _voice_lines(scores: list[ScenarioScore]) -> list[str]:
     return lines
 
 
+def _lip_lines(scores: list[ScenarioScore]) -> list[str]:
+    """The lips' cue alone as a speaking detector, where the run read the lips."""
+    with_lips = [s for s in scores if s.lips is not None]
+    if not with_lips:
+        return []
+    lines = ["The lips alone (no sound), per result and found visible face: AUC = chance that a talker's lip activity "
+             "is above a non-talker's; moving = activity at or above the veto's threshold; no opinion = mesh found no "
+             "face or too few frames.",
+             f"{'Scen.':6s} {'faces':>7s} {'no opinion':>11s} {'AUC':>6s} {'talkers moving':>15s} {'others moving':>14s}"]
+    for s in with_lips:
+        v = s.as_dict()["lip_cue_alone"]
+        share, auc, talk, other = (math.nan if v[k] is None else v[k]
+                                   for k in ("no_opinion_share", "auc", "talkers_moving", "others_moving"))
+        lines.append(f"{s.scenario:6s} {v['face_results']:7d} {_pct1(share):>11s} {_num(auc, '.3f'):>6s} "
+                     f"{_pct1(talk):>15s} {_pct1(other):>14s}")
+    return lines
+
+
 def _target_lines(scores: list[ScenarioScore], reference: str) -> list[str]:
     t = scenario_targets(scores)
     lines = [("Targets (beyond the paper's table): TP >= 95 %; FP/spk at most half the paper's; S4's unseen "
@@ -298,7 +316,7 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
     reference = f"truth held +-{TIMING_REFERENCE_S * 1e3:.0f} ms"
     sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration),
                 _per_number_lines(scores, label), _per_interval_lines(scores, label, reference),
-                _front_end_lines(scores), _identity_lines(scores), _voice_lines(scores),
+                _front_end_lines(scores), _identity_lines(scores), _voice_lines(scores), _lip_lines(scores),
                 _target_lines(scores, reference)]
     return "\n\n".join("\n".join(section) for section in sections if section)
 

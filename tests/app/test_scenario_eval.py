@@ -6,6 +6,7 @@ S1 and S2 runs go through the whole command, and a short calibration preset thro
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -460,3 +461,30 @@ def test_one_person_moving_at_both_sides_of_the_body_is_one_person_with_one_id()
                                             bodies=True)
     assert len(seen) >= 15 and set(seen) == {1}
     assert score.identity.idf1 == 1.0 and score.identity.id_switches == 0
+
+
+def test_the_lips_alone_are_scored_as_a_speaking_detector() -> None:
+    """AUC by hand: talker 0.02 is above two of the three opinions of the others and level with one (2.5), 0.03 above
+    all three (3): 5.5 of 6; a NaN is no opinion; moving = at or above the veto's threshold."""
+    from app.eval.scenarios import LipCue
+
+    cue = LipCue(0.012, [0.02, 0.03, math.nan], [0.001, 0.02, math.nan, 0.005])
+    v = cue.as_dict()
+    assert v["face_results"] == 7 and v["no_opinion_share"] == pytest.approx(2 / 7)
+    assert v["auc"] == pytest.approx(5.5 / 6)
+    assert v["talkers_moving"] == 1.0 and v["others_moving"] == pytest.approx(1 / 3)
+    both = cue.add(LipCue(0.012, [0.0], []))
+    assert both.as_dict()["talkers_moving"] == pytest.approx(2 / 3) and both.as_dict()["face_results"] == 8
+    assert LipCue(0.012).as_dict()["auc"] is None
+
+
+def test_reading_the_lips_reports_the_lips_alone(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips",
+                 "--read-lips", "--json"]) == 0
+    lips = json.loads(capsys.readouterr().out)["results"][0]["lip_cue_alone"]
+    assert lips["face_results"] > 100 and 0.0 <= lips["auc"] <= 1.0 and lips["still_below"] == 0.012
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips",
+                 "--read-lips"]) == 0
+    assert "The lips alone (no sound)" in capsys.readouterr().out
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips"]) == 0
+    assert "The lips alone" not in capsys.readouterr().out  # without reading them, no such table
