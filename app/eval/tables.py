@@ -273,7 +273,8 @@ def _lip_lines(scores: list[ScenarioScore]) -> list[str]:
     lines = ["The lips alone (no sound), per result and found visible face: AUC = chance that a talker's lip activity "
              "is above a non-talker's; moving = activity at or above the veto's threshold; no opinion = mesh found no "
              "face or too few frames.",
-             f"{'Scen.':6s} {'faces':>7s} {'no opinion':>11s} {'AUC':>6s} {'talkers moving':>15s} {'others moving':>14s}"]
+             f"{'Scen.':6s} {'faces':>7s} {'no opinion':>11s} {'AUC':>6s} {'talkers moving':>15s} "
+             f"{'others moving':>14s}"]
     for s in with_lips:
         v = s.as_dict()["lip_cue_alone"]
         share, auc, talk, other = (math.nan if v[k] is None else v[k]
