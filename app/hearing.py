@@ -23,7 +23,7 @@ from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing, MotionGuidedParams
 from avcore.itd import gives_frame_itds
-from avcore.lips import LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
+from avcore.lips import HiddenLips, LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
 from avcore.selfcal import ArrayYawCalibration, SelfCalibration, SelfCalibrationFit, YawFit
@@ -47,7 +47,7 @@ __all__ = ["FaceGuided", "MotionGuided", "Vision", "Voice", "detector_name", "fa
 class Vision:
     """What vision yields for one result: its stamp, the frame it is shown on, the face boxes (None when
     motion-guided), the 3D points (the faces, or the HM3D points) and, with the lips' cue, each face's lip
-    activity (:class:`avcore.lips.LipTracks`)."""
+    activity, its place in the face's own range and the face's track (:class:`avcore.lips.LipTracks`)."""
 
     stamp_s: float
     frame: StereoFrame
@@ -55,6 +55,7 @@ class Vision:
     xyz: np.ndarray
     lip_activity: np.ndarray | None = None
     lip_relative: np.ndarray | None = None
+    lip_ids: np.ndarray | None = None
 
 
 @dataclass(eq=False)
@@ -65,6 +66,7 @@ class FaceGuided:
     config: PipelineConfig
     _mesh: Any = field(default=None, init=False, repr=False)
     _lips: LipTracks | None = field(default=None, init=False, repr=False)
+    _hidden: HiddenLips = field(default_factory=HiddenLips, init=False, repr=False)
     _voices: VoiceTracks = field(default_factory=VoiceTracks, init=False, repr=False)
     _unexplained: tuple = field(default=(None, None), init=False, repr=False)  # (stamp, VoiceDirection | None)
 
@@ -110,12 +112,12 @@ class FaceGuided:
             faces = locate_faces_mono(frame.left, rig, detector=detector)
         else:
             faces = locate_faces(frame.left, frame.right, rig, detector=detector)
-        activity = relative = None
+        activity = relative = ids = None
         if self._lips is not None:
             openings = mouth_opening(self._mesh.run(frame.left, faces.boxes).landmarks)
             activity = self._lips.update(frame.stamp_s, faces.boxes, openings)
-            relative = self._lips.relative
-        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity, relative)
+            relative, ids = self._lips.relative, self._lips.ids
+        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity, relative, ids)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
@@ -149,10 +151,13 @@ class FaceGuided:
             speaking, probability = choose_by_lips(out.speaking, out.probability, vision.lip_relative, groups,
                                                    self.config.lip_both_above)
             out = replace(out, speaking=speaking, probability=probability)
-        # a face in a group is not vetoed on its own: the sound says one of them speaks, and the lips chose who
+        # a face in a group is not vetoed on its own: the sound says one of them speaks, and the lips chose who;
+        # nor is one whose lips have stayed still through a second of its own voice (hidden: no opinion)
+        lips = np.asarray(vision.lip_activity, dtype=np.float64)
+        ids = np.arange(len(lips)) if vision.lip_ids is None else vision.lip_ids
+        hidden = self._hidden.update(vision.stamp_s, ids, out.speaking, lips, self.config.lip_still_below)
         speaking, probability = veto_still_lips(out.speaking, out.probability,
-                                                np.where(alone, vision.lip_activity, np.nan),
-                                                self.config.lip_still_below)
+                                                np.where(alone & ~hidden, lips, np.nan), self.config.lip_still_below)
         return replace(out, speaking=speaking, probability=probability)
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:

@@ -17,6 +17,10 @@ accuracy on every pair, one behind the other), the hearing takes them as one obj
 gives that object's words to the face whose lips move most *for that face*: each track's activity placed between
 its own still and moving levels (:attr:`LipTracks.relative`), since a distant face's mesh jitters more than a near
 one's and a face's range depends on its photograph.
+
+Still lips are not always silent ones: a hand over the mouth, a mask or a mesh that has lost the lips read as a
+closed mouth. :class:`HiddenLips` drops the opinion of a face whose lips have stayed still through a second or more
+of its own voice (:meth:`HiddenLips.update`), so that the veto only takes the brief calls of a listener.
 """
 from __future__ import annotations
 
@@ -24,12 +28,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["LipTracks", "choose_by_lips", "same_direction_groups", "veto_still_lips"]
+__all__ = ["HiddenLips", "LipTracks", "choose_by_lips", "same_direction_groups", "veto_still_lips"]
 
 
 @dataclass(eq=False)
 class LipTracks:
-    """``update(stamp_s, boxes, openings)`` -> each face's lip activity (N,) (NaN: no opinion).
+    """``update(stamp_s, boxes, openings)`` -> each face's lip activity (N,) (NaN: no opinion); :attr:`ids` (N,)
+    each face's track, the same number while it is followed.
 
     After each update, :attr:`relative` (N,) places each face's activity between its track's floor and top, the
     ``floor_quantile`` and ``top_quantile`` of its activities over the last ``floor_window_s`` (0 at the jitter of
@@ -45,8 +50,10 @@ class LipTracks:
     top_quantile: float = 90.0
     min_floor: int = 15
     relative: np.ndarray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
-    # each track: [centre (2,), width, [(t, opening)], [(t, activity)]]
+    ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int), init=False, repr=False)
+    # each track: [centre (2,), width, [(t, opening)], [(t, activity)], id]
     _tracks: list = field(default_factory=list, init=False, repr=False)
+    _next_id: int = field(default=0, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not self.window_s > 0:
@@ -65,6 +72,7 @@ class LipTracks:
         free = list(range(len(self._tracks)))
         activity = np.full(len(b), np.nan)
         self.relative = np.full(len(b), np.nan)
+        self.ids = np.zeros(len(b), dtype=int)
         for i in np.argsort(-b[:, 2]):  # the nearest (largest) faces choose first
             best, best_d = None, self.max_jump * b[i, 2]
             for k in free:
@@ -72,11 +80,13 @@ class LipTracks:
                 if d <= best_d:
                     best, best_d = k, d
             if best is None:
-                self._tracks.append([centres[i], b[i, 2], [], []])
+                self._tracks.append([centres[i], b[i, 2], [], [], self._next_id])
+                self._next_id += 1
                 best = len(self._tracks) - 1
             else:
                 free.remove(best)
             track = self._tracks[best]
+            self.ids[i] = track[4]
             track[0], track[1] = centres[i], b[i, 2]
             track[2] = [(t, v) for t, v in track[2] if t > stamp_s - self.window_s] + [(float(stamp_s), o[i])]
             values = np.array([v for _, v in track[2]])
@@ -89,6 +99,42 @@ class LipTracks:
                     floor, top = np.percentile([a for _, a in track[3]], [self.floor_quantile, self.top_quantile])
                     self.relative[i] = (activity[i] - floor) / max(top - floor, 1e-6)
         return activity
+
+
+@dataclass(eq=False)
+class HiddenLips:
+    """Which faces' still lips say nothing: those heard speaking for at least ``heard_s`` (first to last) of the
+    last ``window_s`` with a median lip activity over those moments under ``moving_factor`` times the veto's
+    threshold.
+
+    A talker's lips move while they speak (at 3-8 syllables a second), so lips that stay near still through a second
+    of the face's own voice are not seen (a hand, a mask, a mesh that has lost them), and their stillness is no
+    evidence; a listener called speaking by a neighbour's spill for a moment is still vetoed. The median, not each
+    moment: a hand's mesh jitters about the veto's threshold. ``update`` is called once per result; tracks without a
+    moment heard in ``window_s`` are forgotten.
+    """
+
+    window_s: float = 3.0
+    heard_s: float = 1.0
+    moving_factor: float = 2.0
+    _marks: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [(t, activity)] while heard
+
+    def update(self, stamp_s: float, ids: np.ndarray, speaking: np.ndarray, activity: np.ndarray,
+               still_below: float) -> np.ndarray:
+        """ids (N,) the faces' tracks (:attr:`LipTracks.ids`); speaking (N,) heard speaking; activity (N,) their lip
+        activity (NaN: no opinion); still_below : the veto's threshold. Returns (N,) bool: the faces whose lips are
+        hidden."""
+        since, now = stamp_s - self.window_s, set(np.asarray(ids).tolist())
+        self._marks = {k: [m for m in v if m[0] > since] for k, v in self._marks.items()}
+        self._marks = {k: v for k, v in self._marks.items() if v or k in now}
+        hidden = np.zeros(len(ids), dtype=bool)
+        for i, k in enumerate(np.asarray(ids).tolist()):
+            marks = self._marks.setdefault(k, [])
+            if speaking[i] and np.isfinite(activity[i]):
+                marks.append((float(stamp_s), float(activity[i])))
+            hidden[i] = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s \
+                and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
+        return hidden
 
 
 def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.ndarray,

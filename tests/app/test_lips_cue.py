@@ -43,6 +43,35 @@ def test_still_lips_silence_a_face_the_itds_call_speaking(monkeypatch: pytest.Mo
     assert plain.speaking.tolist() == [True, True, False]
 
 
+def test_lips_still_through_a_second_of_their_own_voice_give_no_opinion(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A hand over a talker's mouth: the mesh reads a closed mouth jittering about the veto's threshold while the
+    ITDs keep calling the face speaking. The veto holds for a moment (a listener's brief false alarm looks the same)
+    and lets go once the face has been heard for a second with near-still lips; the face beside it, whose lips
+    move, is untouched, and a listener heard for 0.4 s is still vetoed."""
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
+    apart = np.array([[-0.8, 0.0, 2.0], [0.0, 0.0, 2.0], [0.8, 0.0, 2.0]])
+    said = []
+    for k, t in enumerate(np.arange(0.0, 1.6, 1 / 30)):
+        hand = 0.009 + 0.002 * (k % 2)  # just under the threshold, as a hand's mesh reads
+        vision = Vision(float(t), None, np.zeros((3, 4)), apart, np.array([hand, 0.05, 0.004]), None,
+                        np.array([7, 8, 9]))
+        out = mode.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+        said.append(out.speaking)
+    said = np.array(said)
+    t = np.arange(0.0, 1.6, 1 / 30)
+    assert not said[(t > 0.1) & (t < 0.95), 0].any() and said[t > 1.05, 0].all()
+    assert said[:, 1].all() and not said[:, 2].any()  # the moving lips speak; the third face is not heard
+    # a listener heard for 0.4 s with still lips: vetoed throughout
+    fresh = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
+    for t in np.arange(0.0, 0.4, 1 / 30):
+        vision = Vision(float(t), None, np.zeros((3, 4)), apart, np.array([0.004, 0.05, 0.004]), None,
+                        np.array([1, 2, 3]))
+        out = fresh.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+        assert out.speaking.tolist() == [False, True, False]
+
+
 @dataclass(frozen=True)
 class _GroupOutput:  # the fields of FaceGuidedOutput that follow each face
     speaking: np.ndarray

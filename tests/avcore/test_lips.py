@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from avcore.lips import LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
+from avcore.lips import HiddenLips, LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
 
 
 def test_activity_is_the_spread_of_each_faces_opening_over_the_window() -> None:
@@ -105,3 +105,31 @@ def test_a_groups_words_go_to_the_face_whose_lips_move() -> None:
     assert s.tolist() == [True, True, True]  # one opinion only: the lips cannot choose
     s, _ = choose_by_lips(np.array([False, False, True]), probability, np.array([0.1, 0.9, 0.0]), groups, 0.5)
     assert s.tolist() == [False, False, True]  # a silent group stays silent: the lips add no speaker
+
+
+def test_hidden_lips_are_still_through_a_second_of_their_own_voice() -> None:
+    """Marks are kept only while a face is heard; hidden needs a second from the first mark to the last and a median
+    activity under twice the veto's threshold; a face not heard for the window is forgotten."""
+    hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0)
+    ids = np.array([4, 5])
+    for t in np.arange(0.0, 0.99, 0.1):  # 0.0 .. 0.9: not yet a second
+        out = hidden.update(float(t), ids, np.array([True, True]), np.array([0.02, 0.03]), 0.012)
+        assert not out.any()
+    out = hidden.update(1.0, ids, np.array([True, True]), np.array([0.02, 0.03]), 0.012)
+    assert out.tolist() == [True, False]  # median 0.02 < 0.024; 0.03 is lips moving
+    # silent moments add no marks: the same verdict 1.5 s later, from the marks still in the window
+    assert hidden.update(2.5, ids, np.array([False, False]), np.array([0.5, 0.5]), 0.012).tolist() == [True, False]
+    # a NaN (no opinion) is no mark either; after the window the marks are gone
+    assert hidden.update(4.5, ids, np.array([True, True]), np.array([np.nan, np.nan]), 0.012).tolist() == [False, False]
+    assert 4 not in hidden._marks or hidden._marks[4] == []
+
+
+def test_each_followed_face_keeps_its_track_number() -> None:
+    tracks = LipTracks()
+    tracks.update(0.0, np.array([[100, 100, 40, 40], [300, 100, 40, 40]]), np.array([0.1, 0.1]))
+    first = tracks.ids.copy()
+    assert len(set(first.tolist())) == 2
+    # the two faces listed the other way round, moved a little, and a newcomer far from both
+    tracks.update(0.033, np.array([[305, 100, 40, 40], [600, 100, 40, 40], [102, 100, 40, 40]]),
+                  np.array([0.1, 0.1, 0.1]))
+    assert tracks.ids[0] == first[1] and tracks.ids[2] == first[0] and tracks.ids[1] not in first
