@@ -76,6 +76,22 @@ def test_one_results_line_holds_the_results_values(tmp_path) -> None:  # noqa: A
         raise AssertionError("a closed results file took a line")
 
 
+def test_the_lips_activity_on_the_line_to_1e_4_and_null_without_an_opinion() -> None:
+    from dataclasses import replace
+
+    from app.sinks.results_file import result_record
+
+    out = SimpleNamespace(speaking=np.array([True, False]), probability=np.array([0.9, 0.2]),
+                          itd_means=np.array([-1.2e-4, 2.5e-4]), pair_itd_means=None)
+    result = Result(stamp_s=1.0, index=30, image=np.zeros((2, 2, 3), np.uint8),
+                    boxes=np.array([[10, 20, 30, 30], [50, 60, 20, 20]]), xyz=np.array([[-0.5, 0, 2], [0.6, 0, 2.4]]),
+                    itds_s=np.zeros(4), output=out, latency_s=0.1, person_ids=np.array([7, 3]),
+                    lip_activity=np.array([0.0123456, np.nan]))
+    first, second = result_record(result)["people"]
+    assert first["lip_activity"] == 0.0123 and second["lip_activity"] is None and "lip_activity" in second
+    assert "lip_activity" not in result_record(replace(result, lip_activity=None))["people"][0]  # lips not read
+
+
 def test_a_voice_out_of_view_is_a_person_of_the_line_without_a_face_or_position() -> None:
     """A voice out of view follows the people in view on the results line: its id, speaking, its direction in
     degrees to 0.1, and null where it has nothing (position, probability, mean ITD; elevation with a flat array)."""
