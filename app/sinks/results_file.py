@@ -73,7 +73,7 @@ def result_record(result: Any) -> dict[str, Any]:
         if p.lip_activity is not None:
             person["lip_activity"] = None if p.lip_activity != p.lip_activity else round(float(p.lip_activity), 4)
         people.append(person)
-    for v in getattr(result, "voices", None) or ():  # a voice out of view: a person without a face or position
+    for v in result.voices or ():  # a voice out of view: a person without a face or position
         people.append({"id": v.id, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
                        "azimuth_deg": round(math.degrees(v.azimuth_rad), 1),
                        "elevation_deg": None if v.elevation_rad is None else round(math.degrees(v.elevation_rad), 1)})

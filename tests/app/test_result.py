@@ -103,9 +103,9 @@ def test_a_voice_out_of_view_is_a_person_of_the_line_without_a_face_or_position(
     result = Result(stamp_s=1.0, index=30, image=np.zeros((2, 2, 3), np.uint8),
                     boxes=np.array([[10, 20, 30, 30], [50, 60, 20, 20]]), xyz=np.array([[-0.5, 0, 2], [0.6, 0, 2.4]]),
                     itds_s=np.zeros((4, 6)), output=out, latency_s=0.1, person_ids=np.array([7, 3]),
-                    voices=(Voice(9, np.radians(-53.04), None), Voice(11, np.radians(80.0), np.radians(12.26))))
+                    voices=(Voice(9, np.radians(-53.04), None), Voice(11, np.radians(80.26), np.radians(12.26))))
     people = result_record(result)["people"]
     assert [p["id"] for p in people] == [7, 3, 9, 11] and len(result.people) == 2  # the API's people are in view
     assert people[2] == {"id": 9, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
                          "azimuth_deg": -53.0, "elevation_deg": None}
-    assert (people[3]["azimuth_deg"], people[3]["elevation_deg"]) == (80.0, 12.3)
+    assert (people[3]["azimuth_deg"], people[3]["elevation_deg"]) == (80.3, 12.3)
