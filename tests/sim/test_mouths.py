@@ -134,6 +134,14 @@ def test_the_face_mesh_reads_who_moves_their_lips_in_the_rendered_room() -> None
     source = SimSource.from_preset("S2", duration_s=8.0, seed=1, lips=True)
     if source.meta["faces"] != "faces":
         pytest.skip("the photographed faces of ../shared/data are not here")
+    # the hand and the turns reach the rendered people (drawn lips on every face)
+    stamps = source.frame_stamps_s
+    people = [source.people(float(t)) for t in stamps]
+    covered = np.array([[p.hand_over_mouth for p in ps] for ps in people])
+    turned = np.array([[p.yaw_rad for p in ps] for ps in people])
+    assert covered.any() and np.array_equal(covered, [source.mouths.covered(float(t)) for t in stamps])
+    np.testing.assert_allclose(turned, [source.mouths.yaw_rad(float(t)) for t in stamps], atol=1e-3)
+    assert all(p.face.drawn_mouth for p in people[0])
     openings, speaking, visible = [], [], []
     for k in range(len(source.frame_stamps_s)):
         left, _ = source._images(k)
