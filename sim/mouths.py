@@ -49,6 +49,12 @@ class MouthTracks:
     def __post_init__(self) -> None:
         if not 0.0 <= self.lead_s <= 0.3:
             raise ValueError(f"lead_s must be in [0, 0.3] seconds, got {self.lead_s!r}")
+        if not 0.0 <= self.hand_s[0] <= self.hand_s[1]:
+            raise ValueError(f"hand_s must be (shortest, longest) seconds with 0 <= shortest <= longest, got "
+                             f"{self.hand_s!r}")
+        if not 20.0 <= self.max_turn_deg <= 90.0:
+            raise ValueError(f"max_turn_deg must be in [20, 90] degrees (turns are drawn from 20), got "
+                             f"{self.max_turn_deg!r}")
         sc, fs = self.scenario, self.bank.samplerate_hz
         n_hops = int(np.ceil(sc.duration_s / HOP_S)) + 1
         self._speech = np.zeros((len(sc.actors), n_hops))

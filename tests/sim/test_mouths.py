@@ -179,6 +179,10 @@ def test_one_talker_covers_the_mouth_for_a_while_and_heads_turn_up_to_60_degrees
     assert not any(nobody.covered(x).any() or nobody.yaw_rad(x).any() for x in t[::10])
     # the hand and the turns have their own random streams: the mouths are as they were without them
     assert all(np.array_equal(nobody.opening(x), tracks.opening(x)) for x in t[::25])
+    with pytest.raises(ValueError, match="hand_s"):
+        MouthTracks(scenario, bank, hand_s=(4.0, 2.0))
+    with pytest.raises(ValueError, match="max_turn_deg"):
+        MouthTracks(scenario, bank, max_turn_deg=10.0)
 
 
 def test_a_hand_hides_the_mouth_and_a_turned_head_narrows_the_face() -> None:
