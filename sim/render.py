@@ -75,9 +75,8 @@ class FaceTexture:
         As a jaw drops: the lower lip and the chin below the mouth's line move down by the gap (``opening *
         MOUTH_MAX_GAP`` of the mouth's width), fading to nothing at the chin and beside the mouth, and the dark
         cavity shows between the lips. With ``drawn_mouth`` the photographed mouth is first painted over with the
-        skin around it (:func:`mouthless`) and lips are drawn (:func:`_draw_lips`): on photographs of 96 px faces the
-        face mesh keeps reading the lips it found in the photograph, whatever is drawn over them
-        (docs/experiments.md, 2026-11-27)."""
+        skin around it (:func:`mouthless`) and lips are drawn (:func:`_draw_lips`), since the face mesh keeps
+        reading a photograph's own lips under whatever is drawn over them (docs/experiments.md)."""
         opening = float(np.clip(opening, 0.0, 1.0))
         if opening <= 0.0 and not self.drawn_mouth:
             return self.image

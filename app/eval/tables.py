@@ -276,7 +276,7 @@ def _lip_lines(scores: list[ScenarioScore]) -> list[str]:
              f"{'Scen.':6s} {'faces':>7s} {'no opinion':>11s} {'AUC':>6s} {'talkers moving':>15s} "
              f"{'others moving':>14s}"]
     for s in with_lips:
-        v = s.as_dict()["lip_cue_alone"]
+        v = s.lips.as_dict()
         share, auc, talk, other = (math.nan if v[k] is None else v[k]
                                    for k in ("no_opinion_share", "auc", "talkers_moving", "others_moving"))
         lines.append(f"{s.scenario:6s} {v['face_results']:7d} {_pct1(share):>11s} {_num(auc, '.3f'):>6s} "
