@@ -7,6 +7,7 @@ from hypothesis import strategies as st
 
 from avcore.mixture import (
     BinnedSamples,
+    ConvergenceWarning,
     EMSettings,
     Mixture1D,
     bic_score,
@@ -323,3 +324,76 @@ def test_davies_bouldin_of_two_components() -> None:
     """Two components: each one's index is (sigma_1 + sigma_2) / |mu_1 - mu_2| (section 4.4); one: +inf."""
     np.testing.assert_allclose(davies_bouldin(np.array([0.0, 100.0]), np.array([10.0, 30.0])), [0.4, 0.4])
     assert davies_bouldin(np.array([5.0]), np.array([1.0])).tolist() == [np.inf]
+
+
+def test_em_reports_the_likelihood_of_its_model_in_one_over_seconds() -> None:
+    """log_likelihood_ and the last lower bound are sum log p(x) of the returned model, densities in 1/s."""
+    rng = np.random.default_rng(12)
+    x = _sample(rng, [-120, 60], [20, 12], [300, 400], 100)
+    init = _model([0.45, 0.45, 0.1], [-60, 20], [60, 60])
+    fit = fit_em(x, init, settings=EMSettings(tol=1e-10))
+    want = float(np.sum(np.log(fit.model_.density(x))))
+    assert fit.log_likelihood_ == pytest.approx(want, rel=1e-10)
+    assert fit.lower_bounds_[-1] == pytest.approx(want, rel=1e-10) and fit.lower_bounds_.size == fit.n_iter_ + 1
+    assert fit.lower_bounds_[0] == pytest.approx(init.log_likelihood(x), rel=1e-10)
+    assert fit.model_.support == SUPPORT and fit.model_.weights.sum() == pytest.approx(1.0, abs=1e-12)
+    n0 = fit_em(x, Mixture1D.outliers_only(SUPPORT))
+    assert n0.log_likelihood_ == pytest.approx(x.size * np.log(1 / 700e-6)) and n0.n_iter_ == 0 and n0.converged_
+    assert n0.lower_bounds_.tolist() == [n0.log_likelihood_]
+
+
+def test_em_keeps_what_it_is_told_to_keep_and_caps_the_variance() -> None:
+    rng = np.random.default_rng(13)
+    x = _sample(rng, [-120, 60], [40, 12], [300, 400], 0)
+    init = _model([0.45, 0.45, 0.1], [-60, 20], [60, 60])
+    anchored = fit_em(x, init, update_means=False)
+    assert np.allclose(anchored.model_.means, init.means, rtol=1e-12, atol=0)
+    assert not np.allclose(anchored.model_.variances, init.variances, rtol=0.01, atol=0)
+    fixed = fit_em(x, init, update_variances=False)
+    assert np.allclose(fixed.model_.variances, init.variances, rtol=1e-12, atol=0)
+    assert not np.allclose(fixed.model_.means, init.means, rtol=0.01, atol=0)
+    capped = fit_em(x, init, max_variance_s2=(30e-6) ** 2).model_.ordered_by_weight()
+    assert capped.variances[1] == pytest.approx((30e-6) ** 2, rel=1e-9)  # the 40 us talker, held at 30 us
+    assert capped.variances[0] < (20e-6) ** 2
+    floor = EMSettings().var_floor_s2
+    assert fit_em(x, init, max_variance_s2=floor).model_.variances == pytest.approx([floor, floor])
+    with pytest.raises(ValueError, match="max_variance_s2 must be >= the variance floor"):
+        fit_em(x, init, max_variance_s2=floor / 2)
+
+
+def test_em_and_fusion_say_when_they_ran_out_of_iterations() -> None:
+    rng = np.random.default_rng(14)
+    x = _sample(rng, [-120, 60], [20, 12], [300, 400], 100)
+    init = _model([0.45, 0.45, 0.1], [-300, 300], [10, 10])
+    with pytest.warns(ConvergenceWarning, match="^EM did not converge in 2 iterations; try a larger max_iter"):
+        fit = fit_em(x, init, settings=EMSettings(max_iter=2))
+    assert not fit.converged_ and fit.n_iter_ == 2
+    alpha = init.responsibilities(x)
+    with pytest.warns(ConvergenceWarning, match="^vision-guided EM fusion did not converge in 1 iterations"):
+        fused = fit_fusion_em(x, alpha, x[:10], init, settings=EMSettings(max_iter=1, tol=1e-15))
+    assert not fused.converged_ and fused.n_iter_ == 1 and fused.objective_.size == 2
+
+
+def test_the_fusion_reports_its_objective_and_the_itds_posteriors_in_seconds() -> None:
+    """objective_: sum_m sum_n alpha_mn log(pi_n P(v_m | n)) + sum_k log p(a_k), 1/s densities (section 4.1)."""
+    rng = np.random.default_rng(15)
+    v = _sample(rng, [-100, 90], [20, 20], [300, 300], 60)
+    a = _sample(rng, [-95], [25], [12], 3)
+    vis = fit_em(v, _model([0.45, 0.45, 0.1], [-80, 80], [40, 40])).model_
+    alpha = vis.responsibilities(v)
+    fused = fit_fusion_em(v, alpha, a, vis, settings=EMSettings(tol=1e-12, max_iter=200))
+    m = fused.model_
+    log_classes = np.log(m.component_densities(v))
+    want = float(np.sum(alpha * log_classes) + np.sum(np.log(m.density(a))))
+    assert fused.converged_ and fused.objective_[-1] == pytest.approx(want, rel=1e-9)
+    assert fused.log_likelihood_ == pytest.approx(m.log_likelihood(v) + m.log_likelihood(a), rel=1e-12)
+    assert np.allclose(fused.beta_, m.responsibilities(a), rtol=1e-12)
+    assert fused.n_iter_ == fused.objective_.size - 1
+    nobody = Mixture1D.outliers_only(SUPPORT)
+    alone = fit_fusion_em(v, np.ones((v.size, 1)), a, nobody)
+    assert alone.model_ is nobody and alone.beta_.shape == (a.size, 1) and np.all(alone.beta_ == 1.0)
+    ll = nobody.log_likelihood(v) + nobody.log_likelihood(a)
+    assert alone.log_likelihood_ == ll and alone.objective_.tolist() == [ll] and alone.converged_
+    for bad in (-alpha, np.where(alpha > 0.5, np.nan, alpha)):
+        with pytest.raises(ValueError, match="alpha must hold finite non-negative posteriors"):
+            fit_fusion_em(v, bad, a, vis)
