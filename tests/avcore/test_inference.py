@@ -13,6 +13,7 @@ from avcore.inference import (
     MotionGuidedParams,
     speaking_threshold,
 )
+from avcore.mixture import Mixture1D
 from avcore.speaking import SpeakingTest
 
 MICS = MicPair()
@@ -355,3 +356,64 @@ def test_an_interval_without_moving_points_has_nobody_in_it() -> None:
     assert out.model.n_components == 0 and out.model.weights.tolist() == [1.0]
     assert out.bic.tolist() == [0.0] * (hearing.params.n_max + 1) and out.n_selected == 0
     assert out.tau_a == pytest.approx(4 / 2)
+
+
+def _blob(rng: np.random.Generator, centre: list[float], n: int, sd: tuple[float, float, float]) -> np.ndarray:
+    return np.asarray(centre) + rng.normal(0.0, 1.0, (n, 3)) * sd
+
+
+def test_one_cluster_holding_two_people_becomes_two_objects_with_their_share_of_it() -> None:
+    """Two people on one bearing (one ITD cluster) at 1.5 and 3 m: each becomes an object at its own points, with
+    the cluster's weight in proportion to its mass, the ITDs' posterior shared by the people's own 1-D densities
+    (mass / sd x their Gaussian), and its own component (its points' ITD moments) for the next interval."""
+    rng = np.random.default_rng(21)
+    near, far = _blob(rng, [0.3, 0.0, 1.5], 300, (0.06, 0.12, 0.04)), _blob(rng, [0.6, 0.0, 3.0], 200, (0.06, 0.12, 0.04))
+    pts = np.concatenate([near, far])
+    v = MICS.itd(pts)
+    a = MICS.itd(near[:8])  # ITDs from the near person's direction
+    alpha = np.ones((pts.shape[0], 1))
+    beta = np.linspace(0.5, 0.9, a.size)[:, None]
+    model = Mixture1D(np.array([0.7, 0.3]), [float(v.mean())], [float(v.var())], MICS.itd_interval())
+    mg = MotionGuidedHearing(MICS)
+    positions, cov, mass, betas, new = mg._refine(pts, v, a, alpha, beta, model)
+    assert positions.shape == (2, 3) and cov.shape == (2, 3, 3) and betas.shape == (a.size, 2)
+    order = np.argsort(positions[:, 2])
+    positions, mass, betas = positions[order], mass[order], betas[:, order]
+    means, variances = new.means[order], new.variances[order]
+    for j, blob in enumerate((near, far)):
+        assert np.linalg.norm(positions[j] - blob.mean(axis=0)) < 0.01
+        assert mass[j] == pytest.approx(blob.shape[0], rel=0.05)  # the kernel truncates a few outer points
+        itds = MICS.itd(blob)
+        assert means[j] == pytest.approx(itds.mean(), abs=0.5e-6)
+        assert variances[j] == pytest.approx(itds.var(), rel=0.15)  # less the truncated outer points
+    assert new.weights[order] == pytest.approx(0.7 * mass / pts.shape[0], rel=1e-12)
+    assert new.weights[-1] == pytest.approx(1.0 - new.weights[:-1].sum(), rel=1e-12)
+    np.testing.assert_allclose(betas.sum(axis=1), beta[:, 0], rtol=1e-12)
+    dens = mass / np.sqrt(variances) * np.exp(-0.5 * (a[:, None] - means) ** 2 / variances)
+    np.testing.assert_allclose(betas / beta, dens / dens.sum(axis=1, keepdims=True), rtol=1e-9)
+    assert variances[0] > variances[1]  # the nearer person spans more ITD
+
+
+def test_a_head_and_a_body_in_two_clusters_are_one_person_with_both_shares() -> None:
+    """Two clusters whose groups are stacked (a head above a torso, within merge_vertical_m): one object, placed at
+    the body's centre, with the sum of the clusters' ITD posteriors and weights."""
+    rng = np.random.default_rng(22)
+    head, torso = _blob(rng, [0.2, -0.45, 2.0], 150, (0.05, 0.05, 0.04)), _blob(rng, [0.2, 0.0, 2.0], 250,
+                                                                                (0.08, 0.15, 0.05))
+    pts = np.concatenate([head, torso])
+    v = MICS.itd(pts)
+    alpha = np.zeros((pts.shape[0], 2))
+    alpha[:150, 0], alpha[150:, 1] = 1.0, 1.0
+    a = MICS.itd(head[:6])
+    beta = np.column_stack([np.full(a.size, 0.6), np.full(a.size, 0.3)])
+    model = Mixture1D(np.array([0.3, 0.5, 0.2]), [float(v[:150].mean()), float(v[150:].mean())],
+                      [float(v[:150].var()) + 1e-12, float(v[150:].var()) + 1e-12], MICS.itd_interval())
+    positions, _, mass, betas, new = MotionGuidedHearing(MICS)._refine(pts, v, a, alpha, beta, model)
+    assert positions.shape == (1, 3) and new.n_components == 1
+    assert np.linalg.norm(positions[0] - pts.mean(axis=0)) < 0.02  # both parts' points: the body's centre
+    assert mass[0] == pytest.approx(400, rel=0.05)
+    np.testing.assert_allclose(betas[:, 0], 0.9, rtol=1e-12)
+    assert new.weights[0] == pytest.approx(0.8, rel=0.05) and new.weights[1] == pytest.approx(1 - new.weights[0])
+    nothing = MotionGuidedHearing(MICS)._refine(pts, v, a, np.zeros_like(alpha), beta, model)
+    assert [x.shape for x in nothing[:4]] == [(0, 3), (0, 3, 3), (0,), (a.size, 0)]
+    assert nothing[4].n_components == 0 and nothing[4].support == MICS.itd_interval()
