@@ -397,3 +397,112 @@ def test_the_fusion_reports_its_objective_and_the_itds_posteriors_in_seconds() -
     for bad in (-alpha, np.where(alpha > 0.5, np.nan, alpha)):
         with pytest.raises(ValueError, match="alpha must hold finite non-negative posteriors"):
             fit_fusion_em(v, bad, a, vis)
+
+
+def test_without_a_previous_interval_the_first_cluster_sits_on_the_datas_moments() -> None:
+    from avcore.mixture import _seed_model
+
+    x = np.array([-30e-6, 10e-6, 20e-6, 40e-6])
+    seed = _seed_model(BinnedSamples.from_samples(x, None), SUPPORT, 0.2)
+    assert seed.weights.tolist() == [0.8, 0.2]
+    assert seed.means[0] == pytest.approx(x.mean(), rel=1e-9) and seed.variances[0] == pytest.approx(x.var(), rel=1e-9)
+    one = _seed_model(BinnedSamples.from_samples(np.full(3, 5e-6), None), SUPPORT, 0.1)
+    assert one.variances[0] == pytest.approx(1e-12)  # at least 1 us^2: identical values give no spread
+    empty = _seed_model(BinnedSamples.from_samples(np.empty(0)), (-100e-6, 300e-6), 0.1)
+    assert empty.means[0] == pytest.approx(100e-6) and empty.variances[0] == pytest.approx((100e-6) ** 2)
+
+
+def test_a_component_is_added_where_the_data_most_exceed_the_model() -> None:
+    """The residual: the data's histogram smoothed by the new component's shape minus the model's expected counts;
+    the new component at its peak, its weight the excess's share (in [0.02, 0.5]), the others scaled to make room."""
+    from avcore.mixture import _ResidualGrid
+
+    rng = np.random.default_rng(16)
+    x = np.concatenate([rng.normal(-150e-6, 15e-6, 400), rng.normal(200e-6, 2e-6, 100)])
+    data = BinnedSamples.from_samples(x)
+    grid = _ResidualGrid(data, SUPPORT, 15e-6)
+    assert grid.grid[0] == SUPPORT[0] and np.allclose(np.diff(grid.grid), 2e-6)
+    assert grid.smooth.sum() == pytest.approx(500.0, rel=1e-9)  # counts per step, none lost at the middle
+    known = _model([0.75, 0.25], [-150], [15])
+    added = grid.add_component(known)
+    assert added is not None and added.n_components == 2
+    assert added.means[1] == pytest.approx(200e-6, abs=2e-6) and added.variances[1] == pytest.approx((15e-6) ** 2)
+    w = added.weights[1]
+    assert w == pytest.approx(0.2, abs=0.02)  # 100 of 500 unexplained (less what the outlier class expects there)
+    assert added.weights[[0, 2]] == pytest.approx([0.75 * (1 - w), 0.25 * (1 - w)], rel=1e-12)
+    dens = known._density(grid.grid)
+    assert grid.add_component(known, dens).means[1] == added.means[1]  # the caller's density on the grid
+    stray = _ResidualGrid(BinnedSamples.from_samples(np.append(np.full(400, 100e-6), -300e-6)), SUPPORT, 15e-6)
+    least = stray.add_component(_model([0.999, 0.001], [100], [15]))  # one stray value unexplained
+    assert least.means[1] == pytest.approx(-300e-6, abs=1e-9) and least.weights[1] == 0.02  # the least it adds
+    nothing = _ResidualGrid(BinnedSamples.from_samples(np.empty(0)), SUPPORT, 15e-6)
+    assert nothing.add_component(known) is None
+    lone = _ResidualGrid(BinnedSamples.from_samples(np.full(400, 100e-6)), SUPPORT, 15e-6)
+    assert lone.add_component(_model([0.5, 0.5], [-200], [15])).weights[1] == 0.5  # at most half
+
+
+def test_the_previous_intervals_clusters_start_the_next_heaviest_first() -> None:
+    prev = _model([0.2, 0.5, 0.29, 0.01], [-200, 0, 150], [20, 30, 10])
+    models = initial_models(prev, 3, SUPPORT, outlier_weight=0.2)
+    # the outlier prior is raised to outlier_weight / 10 = 0.02, the clusters scaled to the rest
+    assert models[3].weights[-1] == pytest.approx(0.02)
+    assert models[3].weights[:-1] == pytest.approx(np.array([0.5, 0.29, 0.2]) * 0.98 / 0.99, rel=1e-12)
+    assert models[3].means == pytest.approx([0.0, 150e-6, -200e-6])
+    assert models[1].weights == pytest.approx([0.98, 0.02]) and models[1].variances == pytest.approx([(30e-6) ** 2])
+    kept = initial_models(_model([0.2, 0.5, 0.05, 0.25], [-200, 0, 150], [20, 30, 10]), 2, SUPPORT)
+    assert kept[2].weights.tolist() == pytest.approx([0.5 * 0.75 / 0.7, 0.2 * 0.75 / 0.7, 0.25])
+    zero = initial_models(_model([0.0, 0.0, 1.0], [-200, 0], [20, 30]), 2, SUPPORT)  # clusters with no weight left
+    assert zero[1].weights.tolist() == [0.0, 1.0] and zero[2].weights.tolist() == [0.0, 0.0, 1.0]
+    with pytest.raises(ValueError, match="n_max must be >= 0"):
+        initial_models(prev, -1, SUPPORT)
+
+
+def test_a_newcomer_far_from_everybody_is_found_only_at_the_residual() -> None:
+    rng = np.random.default_rng(17)
+    x = np.concatenate([rng.normal(-150e-6, 15e-6, 400), rng.normal(250e-6, 12e-6, 150)])
+    data = BinnedSamples.from_samples(x)
+    prev = _model([0.9, 0.1], [-150], [15])
+    grown = initial_models(prev, 2, SUPPORT, data)[2]
+    split = initial_models(prev, 2, SUPPORT, data, grow_at_residual=False)[2]
+    assert np.abs(grown.means - 250e-6).min() < 8e-6  # a component where the newcomer is
+    assert np.abs(split.means - 250e-6).min() > 100e-6  # the paper's split stays by the known cluster
+    assert sorted(split.means * 1e6) == pytest.approx([-150 - 15 * np.sqrt(2 / np.pi), -150 + 15 * np.sqrt(2 / np.pi)])
+    # with the data at the split's halves, the split explains them better than any residual
+    near = np.concatenate([rng.normal(-170e-6, 8e-6, 300), rng.normal(-130e-6, 8e-6, 300)])
+    halves = initial_models(_model([0.9, 0.1], [-150], [22]), 2, SUPPORT, BinnedSamples.from_samples(near))[2]
+    assert sorted(halves.means * 1e6) == pytest.approx([-150 - 22 * np.sqrt(2 / np.pi), -150 + 22 * np.sqrt(2 / np.pi)])
+
+
+def test_the_split_goes_to_the_component_with_the_highest_davies_bouldin_index() -> None:
+    """DW_i: the two overlapping components (-50 and 0 us, 20 us wide) have it highest; the wider of the two is
+    split, and the far one (200 us) never."""
+    prev = _model([0.3, 0.3, 0.3, 0.1], [-50, 0, 200], [15, 20, 10])
+    grown = initial_models(prev, 4, SUPPORT, grow_at_residual=False)[4]
+    shift = 20 * np.sqrt(2 / np.pi)
+    assert sorted(grown.means * 1e6) == pytest.approx(sorted([-50, 200, -shift, shift]))
+    assert grown.weights[:-1].sum() == pytest.approx(0.9)
+
+
+@pytest.mark.parametrize("gap_sd, unimodal", [(1.9, True), (2.1, False)])
+def test_two_equal_gaussians_are_one_mode_up_to_two_standard_deviations_apart(gap_sd: float, unimodal: bool) -> None:
+    """Equal weights and variances: the mixture is unimodal iff the means are at most 2 sd apart."""
+    from avcore.mixture import _is_unimodal_on_ridgeline
+
+    assert bool(_is_unimodal_on_ridgeline(0.5, 0.0, 100.0, 0.5, gap_sd * 10.0, 100.0)) is unimodal
+    assert bool(_is_unimodal_on_ridgeline(0.5, gap_sd * 10.0, 100.0, 0.5, 0.0, 100.0)) is unimodal
+    assert _is_unimodal_on_ridgeline(0.5, 3.0, 100.0, 0.5, 3.0, 100.0)  # one and the same: flat ridgeline
+
+
+def test_merged_components_keep_the_pairs_moments_and_zero_weights_stay_apart() -> None:
+    model = _model([0.3, 0.1, 0.4, 0.2], [0, 200, 15], [20, 10, 25])
+    merged, groups = ridgeline_merge(model)
+    assert groups == [[0, 2], [1]]
+    w, mu, var = np.array([0.3, 0.4]), np.array([0.0, 15e-6]), np.array([20e-6, 25e-6]) ** 2
+    mean = (w @ mu) / w.sum()
+    assert merged.weights.tolist() == pytest.approx([0.7, 0.1, 0.2])
+    assert merged.means[0] == pytest.approx(mean) and merged.variances[0] == pytest.approx((w @ (var + mu**2)) / 0.7
+                                                                                          - mean**2)
+    ghost = _model([0.5, 0.0, 0.5], [0, 5], [20, 20])  # a component with no weight is not merged into another
+    assert ridgeline_merge(ghost)[1] == [[0], [1]]
+    single = _model([0.9, 0.1], [3], [20])
+    assert ridgeline_merge(single) == (single, [[0]])
