@@ -506,3 +506,36 @@ def test_merged_components_keep_the_pairs_moments_and_zero_weights_stay_apart() 
     assert ridgeline_merge(ghost)[1] == [[0], [1]]
     single = _model([0.9, 0.1], [3], [20])
     assert ridgeline_merge(single) == (single, [[0]])
+
+
+def test_pairs_em_reports_the_likelihood_of_what_it_returns_and_handles_nobody() -> None:
+    """log_likelihood: sum_k log p(a_k) of the returned parameters, each vector's density the product over the
+    pairs it has, in 1/s; no vectors or no people: the start as it was, with the posteriors' shapes."""
+    from avcore.mixture import fit_pairs_em
+
+    rng = np.random.default_rng(18)
+    mu0 = np.array([[-1e-4, 5e-5], [1.2e-4, -6e-5]])
+    x = np.concatenate([mu0[0] + rng.normal(0, 2e-5, (30, 2)), mu0[1] + rng.normal(0, 2e-5, (20, 2)),
+                        rng.uniform(-3e-4, 3e-4, (8, 2))])
+    x[::5, 1] = np.nan
+    sup = np.array([[-4e-4, 4e-4], [-3e-4, 3e-4]])
+    fit = fit_pairs_em(x, np.array([0.4, 0.4, 0.2]), mu0, np.full((2, 2), 4e-10), sup,
+                       settings=EMSettings(tol=1e-10))
+    seen = np.isfinite(x)
+    d = np.where(seen[:, None, :], x[:, None, :] - fit.means[None], 0.0)
+    gauss = np.exp((-0.5 * (d * d / fit.variances[None] + np.log(2 * np.pi * fit.variances)[None])
+                    * seen[:, None, :]).sum(axis=2))
+    out = np.exp((seen * -np.log(sup[:, 1] - sup[:, 0])).sum(axis=1))
+    p_x = gauss @ fit.weights[:-1] + fit.weights[-1] * out
+    assert fit.converged and fit.log_likelihood == pytest.approx(np.log(p_x).sum(), rel=1e-9)
+    np.testing.assert_allclose(fit.beta[:, -1], fit.weights[-1] * out / p_x, rtol=1e-9)
+    w = np.array([0.5, 0.5])
+    none = fit_pairs_em(x[:0], w, mu0[:1], np.full((1, 2), 1e-9), sup)
+    assert none.beta.shape == (0, 2) and none.weights is not None and np.array_equal(none.means, mu0[:1])
+    assert (none.log_likelihood, none.n_iter, none.converged) == (0.0, 0, True)
+    nobody = fit_pairs_em(x, np.ones(1), np.empty((0, 2)), np.empty((0, 2)), sup)
+    assert nobody.beta.shape == (x.shape[0], 1) and np.all(nobody.beta == 1.0)
+    with pytest.raises(ValueError, match=r"need itds \(K, P\), means and variances \(N, P\), supports \(P, 2\)"):
+        fit_pairs_em(x, w, mu0[:1], np.full((1, 3), 1e-9), sup)
+    with pytest.raises(ValueError, match=r"weights must have N \+ 1 = 2 entries, got \(3,\)"):
+        fit_pairs_em(x, np.ones(3) / 3, mu0[:1], np.full((1, 2), 1e-9), sup)
