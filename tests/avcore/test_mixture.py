@@ -539,3 +539,53 @@ def test_pairs_em_reports_the_likelihood_of_what_it_returns_and_handles_nobody()
         fit_pairs_em(x, w, mu0[:1], np.full((1, 3), 1e-9), sup)
     with pytest.raises(ValueError, match=r"weights must have N \+ 1 = 2 entries, got \(3,\)"):
         fit_pairs_em(x, np.ones(3) / 3, mu0[:1], np.full((1, 2), 1e-9), sup)
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"max_iter": 0}, "max_iter must be >= 1, got 0"),
+    ({"tol": 0.0}, "tol must be > 0, got 0.0"),
+    ({"var_floor_s2": -1e-12}, r"var_floor_s2 must be > 0 s\^2, got -1e-12"),
+    ({"min_outlier_weight": 1.0}, r"min_outlier_weight must be in \(0, 1\), got 1.0"),
+    ({"min_outlier_weight": 0.0}, r"min_outlier_weight must be in \(0, 1\), got 0.0"),
+])
+def test_em_settings_name_what_is_wrong(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        EMSettings(**kwargs)
+
+
+def test_em_settings_at_their_limits_are_accepted() -> None:
+    s = EMSettings(max_iter=1, tol=1e-300, var_floor_s2=1e-300, min_outlier_weight=1e-12)
+    assert (s.max_iter, s.min_outlier_weight) == (1, 1e-12)
+    assert EMSettings() == EMSettings(max_iter=100, tol=1e-4, var_floor_s2=2.5e-11, min_outlier_weight=1e-3)
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (([0.5, 0.6], [0.0], [1e-9]), r"weights must be non-negative and sum to 1, got \[0.5 0.6\]"),
+    (([1.2, -0.2], [0.0], [1e-9]), r"weights must be non-negative and sum to 1, got \[ 1.2 -0.2\]"),
+    (([1.0], [0.0], [1e-9]), "a mixture of N Gaussians needs N \\+ 1 weights, N means and N variances; got 1, 1, 1"),
+    (([0.5, 0.5], [0.0], [1e-9, 1e-9]), "a mixture of N Gaussians needs N \\+ 1 weights, N means and N variances; "
+                                         "got 2, 1, 2"),
+    (([0.5, 0.5], [np.nan], [1e-9]), "mixture parameters must be finite"),
+    (([0.5, 0.5], [0.0], [np.inf]), "mixture parameters must be finite"),
+    (([np.nan, 0.5], [0.0], [1e-9]), "mixture parameters must be finite"),
+    (([0.5, 0.5], [0.0], [0.0]), r"variances must be positive, got \[0.\]"),
+])
+def test_a_mixture_names_what_is_wrong(args: tuple, message: str) -> None:
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        Mixture1D(np.asarray(args[0]), args[1], args[2], SUPPORT)
+
+
+@pytest.mark.parametrize("support", [(1e-4, 1e-4), (2e-4, -2e-4), (-np.inf, 1e-4), (0.0, np.nan)])
+def test_a_mixtures_support_must_be_an_interval(support: tuple[float, float]) -> None:
+    with pytest.raises(ValueError, match=r"^support must be an interval \(lo, hi\) of seconds with lo < hi, got "):
+        Mixture1D(np.ones(1), [], [], support)
+
+
+def test_a_mixture_stores_flat_float_arrays_and_weights_within_a_millionth_of_one() -> None:
+    m = Mixture1D([[0.5], [0.5 + 9e-7]], [[1]], [[2]], (-1, 1))
+    assert m.weights.shape == (2,) and m.means.dtype == np.float64 and m.variances.tolist() == [2.0]
+    assert m.support == (-1.0, 1.0) and type(m.support[0]) is float
+    with pytest.raises(ValueError, match="sum to 1"):
+        Mixture1D([0.5, 0.5 + 2e-6], [1.0], [2.0], (-1, 1))
+    zero = Mixture1D([0.0, 1.0], [1.0], [2.0], (-1, 1))  # a component with no weight is allowed
+    assert zero.weights[0] == 0.0
