@@ -589,3 +589,56 @@ def test_a_mixture_stores_flat_float_arrays_and_weights_within_a_millionth_of_on
         Mixture1D([0.5, 0.5 + 2e-6], [1.0], [2.0], (-1, 1))
     zero = Mixture1D([0.0, 1.0], [1.0], [2.0], (-1, 1))  # a component with no weight is allowed
     assert zero.weights[0] == 0.0
+
+
+def test_binned_samples_keep_each_bins_exact_count_sum_and_square() -> None:
+    x = np.array([3.9, 0.0, 1.2, 0.4, 1.99]) * 1e-6
+    b = BinnedSamples.from_samples(x, 1e-6)  # bins of 1 us from the smallest value: [0, 1), [1, 2), [3, 4)
+    np.testing.assert_allclose(b.stats[:, 0], [2, 2, 1])
+    np.testing.assert_allclose(b.stats[:, 1], [0.4, 3.19, 3.9], rtol=1e-12)
+    np.testing.assert_allclose(b.stats[:, 2], [0.16, 1.2**2 + 1.99**2, 3.9**2], rtol=1e-12)
+    np.testing.assert_allclose(b.x_us, [0.2, 1.595, 3.9], rtol=1e-12)  # each bin's mean, where it is evaluated
+    assert b.total == 5.0
+    exact = BinnedSamples.from_samples(x, None)
+    np.testing.assert_allclose(exact.x_us, x * 1e6, rtol=1e-12)
+    np.testing.assert_allclose(exact.stats[:, 0], 1)
+    np.testing.assert_allclose(exact.stats[:, 2], (x * 1e6) ** 2, rtol=1e-12)
+    empty = BinnedSamples.from_samples(np.empty(0))
+    assert empty.x_us.shape == (0,) and empty.stats.shape == (0, 3) and empty.total == 0.0
+
+
+def test_models_pack_into_the_engines_microseconds_and_back() -> None:
+    from avcore.mixture import pack, unpack
+
+    a, b = _model([0.5, 0.3, 0.2], [-100, 50], [20, 10]), _model([0.9, 0.1], [30], [15])
+    p = pack([a, b])
+    assert p.sizes.tolist() == [2, 1] and p.wo.tolist() == [0.2, 0.1]
+    np.testing.assert_allclose(p.mu, [-100, 50, 30], rtol=1e-12)
+    np.testing.assert_allclose(p.var, [400, 100, 225], rtol=1e-12)
+    back = unpack(p, 1, SUPPORT)
+    assert back.weights.tolist() == pytest.approx([0.9, 0.1]) and back.means == pytest.approx([30e-6])
+    assert back.variances == pytest.approx([(15e-6) ** 2]) and back.support == SUPPORT
+    p.wg[2], p.wo[1] = 0.45, 0.05  # weights that no longer sum to one come back normalised
+    assert unpack(p, 1, SUPPORT).weights.tolist() == pytest.approx([0.9, 0.1])
+    with pytest.raises(ValueError, match="^only models with at least one Gaussian component can be packed$"):
+        pack([a, Mixture1D.outliers_only(SUPPORT)])
+
+
+def test_a_components_density_far_out_is_tiny_but_not_zero() -> None:
+    m = _model([0.6, 0.4], [0], [1])  # 1 us wide
+    far = m.component_densities(np.array([300e-6]))[0, 0]
+    assert far == pytest.approx(0.6 * np.exp(-700) / np.sqrt(2 * np.pi * 1e-12), rel=1e-9)
+    near = m.component_densities(np.array([30e-6]))[0, 0]
+    assert near == pytest.approx(0.6 * np.exp(-450) / np.sqrt(2 * np.pi * 1e-12), rel=1e-9)
+    np.testing.assert_allclose(m.density(np.array([300e-6, 30e-6])),
+                               [far + 0.4 / 700e-6, near + 0.4 / 700e-6], rtol=1e-12)
+
+
+def test_components_ordered_by_weight_keep_ties_in_place_and_the_outlier_last() -> None:
+    m = _model([0.2, 0.3, 0.2, 0.3], [-100, 0, 100], [10, 20, 30])
+    o = m.ordered_by_weight()
+    assert o.weights.tolist() == [0.3, 0.2, 0.2, 0.3] and o.means.tolist() == pytest.approx([0, -100e-6, 100e-6])
+    assert o.variances.tolist() == pytest.approx([(20e-6) ** 2, (10e-6) ** 2, (30e-6) ** 2])
+    nobody = Mixture1D.outliers_only(SUPPORT)
+    assert nobody.weights.tolist() == [1.0] and nobody.n_components == 0 and nobody.support == SUPPORT
+    assert nobody.outlier_density == pytest.approx(1 / 700e-6)
