@@ -478,3 +478,53 @@ def test_a_past_only_time_frame_completes_at_its_stamp() -> None:
     assert tf.push_secondary(1.02, 1.02) == [("frame", [0.7, 0.95])]  # 0.55 is before 1.0 - 0.4; 1.02 after
     with pytest.raises(ValueError, match="after_s"):
         TimeFrame(window_s=0.2, after_s=-0.1)
+
+
+def test_a_time_frame_names_a_primary_out_of_order_and_counts_every_dropped_one() -> None:
+    tf = TimeFrame(window_s=0.1, max_pending=1)
+    tf.push_primary(1.0, "a")
+    with pytest.raises(ValueError, match=r"^primary stamp 0\.5 is earlier than the previous primary stamp 1\.0; "
+                                         r"TimeFrame needs primaries in stamp order \(the event was ignored\)$"):
+        tf.push_primary(0.5, "late")
+    tf.push_primary(2.0, "b")
+    tf.push_primary(3.0, "c")
+    assert tf.dropped_primaries == 2 and tf.n_pending == 1
+
+
+def _window_with_blocks(span_s: float, keep_s: float = 30.0) -> FrameItdWindow:
+    """Blocks of two frames at 0, 0.25 | 0.5, 0.75 | 1.0, 1.25 s (binary fractions: comparisons are exact), each
+    frame's ITD its time in ms and its band's the negative."""
+    w = FrameItdWindow(span_s, keep_s)
+    for start in (0.0, 0.5, 1.0):
+        times = [start, start + 0.25]
+        w.push(times, [1e3 * t for t in times], times, [-1e3 * t for t in times])
+    return w
+
+
+def test_frames_exactly_a_span_away_are_near() -> None:
+    """|t - stamp| <= span: a frame or a band exactly ``span_s`` from the stamp counts, and so does a block that
+    ends or begins exactly there."""
+    frames, bands, _ = _window_with_blocks(0.25).near(0.5)
+    assert frames.tolist() == [250.0, 500.0, 750.0] and bands.tolist() == [-250.0, -500.0, -750.0]
+    frames, bands, _ = _window_with_blocks(0.25).near(0.75)
+    assert frames.tolist() == [500.0, 750.0, 1000.0] and bands.tolist() == [-500.0, -750.0, -1000.0]
+    assert frames.dtype == np.float64 and bands.dtype == np.float64  # lists of numbers are kept as floats
+
+
+def test_the_window_keeps_blocks_exactly_keep_s_old_and_counts_every_frame_it_cuts() -> None:
+    assert FrameItdWindow(0.2).keep_s == 30.0  # half a minute without vision frames
+    w = _window_with_blocks(0.1, keep_s=0.5)
+    # the blocks end at 0.25, 0.75 and 1.25 s: each kept while it ended exactly 0.5 s before the newest, the first
+    # cut when the third came
+    assert [b[1] for b in w] == [0.75, 1.25] and w.cut == 2
+    w.push([2.0, 2.25], [1.0, 2.0], [2.0], [3.0])
+    assert [b[1] for b in w] == [2.25] and w.cut == 6
+    with pytest.raises(ValueError, match="^keep_s must be"):
+        FrameItdWindow(0.2, keep_s=-1.0)
+
+
+def test_itds_given_as_integers_come_back_as_floats() -> None:
+    w = FrameItdWindow(1.0)
+    w.push([1, 2], [3, 4], [1], [5])
+    frames, bands, _ = w.near(1)
+    assert frames.dtype == np.float64 and bands.dtype == np.float64 and frames.tolist() == [3.0, 4.0]
