@@ -230,3 +230,61 @@ def test_a_turned_array_turns_about_the_vertical_through_its_centre() -> None:
     np.testing.assert_allclose(np.asarray(back.positions), np.asarray(array.positions), atol=1e-12)
     with pytest.raises(ValueError, match="yaw_rad"):
         array.turned(float("nan"))
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"left": (0, 0, 0), "right": (0, 0, 0)},
+     "left and right microphones are at the same position; give their two positions"),
+    ({"left": (0, 0)}, r"left must be three finite coordinates in metres, got \(0, 0\)"),
+    ({"right": (0, 0, float("inf"))}, r"right must be three finite coordinates in metres, got \(0, 0, inf\)"),
+    ({"speed_of_sound": 0.0}, "speed_of_sound must be a positive number of m/s, got 0.0"),
+    ({"speed_of_sound": float("inf")}, "speed_of_sound must be a positive number of m/s, got inf"),
+    ({"c1": 0.0}, "c1 must be a finite non-zero scale, got 0.0"),
+    ({"c1": float("nan")}, "c1 must be a finite non-zero scale, got nan"),
+    ({"c0": float("nan")}, "c0 must be a finite offset in seconds, got nan"),
+])
+def test_a_pair_names_what_is_wrong(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        MicPair(**kwargs)
+
+
+def test_a_pair_accepts_a_negative_scale_and_stores_float_positions() -> None:
+    flipped = MicPair(left=[0, 0, 0], right=np.array([1, 0, 0]), c1=-1.0, c0=1e-5)
+    assert flipped.left == (0.0, 0.0, 0.0) and type(flipped.right[0]) is float and flipped.c1 == -1.0
+
+
+TWO = ((0.0, 0.0, 0.0), (0.1, 0.0, 0.0))
+
+
+@pytest.mark.parametrize(("args", "kwargs", "message"), [
+    ((((0, 0, 0),),), {}, "a microphone array needs at least 2 positions, got 1"),
+    ((TWO,), {"pairs": []}, r"pairs must name at least one pair \(i, j\) of microphones"),
+    ((TWO,), {"pairs": [(0, 0)]}, r"each pair must be two different microphone numbers below 2, got \(0, 0\)"),
+    ((TWO,), {"pairs": [(0, 2)]}, r"each pair must be two different microphone numbers below 2, got \(0, 2\)"),
+    ((TWO,), {"pairs": [(-1, 1)]}, r"each pair must be two different microphone numbers below 2, got \(-1, 1\)"),
+    (((TWO[0], TWO[0]),), {}, r"pair \(0, 1\) has both microphones at \(0.0, 0.0, 0.0\)"),
+    ((TWO,), {"c1": (1.0, 1.0)}, r"c1 must give one value per pair \(1\), got 2"),
+    ((TWO,), {"c0": ()}, r"c0 must give one value per pair \(1\), got 0"),
+    ((TWO,), {"channels": (0,)}, r"channels must give 2 different channel numbers >= 0, got \(0,\)"),
+    ((TWO,), {"channels": (1, 1)}, r"channels must give 2 different channel numbers >= 0, got \(1, 1\)"),
+    ((TWO,), {"channels": (-1, 0)}, r"channels must give 2 different channel numbers >= 0, got \(-1, 0\)"),
+    (((TWO[0], (0, 0, float("nan"))),), {}, r"positions\[1\] must be three finite coordinates in metres, got "),
+])
+def test_an_array_names_what_is_wrong(args: tuple, kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=f"^{message}"):
+        MicArray(*args, **kwargs)
+
+
+def test_an_array_at_its_limits_is_accepted() -> None:
+    two = MicArray(TWO, channels=(5, 0))
+    assert two.pairs == ((0, 1),) and two.channels == (5, 0) and two.c1 == (1.0,) and two.c0 == (0.0,)
+    assert MicArray(TWO, pairs=[(1, 0)], c1=[2], c0=[0]).pair(0).left == TWO[1]
+    with pytest.raises(ValueError, match="^unknown microphone array 'nope'; choose one of pair, laptop, nao, "):
+        MicArray.preset("nope")
+    with pytest.raises(ValueError, match=r"^rotation must be a \(3, 3\) rotation matrix, got "):
+        two.placed(np.eye(2), np.zeros(3))
+    with pytest.raises(ValueError, match=r"^translation_m must be three finite coordinates in metres, got \[0, 0\]$"):
+        two.placed(np.eye(3), [0, 0])
+    with pytest.raises(ValueError, match="^yaw_rad must be a finite angle in radians, got nan$"):
+        two.turned(float("nan"))
+    assert two.placed(np.eye(3), [0.0, 0.0, 0.5]).positions[1] == (0.1, 0.0, 0.5)
