@@ -13,7 +13,7 @@ from avcore.inference import (
     MotionGuidedParams,
     speaking_threshold,
 )
-from avcore.mixture import Mixture1D
+from avcore.mixture import EMSettings, Mixture1D
 from avcore.speaking import SpeakingTest
 
 MICS = MicPair()
@@ -417,3 +417,93 @@ def test_a_head_and_a_body_in_two_clusters_are_one_person_with_both_shares() -> 
     nothing = MotionGuidedHearing(MICS)._refine(pts, v, a, np.zeros_like(alpha), beta, model)
     assert [x.shape for x in nothing[:4]] == [(0, 3), (0, 3, 3), (0,), (a.size, 0)]
     assert nothing[4].n_components == 0 and nothing[4].support == MICS.itd_interval()
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"n_max": -1}, "n_max must be in 0..50, got -1"),
+    ({"n_max": 51}, "n_max must be in 0..50, got 51"),
+    ({"bin_width_s": 0.0}, "bin_width_s must be > 0 seconds, got 0.0"),
+    ({"merge_distance_m": 0.0}, "merge_distance_m and merge_vertical_m must be > 0 metres, got 0.0, 1.2"),
+    ({"merge_vertical_m": -1.0}, "merge_distance_m and merge_vertical_m must be > 0 metres, got 0.3, -1.0"),
+    ({"merge_reach_per_m": -0.1}, "merge_reach_per_m must be >= 0, got -0.1"),
+    ({"body_width_m": 0.0}, "body_width_m must be None or > 0 metres, got 0.0"),
+    ({"body_radius_m": -0.3}, "body_radius_m must be None or > 0 metres, got -0.3"),
+])
+def test_motion_guided_params_name_what_is_wrong(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        MotionGuidedParams(**kwargs)
+
+
+def test_motion_guided_params_at_their_limits_are_accepted() -> None:
+    p = MotionGuidedParams(n_max=0, merge_reach_per_m=0.0, body_width_m=None, body_radius_m=None)
+    assert (p.n_max, p.body_width_m, p.body_radius_m) == (0, None, None)
+    assert MotionGuidedParams(n_max=50).n_max == 50
+    with pytest.raises(TypeError, match="^body_keeps_groups must be a bool, got int$"):
+        MotionGuidedParams(body_keeps_groups=1)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(("kwargs", "message"), [
+    ({"decision_window_s": 0.0}, "decision_window_s must be > 0 s or None, got 0.0"),
+    ({"sigma2_init_s2": 0.0}, r"sigma2_init_s2 must be > 0 s\^2, got 0.0"),
+    ({"var_min_s2": 0.0}, "need 0 < var_min_s2 <= var_max_s2"),
+    ({"var_min_s2": 5e-9}, "need 0 < var_min_s2 <= var_max_s2"),
+    ({"init_outlier_weight": 1.0}, r"init_outlier_weight must be in \(0, 1\), got 1.0"),
+    ({"init_outlier_weight": 0.0}, r"init_outlier_weight must be in \(0, 1\), got 0.0"),
+])
+def test_face_guided_params_name_what_is_wrong(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=f"^{message}$"):
+        FaceGuidedParams(**kwargs)
+
+
+def test_face_guided_params_at_their_limits_and_defaults() -> None:
+    p = FaceGuidedParams(var_min_s2=4e-9, var_max_s2=4e-9, decision_window_s=1e-3)
+    assert p.var_min_s2 == p.var_max_s2 and p.decision_window_s == 1e-3
+    d = FaceGuidedParams()
+    assert (d.sigma2_init_s2, d.anchor_means, d.update_variances, d.var_min_s2, d.var_max_s2,
+            d.init_outlier_weight) == (1e-9, True, False, 1e-10, 4e-9, 0.2)
+    assert (d.em.max_iter, d.em.tol) == (50, 1e-4) and d.speaking.count_by == "nearest"
+
+
+def test_itds_given_per_pair_are_stacked_and_wrong_ones_are_named() -> None:
+    from avcore.inference import _itd_vectors
+
+    out = _itd_vectors([np.array([1e-4, 2e-4]), np.array([3e-4])], 2, "itds_s")
+    np.testing.assert_array_equal(out, [[1e-4, np.nan], [2e-4, np.nan], [np.nan, 3e-4]])
+    assert out.dtype == np.float64
+    ints = _itd_vectors(np.array([[1, 2], [3, 4]]), 2, "itds_s")
+    assert ints.dtype == np.float64 and ints.tolist() == [[1.0, 2.0], [3.0, 4.0]]
+    assert _itd_vectors([1e-4, 2e-4], 1, "x").shape == (2, 1)
+    with pytest.raises(ValueError, match=r"^itds_s must have one column per pair \(2\), got shape \(2, 3\)$"):
+        _itd_vectors(np.zeros((2, 3)), 2, "itds_s")
+    with pytest.raises(ValueError, match="^itds_s must give 2 arrays, one per pair, got 3$"):
+        _itd_vectors([np.zeros(1)] * 3, 2, "itds_s")
+    with pytest.raises(ValueError, match=r"^frame_itds_s must be finite or NaN \(a pair without an ITD\)$"):
+        _itd_vectors(np.array([[0.0, np.inf]]), 2, "frame_itds_s")
+    with pytest.raises(ValueError, match=r"^itds_s\[1\] holds 1 NaN"):
+        _itd_vectors([np.zeros(1), np.array([np.nan])], 2, "itds_s")
+    with pytest.raises(TypeError, match="^mics must be a MicPair or a MicArray, got str$"):
+        FaceGuidedHearing("mics")  # type: ignore[arg-type]
+
+
+def test_face_guided_step_reports_the_em_it_ran_from_the_faces() -> None:
+    """Algorithm 2's start (section 5.1): one component per face at its mapped ITD, sigma^2 = 1e-9 s^2, the
+    outlier prior 0.2 and the rest shared equally; the output's counts are the posteriors' sums of that EM."""
+    from avcore.mixture import fit_pairs_em
+
+    rng = np.random.default_rng(23)
+    itds = np.concatenate([rng.normal(MICS.itd(PEOPLE[0]), 20e-6, 14), rng.uniform(-3e-4, 3e-4, 5)])
+    fg = FaceGuidedHearing(MICS)
+    out = fg.step(PEOPLE, itds)
+    means = MICS.itd(PEOPLE)[:, None]
+    fit = fit_pairs_em(itds[:, None], np.array([0.8 / 3] * 3 + [0.2]), means, np.full((3, 1), 1e-9),
+                       np.array([MICS.itd_interval()]), settings=EMSettings(max_iter=50, tol=1e-4, var_floor_s2=1e-10),
+                       update_means=False, update_variances=False, max_variance_s2=4e-9)
+    np.testing.assert_array_equal(out.itd_means, means[:, 0])
+    np.testing.assert_array_equal(out.pair_itd_means, fit.means)
+    np.testing.assert_allclose(out.itd_counts, fit.beta[:, :-1].sum(axis=0), rtol=1e-12)
+    np.testing.assert_allclose(out.model.weights, fit.weights, rtol=1e-12)
+    assert out.model.variances.tolist() == [1e-9] * 3 and out.model.support == MICS.itd_interval()
+    assert out.n_iter == fit.n_iter and out.tau_a == pytest.approx(itds.size / 5)
+    assert out.speaking.tolist() == [True, False, False]
+    nobody = fg.step(np.empty((0, 3)), itds)
+    assert nobody.itd_counts.shape == (0,) and nobody.model.weights.tolist() == [1.0]
