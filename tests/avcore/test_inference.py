@@ -507,3 +507,53 @@ def test_face_guided_step_reports_the_em_it_ran_from_the_faces() -> None:
     assert out.speaking.tolist() == [True, False, False]
     nobody = fg.step(np.empty((0, 3)), itds)
     assert nobody.itd_counts.shape == (0,) and nobody.model.weights.tolist() == [1.0]
+
+
+def test_warm_started_candidates_take_last_intervals_fit_only_where_it_explains_the_data_better(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Per N, the start is the better (on the new data) of the paper's initialisation and the previous interval's
+    fit with N components; the choice is per model of the batch."""
+    from avcore._packed_em import Packed
+    from avcore.inference import _choose
+
+    a = Packed(np.array([1, 2]), np.array([0.9, 0.4, 0.5]), np.array([1.0, 2.0, 3.0]), np.array([4.0, 5.0, 6.0]),
+               np.array([0.1, 0.1]))
+    b = Packed(np.array([1, 2]), np.array([0.8, 0.3, 0.6]), np.array([7.0, 8.0, 9.0]), np.array([10.0, 11.0, 12.0]),
+               np.array([0.2, 0.1]))
+    c = _choose(a, b, np.array([False, True]))
+    assert c.sizes.tolist() == [1, 2] and c.sizes is not a.sizes
+    assert c.wg.tolist() == [0.9, 0.3, 0.6] and c.mu.tolist() == [1.0, 8.0, 9.0] and c.var.tolist() == [4.0, 11.0, 12.0]
+    assert c.wo.tolist() == [0.1, 0.1]
+    assert _choose(a, b, np.array([True, False])).wo.tolist() == [0.2, 0.1]
+    # through the algorithm: each candidate of the second interval starts where the data are likelier
+    from avcore import inference
+    from avcore._packed_em import log_likelihoods
+    from avcore.mixture import BinnedSamples, initial_models, pack
+
+    rng = np.random.default_rng(24)
+    mg = MotionGuidedHearing(MICS)
+    mg.step(*_interval(rng))
+    previous, candidates = mg.previous_, mg._candidates.copy()
+    pts, itds = _interval(rng, PEOPLE[:2])  # one of the three left: last interval's fits are better for some N only
+    starts = []
+    real = inference.run_em
+    monkeypatch.setattr(inference, "run_em", lambda x, stats, p, *args, **kw: starts.append(p) or real(x, stats, p,
+                                                                                                          *args, **kw))
+    vis, _, bic = mg.fit_candidates(MICS.itd(pts), itds)
+    assert [m.n_components for m in vis] == list(range(11)) and bic.shape == (11,)
+    data = BinnedSamples.from_samples(MICS.itd(pts), 2e-6)
+    paper = pack(initial_models(previous, 10, MICS.itd_interval(), data, outlier_weight=0.1)[1:])
+    u = 1.0 / ((MICS.itd_interval()[1] - MICS.itd_interval()[0]) * 1e6)
+    better = log_likelihoods(data.x_us, data.stats[:, 0], candidates, u) > log_likelihoods(
+        data.x_us, data.stats[:, 0], paper, u)
+    assert 0 < better.sum() < 10  # some of each
+    want = _choose(paper, candidates, better)
+    np.testing.assert_array_equal(starts[0].mu, want.mu)
+    np.testing.assert_array_equal(starts[0].wo, want.wo)
+
+
+def test_dropped_clusters_give_their_weight_to_the_outliers() -> None:
+    model = Mixture1D(np.array([0.5, 0.2, 0.2, 0.1]), [-1e-4, 0.0, 1e-4], [1e-9] * 3, MICS.itd_interval())
+    kept = MotionGuidedHearing(MICS)._keep(model, np.array([True, False, True]))
+    assert kept.weights.tolist() == pytest.approx([0.5, 0.2, 0.3]) and kept.means.tolist() == [-1e-4, 1e-4]
+    assert kept.support == MICS.itd_interval()
