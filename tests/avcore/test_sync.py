@@ -528,3 +528,25 @@ def test_itds_given_as_integers_come_back_as_floats() -> None:
     w.push([1, 2], [3, 4], [1], [5])
     frames, bands, _ = w.near(1)
     assert frames.dtype == np.float64 and bands.dtype == np.float64 and frames.tolist() == [3.0, 4.0]
+
+
+def test_a_time_frame_names_each_wrong_argument_and_accepts_buffers_of_one() -> None:
+    tf = TimeFrame(0.1)
+    assert (tf.max_secondaries, tf.max_pending, tf.after_s) == (4096, 256, 0.1)
+    for kwargs, message in [
+        ({"window_s": -0.1}, "window_s must be a finite, non-negative number of seconds, got -0.1"),
+        ({"window_s": 0.1, "after_s": -1.0}, "after_s must be a finite, non-negative number of seconds, got -1.0"),
+        ({"window_s": 0.1, "max_secondaries": 0}, "max_secondaries must be at least 1, got 0"),
+        ({"window_s": 0.1, "max_pending": 0}, "max_pending must be at least 1, got 0"),
+    ]:
+        with pytest.raises(ValueError, match=f"^{message}$"):
+            TimeFrame(**kwargs)
+    with pytest.raises(TypeError, match="^max_secondaries must be an integer, got float$"):
+        TimeFrame(0.1, max_secondaries=2.0)  # type: ignore[arg-type]
+    one = TimeFrame(0.1, max_secondaries=1, max_pending=1)
+    assert (one.max_secondaries, one.max_pending) == (1, 1)
+    one.push_secondary(0.0, "s")
+    with pytest.raises(ValueError, match=r"^secondary stamp -1\.0 is earlier than 0\.0, the latest secondary stamp or "
+                                         r"advance\(\); TimeFrame needs secondaries in stamp order \(the event was "
+                                         r"ignored\)$"):
+        one.push_secondary(-1.0, "late")
