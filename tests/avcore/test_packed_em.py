@@ -251,6 +251,11 @@ def test_em_on_nothing_returns_its_start_as_converged() -> None:
                                         min_wo=0.0)
     assert np.array_equal(fit.mu, p.mu) and fit is not p
     assert ll.tolist() == [0.0] * 3 and n_iter.tolist() == [0] * 3 and converged.all()
+    assert n_iter.dtype == np.int64 and converged.dtype == bool
+    fused, n_iter, converged = run_fusion(np.zeros((6, 3)), np.zeros(3), 0.0, np.empty(0), p, U, max_iter=5, tol=1e-6,
+                                          var_floor=1.0, min_wo=0.0)
+    assert np.array_equal(fused.mu, p.mu) and fused is not p
+    assert n_iter.dtype == np.int64 and converged.dtype == bool and n_iter.tolist() == [0] * 3 and converged.all()
 
 
 def test_the_last_e_step_is_handed_back() -> None:
@@ -384,3 +389,48 @@ def test_the_fusion_em_is_section_4_1_written_out() -> None:
 
 def test_the_default_updates_re_estimate_everything() -> None:
     assert ALL == Updates(means=True, variances=True, var_ceiling=np.inf)
+
+
+def test_the_fusion_of_several_models_fits_each_as_alone_even_from_one_itd() -> None:
+    """Two models fused at once, each as the written-out fusion alone (the objective and the outlier counts are per
+    model); a single ITD and no visual data still move a model."""
+    rng = np.random.default_rng(10)
+    v = np.concatenate([rng.normal(-200.0, 20.0, 30), rng.normal(150.0, 30.0, 40)])
+    a = np.concatenate([rng.normal(-190.0, 30.0, 9), rng.uniform(-600, 600, 3)])
+    p = Packed(np.array([1, 2]), np.array([0.8, 0.4, 0.4]), np.array([-150.0, -210.0, 140.0]),
+               np.array([2500.0, 500.0, 800.0]), np.array([0.2, 0.2]))
+    alpha = [np.full((70, 1), 0.7), np.column_stack([np.r_[np.full(30, 0.9), np.zeros(40)],
+                                                     np.r_[np.zeros(30), np.full(40, 0.85)]])]
+    vis_g = np.concatenate([np.stack([al.sum(axis=0), al.T @ v, al.T @ v ** 2], axis=1) for al in alpha])
+    vis_o = np.array([70 - al.sum() for al in alpha])
+    kw = dict(max_iter=60, tol=1e-9, var_floor=4.0, min_wo=0.02)
+    fused, n_iter, _ = run_fusion(vis_g, vis_o, 70.0, a, p, U, **kw)
+    for c in range(2):
+        s = list(_slots(p, c))
+        wg, mu, var, wo, it = _reference_fusion(vis_g[s], vis_o[c], 70.0, a, p.wg[s], p.mu[s], p.var[s], p.wo[c], **kw)
+        assert np.allclose(fused.mu[s], mu, rtol=1e-8) and np.allclose(fused.var[s], var, rtol=1e-8)
+        assert np.allclose(fused.wg[s], wg, rtol=1e-8) and fused.wo[c] == pytest.approx(wo, rel=1e-8)
+        assert n_iter[c] == it
+    one = Packed(np.array([1]), np.array([0.5]), np.array([0.0]), np.array([400.0]), np.array([0.5]))
+    moved, _, _ = run_fusion(np.zeros((1, 3)), np.zeros(1), 0.0, np.array([30.0]), one, U, **kw)
+    assert moved.mu[0] == pytest.approx(30.0) and moved.wg[0] > 0.5
+    nobody = Packed(np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))
+    out, n0, c0 = run_fusion(np.zeros((0, 3)), np.zeros(0), 70.0, a, nobody, U, **kw)
+    assert out.sizes.size == 0 and n0.size == 0 and c0.size == 0
+
+
+def test_the_fixed_visual_term_counts_slots_and_outliers_of_less_than_one_point() -> None:
+    p = Packed(np.array([1]), np.array([0.6]), np.array([10.0]), np.array([400.0]), np.array([0.4]))
+    vis_g = np.array([[0.5, 0.5 * 30.0, 0.5 * 900.0]])  # half a point at 30 us
+    got = fixed_q(vis_g, np.array([0.25]), _Live(p), U)
+    want = 0.5 * (math.log(0.6) - 0.5 * math.log(2 * math.pi * 400.0) - 0.5 * 400.0 / 400.0)
+    want += 0.25 * math.log(0.4 * U)
+    assert got[0] == pytest.approx(want, rel=1e-12)
+
+
+def test_the_likelihood_of_a_single_value() -> None:
+    p = _models()
+    ll = log_likelihoods(np.array([-90.0]), np.array([2.0]), p, U)
+    for c in range(3):
+        want = sum(p.wg[s] * _normal(-90.0, p.mu[s], p.var[s]) for s in _slots(p, c)) + p.wo[c] * U
+        assert ll[c] == pytest.approx(2.0 * math.log(want), rel=1e-12)
