@@ -232,6 +232,7 @@ def test_packed_models_fit_as_each_would_alone() -> None:
         rows = np.array(history)[:, c]
         assert np.allclose(rows[:len(hist_c)], hist_c, rtol=1e-10) and np.all(np.isnan(rows[len(hist_c):]))
     assert len(set(n_iter.tolist())) > 1  # the models left the batch at different iterations
+    assert n_iter.dtype == np.int64 and converged.dtype == bool
     assert p.mu[0] == -50.0  # the start is not changed in place
 
 
