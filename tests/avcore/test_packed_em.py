@@ -178,6 +178,10 @@ def test_an_empty_component_keeps_its_mean_and_variance() -> None:
                             np.array([30.0, 40.0, 1.0]), 0.1, 0.0)
     assert mu.tolist() == [-5.0, 7.0, 2.0] and var.tolist() == [30.0, 40.0, 1.0]
     assert wg.tolist() == [0.0, 5e-12, 1.0]
+    # 1e-10 of a point is still empty: a mean from it would be noise
+    _, mu, _, _ = m_step(np.array([[1e-10, 5e-10, 3e-9], [2.0, 4.0, 10.0]]), np.zeros(1), 2.0, np.array([2]),
+                         np.array([-5.0, 0.0]), np.array([30.0, 1.0]), 0.1, 0.0)
+    assert mu.tolist() == [-5.0, 2.0]
 
 
 def _reference_em(x: np.ndarray, n: np.ndarray, wg: np.ndarray, mu: np.ndarray, var: np.ndarray, wo: float,
