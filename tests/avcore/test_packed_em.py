@@ -82,10 +82,10 @@ def test_a_value_far_from_a_gaussian_keeps_a_tiny_density_not_zero() -> None:
 
 def _vector_models() -> Packed:
     """Two models of 1 and 2 components over two microphone pairs (means and variances per pair)."""
-    return Packed(np.array([1, 2]), np.array([0.9, 0.6, 0.3]),
+    return Packed(np.array([1, 2]), np.array([0.9, 0.5, 0.3]),
                   np.array([[-100.0, 50.0], [200.0, -80.0], [-250.0, 300.0]]),
                   np.array([[400.0, 900.0], [250.0, 100.0], [1600.0, 625.0]]),
-                  np.array([0.1, 0.1]))
+                  np.array([0.1, 0.2]))
 
 
 @pytest.mark.parametrize("missing", [False, True])
@@ -97,6 +97,7 @@ def test_the_e_step_of_vectors_multiplies_over_the_pairs_a_vector_has(missing: b
         x[1, 0] = np.nan  # the first pair had no value there
         x[2, 1] = np.nan
     dens, dens_o, total = e_step(x, p.sizes, p.wg, p.mu, p.var, p.wo, u)
+    assert dens_o.shape == ((3, 2) if missing else (2,))  # one outlier density per model unless pairs are missing
     for b in range(3):
         seen = [k for k in range(2) if np.isfinite(x[b, k])]
         for s in range(3):
@@ -175,7 +176,7 @@ def test_a_fixed_mean_gets_the_second_moment_about_itself() -> None:
 def test_an_empty_component_keeps_its_mean_and_variance() -> None:
     g = np.array([[0.0, 0.0, 0.0], [1e-11, 1e-9, 1e-7], [2.0, 4.0, 10.0]])
     wg, mu, var, _ = m_step(g, np.zeros(1), 2.0, np.array([3]), np.array([-5.0, 7.0, 0.0]),
-                            np.array([30.0, 40.0, 1.0]), 0.1, 0.0)
+                            np.array([30.0, 40.0, 9.0]), 0.1, 0.0)
     assert mu.tolist() == [-5.0, 7.0, 2.0] and var.tolist() == [30.0, 40.0, 1.0]
     assert wg.tolist() == [0.0, 5e-12, 1.0]
     # 1e-10 of a point is still empty: a mean from it would be noise
