@@ -319,10 +319,11 @@ def test_the_clusters_moments_are_the_alpha_weighted_mean_and_covariance() -> No
 
     rng = np.random.default_rng(5)
     points = rng.normal(0.0, 1.0, (40, 3)) * [0.3, 0.5, 0.2] + [0.1, -0.2, 2.0]
-    alpha = np.column_stack([rng.uniform(0, 1, 40), rng.uniform(0, 1, 40) ** 3, np.zeros(40)])
+    alpha = np.column_stack([rng.uniform(0, 1, 40), rng.uniform(0, 1, 40) ** 3, np.zeros(40),
+                             np.r_[0.3, 0.2, np.zeros(38)]])  # the last: half a point in all
     means, cov, abar = _weighted_moments(points, alpha)
     np.testing.assert_allclose(abar, alpha.sum(axis=0))
-    for n in range(2):
+    for n in (0, 1, 3):
         np.testing.assert_allclose(means[n], np.average(points, axis=0, weights=alpha[:, n]), rtol=1e-12)
         np.testing.assert_allclose(cov[n], np.cov(points.T, aweights=alpha[:, n], bias=True), rtol=1e-10, atol=1e-14)
     assert np.all(means[2] == 0) and np.all(cov[2] == 0)
@@ -539,8 +540,10 @@ def test_warm_started_candidates_take_last_intervals_fit_only_where_it_explains_
     real = inference.run_em
     monkeypatch.setattr(inference, "run_em", lambda x, stats, p, *args, **kw: starts.append(p) or real(x, stats, p,
                                                                                                           *args, **kw))
-    vis, _, bic = mg.fit_candidates(MICS.itd(pts), itds)
+    vis, fused, bic = mg.fit_candidates(MICS.itd(pts), itds)
     assert [m.n_components for m in vis] == list(range(11)) and bic.shape == (11,)
+    assert [m.n_components for m in fused] == list(range(11))
+    assert all(m.support == MICS.itd_interval() for m in vis + fused)
     data = BinnedSamples.from_samples(MICS.itd(pts), 2e-6)
     paper = pack(initial_models(previous, 10, MICS.itd_interval(), data, outlier_weight=0.1)[1:])
     u = 1.0 / ((MICS.itd_interval()[1] - MICS.itd_interval()[0]) * 1e6)
@@ -557,3 +560,62 @@ def test_dropped_clusters_give_their_weight_to_the_outliers() -> None:
     kept = MotionGuidedHearing(MICS)._keep(model, np.array([True, False, True]))
     assert kept.weights.tolist() == pytest.approx([0.5, 0.2, 0.3]) and kept.means.tolist() == [-1e-4, 1e-4]
     assert kept.support == MICS.itd_interval()
+
+
+def _refined(blobs: list[np.ndarray], params: MotionGuidedParams | None = None, alpha: np.ndarray | None = None,
+             a: np.ndarray | None = None) -> tuple:
+    """``_refine`` of one ITD cluster holding ``blobs`` (alpha 1 unless given), ITDs from the first blob's
+    direction unless given, each with the cluster's posterior 0.8."""
+    pts = np.concatenate(blobs)
+    v = MICS.itd(pts)
+    alpha = np.ones((pts.shape[0], 1)) if alpha is None else alpha
+    a = MICS.itd(blobs[0][:5]) if a is None else a
+    model = Mixture1D(np.array([0.8, 0.2]), [float(v.mean())], [float(v.var())], MICS.itd_interval())
+    return MotionGuidedHearing(MICS, params)._refine(pts, v, a, alpha, np.full((a.size, 1), 0.8), model)
+
+
+def test_a_hand_low_at_the_side_and_two_strips_a_torso_apart_are_one_person() -> None:
+    """A hand 0.6 m below the head and 0.35 m to its side is within reach (merge_reach_per_m); two strips 0.44 m
+    apart at one height are one body's width (body_width_m); without those settings each is two objects. With
+    neither a body radius nor a width the groups alone are the objects."""
+    rng = np.random.default_rng(25)
+    sd = (0.04, 0.06, 0.04)
+    head, hand = _blob(rng, [0.0, -0.5, 2.0], 150, sd), _blob(rng, [0.35, 0.1, 2.0], 100, sd)
+    assert _refined([head, hand])[0].shape == (1, 3)
+    assert _refined([head, hand], replace(MotionGuidedParams(), merge_reach_per_m=0.0))[0].shape == (2, 3)
+    left, right = (_blob(rng, [x, 0.0, 2.0], 150, (0.03, 0.1, 0.04)) for x in (-0.22, 0.22))
+    positions = _refined([left, right])[0]
+    assert positions.shape == (1, 3) and abs(positions[0, 0]) < 0.02
+    assert _refined([left, right], replace(MotionGuidedParams(), body_width_m=None))[0].shape == (2, 3)
+    bare = replace(MotionGuidedParams(), body_width_m=None, body_radius_m=None)
+    positions, _, mass, _, _ = _refined([head, hand], bare)
+    assert positions.shape == (1, 3) and mass[0] == pytest.approx(250, rel=0.05)
+
+
+def test_itds_far_from_every_group_are_still_shared_in_full() -> None:
+    """The cluster's posterior of an ITD is divided among its groups whatever its distance from them: the shares
+    are normalised even where every group's density is small."""
+    rng = np.random.default_rng(26)
+    near, far = _blob(rng, [0.3, 0.0, 1.5], 300, (0.06, 0.12, 0.04)), _blob(rng, [0.6, 0.0, 3.0], 200, (0.06, 0.12, 0.04))
+    a = MICS.itd(np.array([[0.3, 0.0, 1.5]])) + np.array([-150e-6, -120e-6, 0.0, 130e-6])
+    betas = _refined([near, far], a=a)[3]
+    assert betas.shape == (4, 2)
+    np.testing.assert_allclose(betas.sum(axis=1), 0.8, rtol=1e-12)
+
+
+def test_a_body_is_placed_by_its_own_clusters_points_only() -> None:
+    """Points in the body's cylinder that belong to another cluster (too few to be a group of their own) do not
+    move the body's centre: the cylinder's weights are the object's clusters' posteriors."""
+    rng = np.random.default_rng(27)
+    person = _blob(rng, [0.0, 0.0, 2.0], 250, (0.06, 0.12, 0.04))
+    stray = _blob(rng, [0.2, 0.0, 2.0], 30, (0.02, 0.05, 0.02))  # beside it, another cluster's (alpha 0.3 each)
+    alpha = np.zeros((280, 2))
+    alpha[:250, 0], alpha[250:, 1] = 1.0, 0.3
+    pts = np.concatenate([person, stray])
+    v = MICS.itd(pts)
+    a = MICS.itd(person[:5])
+    model = Mixture1D(np.array([0.5, 0.3, 0.2]), [float(v[:250].mean()), float(v[250:].mean())],
+                      [float(v[:250].var()), float(v[250:].var())], MICS.itd_interval())
+    positions = MotionGuidedHearing(MICS)._refine(pts, v, a, alpha, np.full((5, 2), 0.4), model)[0]
+    assert positions.shape == (1, 3)
+    assert np.linalg.norm(positions[0] - person.mean(axis=0)) < 0.01
