@@ -619,3 +619,24 @@ def test_a_body_is_placed_by_its_own_clusters_points_only() -> None:
     positions = MotionGuidedHearing(MICS)._refine(pts, v, a, alpha, np.full((5, 2), 0.4), model)[0]
     assert positions.shape == (1, 3)
     assert np.linalg.norm(positions[0] - person.mean(axis=0)) < 0.01
+
+
+def test_parts_whose_bodies_come_together_are_merged_once_more(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A head and a hand half a metre apart both ways, and the arm between them: the parts stay two, but the bodies
+    around them (each part with the cluster's points in its cylinder) are closer than the merge distance, so the
+    second merge, on the bodies, makes them one person."""
+    from avcore import inference
+
+    seen = []
+    real = inference.merge_close
+    monkeypatch.setattr(inference, "merge_close", lambda parts, *a, **k: seen.append(real(parts, *a, **k)) or seen[-1])
+    for seed in (0, 1):
+        rng = np.random.default_rng(seed)
+        head = _blob(rng, [0.0, -0.5, 2.0], 150, (0.04, 0.06, 0.04))
+        hand = _blob(rng, [0.5, 0.0, 2.0], 120, (0.04, 0.06, 0.04))
+        arm = np.c_[rng.uniform(0.05, 0.45, 60), rng.uniform(-0.5, 0.0, 60), rng.normal(2.0, 0.03, 60)]
+        seen.clear()
+        positions = _refined([head, hand, arm])[0]
+        assert len(seen) == 2 and len(seen[0]) == 2 and len(seen[1]) == 1  # the parts: two; their bodies: one
+        all_points = np.concatenate([head, hand, arm]).mean(axis=0)
+        assert positions.shape == (1, 3) and np.linalg.norm(positions[0] - all_points) < 0.01  # the whole body's
