@@ -306,6 +306,8 @@ def test_algorithm_1_selects_n_by_the_papers_bic(params: MotionGuidedParams, mon
         out = MotionGuidedHearing(MICS, params).step(pts, itds)
         ll, n, m = seen[-1]
         assert m == pts.shape[0] + itds.size  # M + K: every point and every ITD of the interval
+        width = MICS.itd_interval()[1] - MICS.itd_interval()[0]
+        assert ll[0] == pytest.approx(m * np.log(1.0 / width), rel=1e-12)  # N = 0: all outliers, 1/s densities
         np.testing.assert_array_equal(n, np.arange(params.n_max + 1))
         expected = ll - 3 * n * np.log(pts.shape[0] + itds.size) / 2
         np.testing.assert_allclose(out.bic, expected, rtol=0, atol=1e-9)
@@ -341,7 +343,7 @@ def test_the_papers_methods_are_the_papers() -> None:
             motion_default.speaking.outlier_aware) == (True, True, True)
     face = FaceGuidedParams.paper()
     assert face.anchor_means is False and face.update_variances is True and face.speaking.outlier_aware is False
-    assert face.var_max_s2 == 1.0
+    assert face.var_max_s2 == 1.0 and face.var_min_s2 == EMSettings().var_floor_s2
 
 
 def test_an_interval_without_moving_points_has_nobody_in_it() -> None:
@@ -553,6 +555,15 @@ def test_warm_started_candidates_take_last_intervals_fit_only_where_it_explains_
     want = _choose(paper, candidates, better)
     np.testing.assert_array_equal(starts[0].mu, want.mu)
     np.testing.assert_array_equal(starts[0].wo, want.wo)
+    # one moving point is data too
+    previous, candidates = mg.previous_, mg._candidates.copy()
+    one = BinnedSamples.from_samples(MICS.itd(pts[:1]), 2e-6)
+    mg.fit_candidates(MICS.itd(pts[:1]), itds)
+    paper = pack(initial_models(previous, 10, MICS.itd_interval(), one, outlier_weight=0.1)[1:])
+    better = log_likelihoods(one.x_us, one.stats[:, 0], candidates, u) > log_likelihoods(one.x_us, one.stats[:, 0],
+                                                                                          paper, u)
+    assert better.any()
+    np.testing.assert_array_equal(starts[-1].mu, _choose(paper, candidates, better).mu)
 
 
 def test_dropped_clusters_give_their_weight_to_the_outliers() -> None:
@@ -640,3 +651,52 @@ def test_parts_whose_bodies_come_together_are_merged_once_more(monkeypatch: pyte
         assert len(seen) == 2 and len(seen[0]) == 2 and len(seen[1]) == 1  # the parts: two; their bodies: one
         all_points = np.concatenate([head, hand, arm]).mean(axis=0)
         assert positions.shape == (1, 3) and np.linalg.norm(positions[0] - all_points) < 0.01  # the whole body's
+
+
+def test_with_n_max_zero_everybody_is_an_outlier() -> None:
+    rng = np.random.default_rng(28)
+    pts, itds = _interval(rng)
+    out = MotionGuidedHearing(MICS, MotionGuidedParams(n_max=0)).step(pts, itds)
+    width = MICS.itd_interval()[1] - MICS.itd_interval()[0]
+    assert out.n == 0 and out.n_selected == 0 and out.model.n_components == 0
+    assert out.bic.tolist() == pytest.approx([(pts.shape[0] + itds.size) * np.log(1.0 / width)], rel=1e-12)
+
+
+def test_the_batched_candidates_are_the_one_model_fits() -> None:
+    """Steps (b) and (c) of Algorithm 1 for every N at once equal the public one-model EM and fusion EM (the visual
+    points in bins of 1 ns: one each), and each BIC is eq. (criteria) of the fused model on both modalities."""
+    from avcore.mixture import BinnedSamples, bic_score, fit_em, fit_fusion_em, initial_models
+
+    rng = np.random.default_rng(29)
+    pts, itds = _interval(rng, n_per=60, n_out=30)
+    params = MotionGuidedParams(bin_width_s=1e-9, n_max=3)
+    v = MICS.itd(pts)
+    vis, fused, bic = MotionGuidedHearing(MICS, params).fit_candidates(v, itds)
+    inits = initial_models(None, 3, MICS.itd_interval(), BinnedSamples.from_samples(v, 1e-9), outlier_weight=0.1)
+    for n in range(1, 4):
+        one = fit_em(v, inits[n], settings=params.em).model_  # exact, one value at a time
+        np.testing.assert_allclose(vis[n].means, one.means, rtol=1e-7)
+        np.testing.assert_allclose(vis[n].variances, one.variances, rtol=1e-6)
+        fusion = fit_fusion_em(v, vis[n].responsibilities(v), itds, vis[n], settings=params.em).model_
+        np.testing.assert_allclose(fused[n].means, fusion.means, rtol=1e-7)
+        np.testing.assert_allclose(fused[n].variances, fusion.variances, rtol=1e-6)
+        ll = fused[n].log_likelihood(v) + fused[n].log_likelihood(itds)
+        assert bic[n] == pytest.approx(bic_score(ll, n, v.size + itds.size), rel=1e-9)
+
+
+def test_identical_points_hold_a_candidates_variance_at_its_floor() -> None:
+    v = np.full(300, MICS.itd(np.array([0.2, 0.0, 2.0])))
+    vis, fused, _ = MotionGuidedHearing(MICS).fit_candidates(v, np.empty(0))
+    floor = EMSettings().var_floor_s2
+    assert vis[1].variances[0] == pytest.approx(floor, rel=1e-9) and fused[1].variances[0] == pytest.approx(floor,
+                                                                                                          rel=1e-9)
+
+
+def test_points_more_than_merge_vertical_m_below_do_not_place_the_body() -> None:
+    """The body's cylinder reaches ``merge_vertical_m`` (1.2 m) up and down: a few points of the same cluster 1.5 m
+    below (too few for a group) are not part of it."""
+    rng = np.random.default_rng(30)
+    person = _blob(rng, [0.0, 0.0, 2.0], 250, (0.06, 0.12, 0.04))
+    feet = _blob(rng, [0.05, 1.5, 2.0], 10, (0.02, 0.02, 0.02))
+    positions = _refined([person, feet])[0]
+    assert positions.shape == (1, 3) and np.linalg.norm(positions[0] - person.mean(axis=0)) < 0.01
