@@ -700,3 +700,51 @@ def test_points_more_than_merge_vertical_m_below_do_not_place_the_body() -> None
     feet = _blob(rng, [0.05, 1.5, 2.0], 10, (0.02, 0.02, 0.02))
     positions = _refined([person, feet])[0]
     assert positions.shape == (1, 3) and np.linalg.norm(positions[0] - person.mean(axis=0)) < 0.01
+
+
+@pytest.mark.parametrize("n_people", [1, 2])
+def test_with_an_array_every_pair_decides_for_one_person_or_more(n_people: int) -> None:
+    """The speaking states and probabilities of Algorithm 1 on an array are Algorithm 2's on every pair at the found
+    positions, with Algorithm 1's speaking test (here the paper's)."""
+    rng = np.random.default_rng(31)
+    people = np.array([[-1.0, 0.0, 1.0], [1.0, 0.0, 1.5]])[:n_people]
+    points = np.concatenate([p + rng.normal(0.0, [0.08, 0.15, 0.06], (700, 3)) for p in people])
+    behind = FOUR_MICS.itd(np.array([-1.0, 0.0, -1.0])) + rng.normal(0.0, 10e-6, (25, 2))
+    params = MotionGuidedParams.paper()
+    both = MotionGuidedHearing(FOUR_MICS, params).step(points, behind)
+    one = MotionGuidedHearing(FOUR_MICS.pair(0), params).step(points, behind[:, 0])
+    assert both.positions.shape[0] == n_people and one.speaking[np.argmin(one.positions[:, 0])]
+    pairs = FaceGuidedHearing(FOUR_MICS, FaceGuidedParams(speaking=params.speaking)).step(both.positions, behind)
+    assert not both.speaking.any() and np.array_equal(both.probability, pairs.probability)
+    assert MotionGuidedHearing(FOUR_MICS, params)._pairs.params.speaking == params.speaking
+
+
+def test_motion_guided_output_counts_points_and_itds_per_person() -> None:
+    """point_counts: each person's alpha_bar (their points' posteriors); itd_counts: their beta_bar, the posteriors
+    of the interval's ITDs (the talker's near their count, the others near none); the model has one component a
+    person, tau_a the speaking test's threshold."""
+    rng = np.random.default_rng(32)
+    pts, itds = _interval(rng, n_itd=16, n_itd_out=4)
+    out = MotionGuidedHearing(MICS).step(pts, itds)
+    order = np.argsort(out.positions[:, 0])
+    assert out.n == 3 and out.model.n_components == 3 and out.itd_means.shape == (3,)
+    assert out.point_counts.shape == (3,) and np.all(out.point_counts[order] > 400)
+    assert out.itd_counts.shape == (3,) and out.itd_counts[order][0] > 12 and np.all(out.itd_counts[order][1:] < 2)
+    assert out.itd_counts.sum() <= itds.size and isinstance(out.tau_a, float) and out.tau_a > 0
+
+
+def test_the_papers_determinant_test_drops_a_sheet_of_identical_points() -> None:
+    dup = np.repeat([[0.2, 0.0, 2.0]], 300, axis=0)
+    out = MotionGuidedHearing(MICS, MotionGuidedParams.paper()).step(dup, np.empty(0))
+    assert out.n_selected == 1 and out.n == 0 and out.model.n_components == 0 and out.model.weights.tolist() == [1.0]
+
+
+def test_face_guided_inputs_are_named_when_wrong() -> None:
+    fg = FaceGuidedHearing(MICS)
+    with pytest.raises(ValueError, match="^faces_xyz must be"):
+        fg.step(np.zeros(3), np.zeros(1))
+    with pytest.raises(ValueError, match="^itds_s holds 1 NaN"):
+        fg.step(PEOPLE, np.array([np.nan]))
+    with pytest.raises(ValueError, match=r"^merge_distance_m and merge_vertical_m must be > 0 metres, got 0.3, 0.0$"):
+        MotionGuidedParams(merge_vertical_m=0.0)
+    assert MotionGuidedParams(merge_vertical_m=0.5).merge_vertical_m == 0.5
