@@ -748,3 +748,36 @@ def test_face_guided_inputs_are_named_when_wrong() -> None:
     with pytest.raises(ValueError, match=r"^merge_distance_m and merge_vertical_m must be > 0 metres, got 0.3, 0.0$"):
         MotionGuidedParams(merge_vertical_m=0.0)
     assert MotionGuidedParams(merge_vertical_m=0.5).merge_vertical_m == 0.5
+
+
+@pytest.mark.parametrize("n_faces, paper", [(1, False), (2, True)])
+def test_face_guided_step_runs_the_em_its_settings_name(n_faces: int, paper: bool) -> None:
+    """One face, or the paper's Algorithm 2 (means free, variances adapting up to var_max_s2): the EM the step runs
+    is fit_pairs_em from the faces with those settings."""
+    from avcore.mixture import fit_pairs_em
+
+    rng = np.random.default_rng(33)
+    faces = PEOPLE[:n_faces]
+    itds = np.concatenate([rng.normal(MICS.itd(faces[0]) + 15e-6, 30e-6, 14), rng.uniform(-3e-4, 3e-4, 5)])
+    params = FaceGuidedParams.paper() if paper else FaceGuidedParams()
+    out = FaceGuidedHearing(MICS, params).step(faces, itds)
+    start = np.append(np.full(n_faces, 0.8 / n_faces), 0.2)
+    fit = fit_pairs_em(itds[:, None], start, MICS.itd(faces)[:, None], np.full((n_faces, 1), 1e-9),
+                       np.array([MICS.itd_interval()]),
+                       settings=EMSettings(max_iter=50, tol=1e-4, var_floor_s2=params.var_min_s2),
+                       update_means=paper, update_variances=paper, max_variance_s2=params.var_max_s2)
+    np.testing.assert_allclose(out.model.weights, fit.weights, rtol=1e-12)
+    np.testing.assert_allclose(out.model.variances, fit.variances[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(out.itd_means, fit.means[:, 0], rtol=1e-12)
+    assert (out.model.variances != 1e-9).all() == paper
+
+
+def test_face_guided_decision_window_includes_its_edge_and_names_a_wrong_length() -> None:
+    """An ITD centred exactly decision_window_s from the frame decides; offsets may come as a column."""
+    itds = np.full(8, MICS.itd(PEOPLE[0]))
+    fg = FaceGuidedHearing(MICS, FaceGuidedParams(decision_window_s=0.25))
+    at_edge = fg.step(PEOPLE, itds, itd_offsets_s=np.full((8, 1), 0.25))
+    beyond = fg.step(PEOPLE, itds, itd_offsets_s=np.full(8, 0.375))
+    assert at_edge.speaking[0] and not beyond.speaking.any()
+    with pytest.raises(ValueError, match="^itd_offsets_s must give one time per ITD: 3 times for 8 ITDs$"):
+        fg.step(PEOPLE, itds, itd_offsets_s=np.zeros(3))
