@@ -13,7 +13,7 @@ from avcore.inference import (
     MotionGuidedParams,
     speaking_threshold,
 )
-from avcore.mixture import EMSettings, Mixture1D
+from avcore.mixture import ConvergenceWarning, EMSettings, Mixture1D
 from avcore.speaking import SpeakingTest
 
 MICS = MicPair()
@@ -781,3 +781,35 @@ def test_face_guided_decision_window_includes_its_edge_and_names_a_wrong_length(
     assert at_edge.speaking[0] and not beyond.speaking.any()
     with pytest.raises(ValueError, match="^itd_offsets_s must give one time per ITD: 3 times for 8 ITDs$"):
         fg.step(PEOPLE, itds, itd_offsets_s=np.zeros(3))
+
+
+def test_face_guided_step_passes_its_later_looks_on() -> None:
+    """Band peaks at a quiet face (the third look) and bins whose phases agree with a face on every pair (the
+    fourth) make it speak with no window ITD at all; a wrong argument among them is named."""
+    from avcore.itd.pairs import FrameBins
+
+    fg = FaceGuidedHearing(MICS)
+    quiet = np.empty(0)
+    bands = np.full(12, MICS.itd(PEOPLE[1]))
+    assert fg.step(PEOPLE, quiet, band_itds_s=bands).speaking.tolist() == [False, True, False]
+    freqs = np.linspace(200.0, 4000.0, 20)
+    phases = np.exp(-2j * np.pi * freqs * MICS.itd(PEOPLE[2]))  # every bin at the third face's ITD
+    bins = FrameBins(np.arange(10) * 0.032, np.broadcast_to(phases, (10, 1, 20)).astype(np.complex64), freqs)
+    assert fg.step(PEOPLE, quiet, frame_bins=bins).speaking.tolist() == [False, False, True]
+    for name in ("frame_itds_s", "band_itds_s"):
+        with pytest.raises(ValueError, match=rf"^{name} must be finite or NaN \(a pair without an ITD\)$"):
+            fg.step(PEOPLE, quiet, **{name: np.array([[np.inf]])})
+    two = FrameBins(bins.times_s, np.concatenate([bins.bins, bins.bins], axis=1), freqs)
+    with pytest.raises(ValueError, match="^frame_bins must hold the array's 1 pairs, got 2$"):
+        fg.step(PEOPLE, quiet, frame_bins=two)
+    with pytest.warns(ConvergenceWarning, match="^the face-guided EM did not converge in 1 iterations"):
+        FaceGuidedHearing(MICS, FaceGuidedParams(em=EMSettings(max_iter=1, tol=1e-15), anchor_means=False)).step(
+            PEOPLE, np.random.default_rng(34).normal(MICS.itd(PEOPLE[0]), 30e-6, 20))
+
+
+def test_face_guided_variances_adapt_up_to_their_ceiling() -> None:
+    """update_variances: a talker's ITDs spread 80 us wide give a variance above var_max_s2 = (63 us)^2; it is held
+    there."""
+    itds = np.random.default_rng(35).normal(MICS.itd(PEOPLE[0]), 80e-6, 60)
+    out = FaceGuidedHearing(MICS, FaceGuidedParams(update_variances=True)).step(PEOPLE[:1], itds)
+    assert out.model.variances[0] == pytest.approx(4e-9, rel=1e-9)
