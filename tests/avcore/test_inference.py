@@ -813,3 +813,17 @@ def test_face_guided_variances_adapt_up_to_their_ceiling() -> None:
     itds = np.random.default_rng(35).normal(MICS.itd(PEOPLE[0]), 80e-6, 60)
     out = FaceGuidedHearing(MICS, FaceGuidedParams(update_variances=True)).step(PEOPLE[:1], itds)
     assert out.model.variances[0] == pytest.approx(4e-9, rel=1e-9)
+
+
+def test_the_ridgeline_merge_runs_on_two_clusters_or_more_unless_switched_off(monkeypatch: pytest.MonkeyPatch) -> None:
+    from avcore import inference
+
+    calls = []
+    real = inference.ridgeline_merge
+    monkeypatch.setattr(inference, "ridgeline_merge", lambda model: calls.append(model.n_components) or real(model))
+    rng = np.random.default_rng(36)
+    out = MotionGuidedHearing(MICS).step(*_interval(rng, PEOPLE[:1]))  # one person taken for two by BIC
+    assert out.n_selected == 2 and calls == [2] and out.n == 1
+    calls.clear()
+    out = MotionGuidedHearing(MICS, MotionGuidedParams(merge_ridgeline=False)).step(*_interval(rng))
+    assert out.n_selected == 3 and calls == []
