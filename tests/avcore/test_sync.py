@@ -550,3 +550,23 @@ def test_a_time_frame_names_each_wrong_argument_and_accepts_buffers_of_one() -> 
                                          r"advance\(\); TimeFrame needs secondaries in stamp order \(the event was "
                                          r"ignored\)$"):
         one.push_secondary(-1.0, "late")
+
+
+def test_wrong_kinds_of_time_are_named_with_their_type() -> None:
+    with pytest.raises(TypeError, match="^stamp must be a real number of seconds, got str$"):
+        ApproximateTime(2, 10).push(0, "0.5", "x")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="^span_s must be a real number of seconds, got str$"):
+        FrameItdWindow("0.2")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="^span_s must be a finite, non-negative number of seconds, got -0.2$"):
+        FrameItdWindow(-0.2)
+    with pytest.raises(ValueError, match="^keep_s must be a finite, non-negative number of seconds, got nan$"):
+        FrameItdWindow(0.2, math.nan)
+
+
+def test_a_time_frame_holds_exactly_max_secondaries() -> None:
+    tf = TimeFrame(0.1, max_secondaries=2)
+    tf.push_secondary(0.0, "s0")
+    tf.push_secondary(0.1, "s1")
+    assert tf.n_buffered == 2 and tf.dropped_secondaries == 0
+    tf.push_secondary(0.2, "s2")
+    assert tf.n_buffered == 2 and tf.dropped_secondaries == 1
