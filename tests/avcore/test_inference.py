@@ -476,6 +476,9 @@ def test_itds_given_per_pair_are_stacked_and_wrong_ones_are_named() -> None:
     ints = _itd_vectors(np.array([[1, 2], [3, 4]]), 2, "itds_s")
     assert ints.dtype == np.float64 and ints.tolist() == [[1.0, 2.0], [3.0, 4.0]]
     assert _itd_vectors([1e-4, 2e-4], 1, "x").shape == (2, 1)
+    three = _itd_vectors([np.array([1.0, 2.0]), np.array([3.0]), np.array([4.0])], 3, "itds_s")
+    np.testing.assert_array_equal(three, [[1, np.nan, np.nan], [2, np.nan, np.nan], [np.nan, 3, np.nan],
+                                          [np.nan, np.nan, 4]])
     with pytest.raises(ValueError, match=r"^itds_s must have one column per pair \(2\), got shape \(2, 3\)$"):
         _itd_vectors(np.zeros((2, 3)), 2, "itds_s")
     with pytest.raises(ValueError, match="^itds_s must give 2 arrays, one per pair, got 3$"):
@@ -827,3 +830,11 @@ def test_the_ridgeline_merge_runs_on_two_clusters_or_more_unless_switched_off(mo
     calls.clear()
     out = MotionGuidedHearing(MICS, MotionGuidedParams(merge_ridgeline=False)).step(*_interval(rng))
     assert out.n_selected > 1 and calls == []
+
+
+def test_face_guided_variances_adapt_down_to_their_floor() -> None:
+    """var_min_s2 is the adapting variances' floor (not the EM settings' own)."""
+    itds = np.full(30, MICS.itd(PEOPLE[0]))
+    out = FaceGuidedHearing(MICS, FaceGuidedParams(update_variances=True)).step(PEOPLE[:1], itds)
+    assert out.model.variances[0] == pytest.approx(1e-10, rel=1e-9)
+
