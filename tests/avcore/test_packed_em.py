@@ -258,6 +258,10 @@ def test_em_on_nothing_returns_its_start_as_converged() -> None:
     assert np.array_equal(fit.mu, p.mu) and fit is not p
     assert ll.tolist() == [0.0] * 3 and n_iter.tolist() == [0] * 3 and converged.all()
     assert n_iter.dtype == np.int64 and converged.dtype == bool
+
+
+def test_a_fusion_on_nothing_returns_its_start_as_converged() -> None:
+    p = _models()
     fused, n_iter, converged = run_fusion(np.zeros((6, 3)), np.zeros(3), 0.0, np.empty(0), p, U, max_iter=5, tol=1e-6,
                                           var_floor=1.0, min_wo=0.0)
     assert np.array_equal(fused.mu, p.mu) and fused is not p
