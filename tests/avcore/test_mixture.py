@@ -494,16 +494,17 @@ def test_two_equal_gaussians_are_one_mode_up_to_two_standard_deviations_apart(ga
 
 
 def test_merged_components_keep_the_pairs_moments_and_zero_weights_stay_apart() -> None:
-    model = _model([0.3, 0.1, 0.4, 0.2], [0, 200, 15], [20, 10, 25])
+    model = _model([0.3, 0.1, 0.4, 0.2], [40, 240, 55], [20, 10, 25])
     merged, groups = ridgeline_merge(model)
     assert groups == [[0, 2], [1]]
-    w, mu, var = np.array([0.3, 0.4]), np.array([0.0, 15e-6]), np.array([20e-6, 25e-6]) ** 2
+    w, mu, var = np.array([0.3, 0.4]), np.array([40e-6, 55e-6]), np.array([20e-6, 25e-6]) ** 2
     mean = (w @ mu) / w.sum()
     assert merged.weights.tolist() == pytest.approx([0.7, 0.1, 0.2])
     assert merged.means[0] == pytest.approx(mean) and merged.variances[0] == pytest.approx((w @ (var + mu**2)) / 0.7
                                                                                           - mean**2)
     ghost = _model([0.5, 0.0, 0.5], [0, 5], [20, 20])  # a component with no weight is not merged into another
     assert ridgeline_merge(ghost)[1] == [[0], [1]]
+    assert ridgeline_merge(_model([0.0, 0.5, 0.5], [0, 5], [20, 20]))[1] == [[0], [1]]  # nor another into it
     single = _model([0.9, 0.1], [3], [20])
     assert ridgeline_merge(single) == (single, [[0]])
 
@@ -642,3 +643,44 @@ def test_components_ordered_by_weight_keep_ties_in_place_and_the_outlier_last() 
     nobody = Mixture1D.outliers_only(SUPPORT)
     assert nobody.weights.tolist() == [1.0] and nobody.n_components == 0 and nobody.support == SUPPORT
     assert nobody.outlier_density == pytest.approx(1 / 700e-6)
+
+
+def test_the_public_fits_name_their_arguments_and_warn_at_the_callers_line() -> None:
+    init = _model([0.5, 0.5], [0], [30])
+    with pytest.raises(ValueError, match="^x_s holds 1 NaN"):
+        fit_em(np.array([0.0, np.nan]), init)
+    for kwargs, name in [({"visual_s": np.array([np.nan])}, "visual_s"), ({"itds_s": np.array([np.nan])}, "itds_s")]:
+        args = {"visual_s": np.zeros(1), "alpha": np.full((1, 2), 0.5), "itds_s": np.zeros(1), **kwargs}
+        with pytest.raises(ValueError, match=f"^{name} holds 1 NaN"):
+            fit_fusion_em(args["visual_s"], args["alpha"], args["itds_s"], init)
+    with pytest.raises(ValueError, match=r"^alpha must have shape \(M, N \+ 1\) = \(4, 2\), got \(3, 2\)$"):
+        fit_fusion_em(np.zeros(4), np.zeros((3, 2)), np.zeros(2), init)
+    with pytest.raises(ValueError, match="^alpha must hold finite non-negative posteriors$"):
+        fit_fusion_em(np.zeros(2), np.array([[0.5, 0.5], [-0.1, 1.1]]), np.zeros(2), init)
+    exact = np.array([[1.0, 0.0], [0.0, 1.0]])  # posteriors of exactly 0 and 1 are posteriors
+    assert fit_fusion_em(np.array([0.0, 1e-4]), exact, np.zeros(2), init).model_.n_components == 1
+    with pytest.warns(ConvergenceWarning) as caught:
+        fit_em(_sample(np.random.default_rng(19), [-120, 60], [20, 12], [300, 400], 100),
+               _model([0.45, 0.45, 0.1], [-300, 300], [10, 10]), settings=EMSettings(max_iter=1))
+    assert caught[0].filename == __file__  # the warning points at the line that called the fit
+    nobody = fit_fusion_em(np.zeros(3), np.ones((3, 1)), np.zeros(2), Mixture1D.outliers_only(SUPPORT))
+    assert nobody.n_iter_ == 0 and type(nobody.n_iter_) is int
+
+
+def test_the_bin_width_is_the_callers() -> None:
+    """Bins keep exact sums, so only where the posteriors are evaluated changes: 20 us bins move the means by
+    hundredths of a microsecond from the exact EM's, 1 us bins by less."""
+    rng = np.random.default_rng(20)
+    x = _sample(rng, [-120, 60], [20, 12], [300, 400], 100)
+    init = _model([0.45, 0.45, 0.1], [-60, 20], [60, 60])
+    exact = fit_em(x, init).model_.means
+    coarse = np.abs(fit_em(x, init, bin_width_s=20e-6).model_.means - exact).max()
+    fine = np.abs(fit_em(x, init, bin_width_s=1e-6).model_.means - exact).max()
+    assert 1e-8 < coarse < 0.5e-6 and fine < coarse / 3
+
+
+def test_the_fusion_holds_a_variance_at_its_floor() -> None:
+    init = _model([0.5, 0.5], [10], [30])
+    v = np.full(50, 10e-6)
+    fused = fit_fusion_em(v, init.responsibilities(v), np.full(5, 10e-6), init).model_
+    assert fused.variances[0] == pytest.approx(EMSettings().var_floor_s2, rel=1e-9)
