@@ -523,8 +523,6 @@ def initial_models(
         models.append(Mixture1D.unchecked(np.append(g, base.weights[-1]), base.means[:n], base.variances[:n], support))
     if n_max <= n_prev:
         return models
-    if n_prev == 0:
-        models.append(base)
     return models + _grown(models[-1], n_max + 1 - len(models), data, grow_at_residual)
 
 

@@ -407,7 +407,10 @@ def test_without_a_previous_interval_the_first_cluster_sits_on_the_datas_moments
     assert seed.weights.tolist() == [0.8, 0.2]
     assert seed.means[0] == pytest.approx(x.mean(), rel=1e-9) and seed.variances[0] == pytest.approx(x.var(), rel=1e-9)
     one = _seed_model(BinnedSamples.from_samples(np.full(3, 5e-6), None), SUPPORT, 0.1)
-    assert one.variances[0] == pytest.approx(1e-12)  # at least 1 us^2: identical values give no spread
+    assert one.variances[0] == pytest.approx(1e-12, rel=1e-9, abs=0)  # at least 1 us^2: identical values no spread
+    lone = _seed_model(BinnedSamples.from_samples(np.array([5e-6]), None), SUPPORT, 0.1)
+    assert lone.means[0] == pytest.approx(5e-6, rel=1e-9) and lone.variances[0] == pytest.approx(1e-12, rel=1e-9,
+                                                                                                 abs=0)
     empty = _seed_model(BinnedSamples.from_samples(np.empty(0)), (-100e-6, 300e-6), 0.1)
     assert empty.means[0] == pytest.approx(100e-6) and empty.variances[0] == pytest.approx((100e-6) ** 2)
 
@@ -684,3 +687,36 @@ def test_the_fusion_holds_a_variance_at_its_floor() -> None:
     v = np.full(50, 10e-6)
     fused = fit_fusion_em(v, init.responsibilities(v), np.full(5, 10e-6), init).model_
     assert fused.variances[0] == pytest.approx(EMSettings().var_floor_s2, rel=1e-9)
+
+
+def test_the_residual_grid_smooths_with_a_kernel_four_sds_wide_and_keeps_values_beyond_its_ends() -> None:
+    """The smoothing kernel: a Gaussian of sd_s on the 2 us grid, cut at 4 sd, summing to one; values beyond the
+    support count at its first and last steps."""
+    from avcore.mixture import _ResidualGrid
+
+    grid = _ResidualGrid(BinnedSamples.from_samples(np.array([0.0]), None), SUPPORT, 9.7e-6)  # 4 sd: 19.4 steps
+    i0 = int(np.argmin(np.abs(grid.grid)))
+    d = np.arange(-20, 21)
+    k = np.exp(-0.5 * (d * 2e-6 / 9.7e-6) ** 2)
+    np.testing.assert_allclose(grid.smooth[i0 - 20:i0 + 21], k / k.sum(), rtol=1e-9)
+    assert grid.smooth[i0 - 21] == 0.0 and grid.smooth[i0 + 21] == 0.0 and grid.smooth.sum() == pytest.approx(1.0)
+    edges = _ResidualGrid(BinnedSamples.from_samples(np.array([-400e-6, -349e-6, 349e-6, 400e-6]), None), SUPPORT,
+                          0.1e-6)  # a kernel narrower than a step: the counts themselves
+    assert edges.smooth[0] == pytest.approx(2.0) and edges.smooth[-1] == pytest.approx(2.0)
+    assert edges.smooth[1:-1].sum() == pytest.approx(0.0, abs=1e-12)
+
+
+def test_one_value_is_data_enough_for_a_new_component_and_no_data_gives_the_supports_centre() -> None:
+    from avcore.mixture import _ResidualGrid
+
+    one = _ResidualGrid(BinnedSamples.from_samples(np.array([100e-6]), None), SUPPORT, 15e-6)
+    added = one.add_component(_model([0.9, 0.1], [-200], [15]))
+    assert added is not None and added.means[1] == pytest.approx(100e-6, abs=1e-6)
+    fresh = initial_models(None, 2, (-100e-6, 300e-6))
+    assert fresh[1].means[0] == pytest.approx(100e-6) and fresh[1].variances[0] == pytest.approx((100e-6) ** 2,
+                                                                                                 rel=1e-9, abs=0)
+
+
+def test_a_previous_outlier_prior_just_under_a_tenth_of_the_default_is_raised() -> None:
+    prev = _model([0.6, 0.3905, 0.0095], [-200, 100], [20, 20])
+    assert initial_models(prev, 2, SUPPORT, outlier_weight=0.1)[2].weights[-1] == pytest.approx(0.01)
