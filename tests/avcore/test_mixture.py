@@ -588,6 +588,7 @@ def test_a_mixtures_support_must_be_an_interval(support: tuple[float, float]) ->
 def test_a_mixture_stores_flat_float_arrays_and_weights_within_a_millionth_of_one() -> None:
     m = Mixture1D([[0.5], [0.5 + 9e-7]], [[1]], [[2]], (-1, 1))
     assert m.weights.shape == (2,) and m.means.dtype == np.float64 and m.variances.tolist() == [2.0]
+    assert m.weights.dtype == np.float64 and m.variances.dtype == np.float64
     assert m.support == (-1.0, 1.0) and type(m.support[0]) is float
     with pytest.raises(ValueError, match="sum to 1"):
         Mixture1D([0.5, 0.5 + 2e-6], [1.0], [2.0], (-1, 1))
@@ -720,3 +721,35 @@ def test_one_value_is_data_enough_for_a_new_component_and_no_data_gives_the_supp
 def test_a_previous_outlier_prior_just_under_a_tenth_of_the_default_is_raised() -> None:
     prev = _model([0.6, 0.3905, 0.0095], [-200, 100], [20, 20])
     assert initial_models(prev, 2, SUPPORT, outlier_weight=0.1)[2].weights[-1] == pytest.approx(0.01)
+
+
+def test_growing_two_components_at_once_is_growing_one_twice() -> None:
+    """The model's density on the data and on the residual grid is updated step by step: the third component found
+    after the second is the one a fresh start from the two-component model finds; one value is data enough."""
+    rng = np.random.default_rng(21)
+    x = np.concatenate([rng.normal(-200e-6, 12e-6, 300), rng.normal(0.0, 10e-6, 150), rng.normal(200e-6, 10e-6, 150)])
+    data = BinnedSamples.from_samples(x)
+    prev = _model([0.9, 0.1], [-200], [12])
+    grown = initial_models(prev, 3, SUPPORT, data)
+    again = initial_models(grown[2], 3, SUPPORT, data)
+    np.testing.assert_allclose(np.sort(grown[3].means), np.sort(again[3].means), atol=1e-9)
+    assert np.abs(np.sort(grown[3].means) - [-200e-6, 0.0, 200e-6]).max() < 4e-6
+    one = initial_models(prev, 2, SUPPORT, BinnedSamples.from_samples(np.array([150e-6]), None))
+    assert np.sort(one[2].means)[1] == pytest.approx(150e-6, abs=1e-6)
+    # a split first (the data at the halves of a wide cluster), then a component at the residual
+    h = 22e-6 * np.sqrt(2 / np.pi)
+    x = np.concatenate([rng.normal(-150e-6 - h, 8e-6, 300), rng.normal(-150e-6 + h, 8e-6, 300),
+                        rng.normal(200e-6, 10e-6, 40)])
+    data = BinnedSamples.from_samples(x)
+    grown = initial_models(_model([0.9, 0.1], [-150], [22]), 3, SUPPORT, data)
+    np.testing.assert_allclose(np.sort(grown[2].means), [-150e-6 - h, -150e-6 + h], rtol=1e-9)
+    again = initial_models(grown[2], 3, SUPPORT, data)
+    np.testing.assert_allclose(np.sort(grown[3].means), np.sort(again[3].means), atol=1e-9)
+
+
+def test_the_growths_gaussian_is_the_normal_density() -> None:
+    from avcore.mixture import _gauss
+
+    x = np.array([-30e-6, 0.0, 45e-6])
+    np.testing.assert_allclose(_gauss(x, 10e-6, 4e-10), np.exp(-0.5 * (x - 10e-6) ** 2 / 4e-10)
+                               / np.sqrt(2 * np.pi * 4e-10), rtol=1e-12)
