@@ -541,6 +541,11 @@ def test_pairs_em_reports_the_likelihood_of_what_it_returns_and_handles_nobody()
     assert nobody.beta.shape == (x.shape[0], 1) and np.all(nobody.beta == 1.0)
     with pytest.raises(ValueError, match=r"need itds \(K, P\), means and variances \(N, P\), supports \(P, 2\)"):
         fit_pairs_em(x, w, mu0[:1], np.full((1, 3), 1e-9), sup)
+    three = np.array([[-4e-4, 4e-4]] * 3)
+    for bad in [(x, np.zeros((1, 3)), np.full((1, 3), 1e-9), three),  # three pairs' people, two pairs' ITDs
+                (x[:, 0], mu0[:1], np.full((1, 2), 1e-9), sup)]:  # ITDs not as vectors
+        with pytest.raises(ValueError, match=r"^need itds \(K, P\)"):
+            fit_pairs_em(bad[0], w, bad[1], bad[2], bad[3])
     with pytest.raises(ValueError, match=r"weights must have N \+ 1 = 2 entries, got \(3,\)"):
         fit_pairs_em(x, np.ones(3) / 3, mu0[:1], np.full((1, 2), 1e-9), sup)
 
@@ -549,6 +554,7 @@ def test_pairs_em_reports_the_likelihood_of_what_it_returns_and_handles_nobody()
     ({"max_iter": 0}, "max_iter must be >= 1, got 0"),
     ({"tol": 0.0}, "tol must be > 0, got 0.0"),
     ({"var_floor_s2": -1e-12}, r"var_floor_s2 must be > 0 s\^2, got -1e-12"),
+    ({"var_floor_s2": 0.0}, r"var_floor_s2 must be > 0 s\^2, got 0.0"),
     ({"min_outlier_weight": 1.0}, r"min_outlier_weight must be in \(0, 1\), got 1.0"),
     ({"min_outlier_weight": 0.0}, r"min_outlier_weight must be in \(0, 1\), got 0.0"),
 ])
