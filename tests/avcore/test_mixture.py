@@ -598,8 +598,8 @@ def test_a_mixture_stores_flat_float_arrays_and_weights_within_a_millionth_of_on
     assert m.support == (-1.0, 1.0) and type(m.support[0]) is float
     with pytest.raises(ValueError, match="sum to 1"):
         Mixture1D([0.5, 0.5 + 2e-6], [1.0], [2.0], (-1, 1))
-    zero = Mixture1D([0.0, 1.0], [1.0], [2.0], (-1, 1))  # a component with no weight is allowed
-    assert zero.weights[0] == 0.0
+    zero = Mixture1D([0, 1], [1.0], [2.0], (-1, 1))  # a component with no weight is allowed (integers: floats)
+    assert zero.weights[0] == 0.0 and zero.weights.dtype == np.float64
 
 
 def test_binned_samples_keep_each_bins_exact_count_sum_and_square() -> None:
