@@ -288,3 +288,38 @@ def test_an_array_at_its_limits_is_accepted() -> None:
     with pytest.raises(ValueError, match="^yaw_rad must be a finite angle in radians, got nan$"):
         two.turned(float("nan"))
     assert two.placed(np.eye(3), [0.0, 0.0, 0.5]).positions[1] == (0.1, 0.0, 0.5)
+
+
+def test_an_arrays_raw_itds_are_each_pairs_distances_written_out() -> None:
+    """Eq. (itd) for every pair, without the correction: (|S - M_i| - |S - M_j|) / nu, and the corrected ITDs are
+    c1 times that plus c0, pair by pair."""
+    mics = ((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0), (0.0, -0.05, 0.02))
+    array = MicArray(mics, pairs=[(0, 1), (2, 0), (1, 2)], speed_of_sound=340.0, c1=(1.1, 0.9, 1.0),
+                     c0=(1e-5, 0.0, -2e-5))
+    s = np.array([[0.7, -0.2, 1.5], [-1.0, 0.3, 2.0]])
+    want = np.array([[(np.linalg.norm(p - np.array(mics[i])) - np.linalg.norm(p - np.array(mics[j]))) / 340.0
+                      for i, j in ((0, 1), (2, 0), (1, 2))] for p in s])
+    np.testing.assert_allclose(array.raw_itd(s), want, rtol=1e-12)
+    np.testing.assert_allclose(array.itd(s), want * [1.1, 0.9, 1.0] + [1e-5, 0.0, -2e-5], rtol=1e-12, atol=1e-18)
+    assert array.raw_itd(s[0]).shape == (3,)
+
+
+def test_a_placed_array_keeps_its_corrections_channels_and_speed_of_sound() -> None:
+    array = MicArray(((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0)), c1=(1.2,), c0=(3e-5,), channels=(4, 2), speed_of_sound=330.0)
+    moved = array.placed(np.eye(3), [0.0, 0.0, 0.1])
+    assert moved.c1 == (1.2,) and moved.c0 == (3e-5,) and moved.channels == (4, 2) and moved.speed_of_sound == 330.0
+    preset = MicArray.preset("respeaker4", speed_of_sound=330.0)
+    assert preset.speed_of_sound == 330.0 and preset.pair(0).speed_of_sound == 330.0
+    turned = MicArray.preset("respeaker4", rotation=[[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    assert not np.allclose(np.asarray(turned.positions), np.asarray(MicArray.preset("respeaker4").positions))
+    lifted = MicArray.preset("respeaker4", translation_m=[0.0, -0.2, 0.0])
+    np.testing.assert_allclose(np.asarray(lifted.positions)[:, 1], -0.2)
+
+
+def test_a_rotation_within_a_millionth_of_orthonormal_is_one_and_a_scaling_is_not() -> None:
+    array = MicArray.preset("ps3eye")
+    c, s = np.cos(0.3), np.sin(0.3)
+    nearly = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]) + np.array([[0, 4e-7, 0], [0, 0, 0], [0, 0, 0]])
+    assert array.placed(nearly, np.zeros(3)).n_pairs == array.n_pairs
+    with pytest.raises(ValueError, match="^rotation must be a"):
+        array.placed(np.diag([1.2, 1.0, 1.0]), np.zeros(3))
