@@ -323,3 +323,11 @@ def test_a_rotation_within_a_millionth_of_orthonormal_is_one_and_a_scaling_is_no
     assert array.placed(nearly, np.zeros(3)).n_pairs == array.n_pairs
     with pytest.raises(ValueError, match="^rotation must be a"):
         array.placed(np.diag([1.2, 1.0, 1.0]), np.zeros(3))
+
+
+def test_a_pairs_array_keeps_its_left_first_even_when_it_is_on_the_right() -> None:
+    flipped = MicPair(left=(0.06, 0.0, 0.0), right=(-0.06, 0.0, 0.0))
+    array = MicArray.from_pair(flipped)
+    assert array.pairs == ((0, 1),)
+    s = np.array([0.5, 0.0, 1.0])
+    assert array.itd(s)[0] == pytest.approx(flipped.itd(s), rel=1e-12) and flipped.itd(s) > 0
