@@ -262,6 +262,7 @@ TWO = ((0.0, 0.0, 0.0), (0.1, 0.0, 0.0))
     ((TWO,), {"pairs": [(0, 0)]}, r"each pair must be two different microphone numbers below 2, got \(0, 0\)"),
     ((TWO,), {"pairs": [(0, 2)]}, r"each pair must be two different microphone numbers below 2, got \(0, 2\)"),
     ((TWO,), {"pairs": [(-1, 1)]}, r"each pair must be two different microphone numbers below 2, got \(-1, 1\)"),
+    ((TWO,), {"pairs": [(2, 0)]}, r"each pair must be two different microphone numbers below 2, got \(2, 0\)"),
     (((TWO[0], TWO[0]),), {}, r"pair \(0, 1\) has both microphones at \(0.0, 0.0, 0.0\)"),
     ((TWO,), {"c1": (1.0, 1.0)}, r"c1 must give one value per pair \(1\), got 2"),
     ((TWO,), {"c0": ()}, r"c0 must give one value per pair \(1\), got 0"),
@@ -331,3 +332,11 @@ def test_a_pairs_array_keeps_its_left_first_even_when_it_is_on_the_right() -> No
     assert array.pairs == ((0, 1),)
     s = np.array([0.5, 0.0, 1.0])
     assert array.itd(s)[0] == pytest.approx(flipped.itd(s), rel=1e-12) and flipped.itd(s) < 0  # its left is nearer
+
+
+def test_an_array_stores_float_positions_and_gives_each_pair_its_correction() -> None:
+    array = MicArray([[0, 0, 0], [1, 0, 0]], c1=(1.1,), c0=(2e-5,))
+    assert array.positions == ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)) and type(array.positions[1][0]) is float
+    assert (array.pair(0).c1, array.pair(0).c0) == (1.1, 2e-5)
+    with pytest.raises(ValueError, match=r"^points must be an array of shape \(\.\.\., 3\) in metres, got shape \(2,\)$"):
+        array.itd(np.zeros(2))
