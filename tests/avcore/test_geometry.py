@@ -251,6 +251,7 @@ def test_a_pair_names_what_is_wrong(kwargs: dict, message: str) -> None:
 def test_a_pair_accepts_a_negative_scale_and_stores_float_positions() -> None:
     flipped = MicPair(left=[0, 0, 0], right=np.array([1, 0, 0]), c1=-1.0, c0=1e-5)
     assert flipped.left == (0.0, 0.0, 0.0) and type(flipped.right[0]) is float and flipped.c1 == -1.0
+    assert MicPair(speed_of_sound=0.5).max_itd_s == pytest.approx(0.24)  # any positive speed (here a slow one)
 
 
 TWO = ((0.0, 0.0, 0.0), (0.1, 0.0, 0.0))
