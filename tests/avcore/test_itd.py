@@ -587,3 +587,53 @@ def test_pairs_stream_gives_each_pair_its_own_search_and_every_option():
     assert times.shape == (0,) and itds.shape == (0, 0)
     frames = FrameBins(np.array([0.0, 0.25, 0.5, 0.75]), np.zeros((4, 1, 2), np.complex64), np.array([100.0, 200.0]))
     np.testing.assert_array_equal(frames.within(0.25, 0.25).times_s, [0.0, 0.25, 0.5])  # both ends inside
+
+
+@pytest.mark.parametrize("method", ["gcc-phat", "correlogram"])
+def test_a_stream_with_silent_gaps_gives_the_batch_extractions_itds(method: str) -> None:
+    """Speech comes with pauses: blocks where some windows pass the energy gate and others do not. The stream gives
+    exactly the windows, times and ITDs the whole-signal extraction gives, in any block sizes."""
+    fs = 16000
+    rng = np.random.default_rng(40)
+    noise = rng.normal(0.0, 0.3, fs * 2)
+    noise[int(0.5 * fs):int(1.1 * fs)] = 0.0  # a pause longer than a window
+    left, right = noise[3:], noise[:-3]  # the left channel 3 samples early
+    whole = extract_itds(left, right, fs, method=method)
+    assert 0 < len(whole) < 1 + (left.size - int(0.15 * fs)) // int(0.02 * fs)  # some windows gated out
+    assert np.median(whole.itds_s) == pytest.approx(-3 / fs, abs=0.5 / fs)
+    for block in (2500, left.size):  # blocks of a few windows each, and all at once
+        stream = ItdStream(fs, method=method)
+        streamed = ItdTrack.concatenate([stream.push(left[i:i + block], right[i:i + block])
+                                         for i in range(0, left.size, block)])
+        np.testing.assert_allclose(streamed.times_s, whole.times_s, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(streamed.itds_s, whole.itds_s, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(streamed.confidence, whole.confidence, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(streamed.energy, whole.energy, rtol=1e-9)
+
+
+def test_an_empty_track_is_four_empty_read_only_arrays() -> None:
+    empty = ItdTrack.empty()
+    for name in ("times_s", "itds_s", "confidence", "energy"):
+        arr = getattr(empty, name)
+        assert arr.shape == (0,) and arr.dtype == np.float64 and not arr.flags.writeable
+    assert len(empty) == 0
+
+
+def test_a_windows_energy_is_its_mean_power_over_both_channels() -> None:
+    fs = 16000
+    rng = np.random.default_rng(41)
+    left, right = rng.normal(0.0, 0.3, fs), rng.normal(0.0, 0.1, fs)
+    track = extract_itds(left, right, fs, method="gcc-phat")
+    w, hop = int(0.15 * fs), int(0.02 * fs)
+    want = [np.mean((left[k * hop:k * hop + w] ** 2 + right[k * hop:k * hop + w] ** 2) / 2) for k in range(len(track))]
+    np.testing.assert_allclose(track.energy, want, rtol=1e-9)
+
+
+def test_the_robust_methods_apply_the_confidence_floor_too() -> None:
+    fs = 16000
+    rng = np.random.default_rng(42)
+    noise = rng.normal(0.0, 0.3, fs)
+    left, right = noise[3:] + rng.normal(0.0, 0.3, fs - 3), noise[:-3]
+    every = extract_itds(left, right, fs, method="gcc-phat-robust")
+    sure = extract_itds(left, right, fs, method="gcc-phat-robust", min_confidence=float(np.median(every.confidence)))
+    assert 0 < len(sure) < len(every) and np.all(sure.confidence >= np.median(every.confidence))
