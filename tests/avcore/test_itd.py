@@ -637,3 +637,20 @@ def test_the_robust_methods_apply_the_confidence_floor_too() -> None:
     every = extract_itds(left, right, fs, method="gcc-phat-robust")
     sure = extract_itds(left, right, fs, method="gcc-phat-robust", min_confidence=float(np.median(every.confidence)))
     assert 0 < len(sure) < len(every) and np.all(sure.confidence >= np.median(every.confidence))
+
+
+def test_what_a_stream_does_not_keep_is_named_and_an_empty_bins_pop_has_their_width() -> None:
+    from avcore.itd._extract import geometry_options, gives_frame_itds
+
+    plain = ItdStream(16000, method="gcc-phat")
+    for pop in (plain.pop_frame_itds, plain.pop_band_itds):
+        with pytest.raises(RuntimeError, match="^this ItdStream keeps no frame ITDs: create it with frame_itds=True$"):
+            pop()
+    with pytest.raises(RuntimeError, match="^this ItdStream keeps no frame bins: create it with frame_bins=True$"):
+        plain.pop_frame_bins()
+    robust = ItdStream(16000, method="gcc-phat-robust", frame_bins=True)
+    times, bins = robust.pop_frame_bins()
+    assert times.shape == (0,) and bins.shape == (0, robust.bin_freqs_hz.size) and bins.dtype == np.complex64
+    assert gives_frame_itds("gcc-phat-robust") and not gives_frame_itds("nope")
+    with pytest.raises(ValueError, match=r"^method must be one of \['correlogram', "):
+        geometry_options("nope", 0.12, 343.0)
