@@ -96,6 +96,19 @@ def test_waiting_candidate_is_published_when_a_busy_topic_proves_it() -> None:
     assert sync.push(2, 2.25, 2.25) == [(1.75, 2.0, 1.75)]
 
 
+def test_a_virtual_search_that_proves_nothing_puts_back_what_it_retired() -> None:
+    # Candidate (2.0, 3.0, 2.0) with pivot topic 1; topic 0 is empty. The virtual search stands in 3.0 for topic 0,
+    # retires topic 2's 2.0 for the set [2.0, 3.0] (no smaller), then finds [3.0, 3.0] smaller: it proves nothing and
+    # must put back exactly the one message it retired. Topic 2's 3.0 then completes the zero-width set.
+    sync = ApproximateTime(3, 10)
+    assert run(sync, [(2, 2.0), (1, 3.0), (0, 2.0)]) == []
+    assert sync.queued_counts == (1, 1, 1)
+    assert sync.push(0, 3.0, 3.0) == []
+    assert sync.push(2, 3.0, 3.0) == [(3.0, 3.0, 3.0)]
+    assert sync.dropped_counts == (1, 0, 1)
+    assert sync.queued_counts == (0, 0, 0)
+
+
 def test_max_interval_drops_sets_too_far_apart() -> None:
     # Topic 1 starts 3 s after topic 0: without a maximum the two are paired anyway.
     arrivals = [(0, 0.0), (1, 3.0), (0, 9.0), (1, 9.5), (0, 12.0)]
