@@ -118,6 +118,13 @@ def test_max_interval_drops_sets_too_far_apart() -> None:
     assert sync.dropped_counts == (1, 1)
 
 
+def test_a_drop_for_max_interval_goes_on_to_the_set_behind_it() -> None:
+    # Topic 0's 0.0 is 5 s before topic 1's 5.0: dropped, and the same push goes on to publish (5.0, 5.0).
+    sync = ApproximateTime(2, 10, max_interval_s=1.0)
+    assert [sync.push(t, s, s) for t, s in [(0, 0.0), (0, 5.0), (1, 5.0)]] == [[], [], [(5.0, 5.0)]]
+    assert sync.dropped_counts == (1, 0)
+
+
 def test_age_penalty_prefers_earlier_sets() -> None:
     # Sizes 1.0 for (0, 1) and 0.95 for the later (1.95, 1): a penalty of 0.1 makes the later one the worse.
     arrivals = [(0, 0.0), (1, 1.0), (0, 1.95)]
