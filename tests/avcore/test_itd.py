@@ -173,6 +173,25 @@ def test_bad_inputs_are_clear_errors():
         extract_itds(left, right, fs, method="gcc-phat", n_channels=16)
 
 
+@pytest.mark.parametrize("method", ["gcc-phat", "gcc-phat-robust"])
+def test_a_signal_of_exactly_one_window_gives_its_itd_at_once(method: str) -> None:
+    # 0.15 s at 16 kHz is 2400 samples: exactly one window, in the whole-signal form and in the push that brings it.
+    left, right = delayed_pair(3.0, 16000, seconds=0.15)
+    whole = extract_itds(left, right, 16000, method=method)
+    pushed = ItdStream(16000, method=method).push(left, right)
+    for track in (whole, pushed):
+        assert track.times_s.tolist() == [0.075]
+        assert track.itds_s[0] == pytest.approx(3.0 / 16000, abs=0.2 / 16000)
+
+
+def test_unequal_channels_are_named_in_full() -> None:
+    left, right = delayed_pair(1.0, 16000, seconds=0.3)
+    with pytest.raises(ValueError, match=r"^left and right must have the same length, got 4800 and 4799 samples$"):
+        extract_itds(left, right[:-1], 16000)
+    with pytest.raises(ValueError, match=r"^left and right blocks must have the same length, got 10 and 9 samples$"):
+        ItdStream(16000).push(left[:10], right[:9])
+
+
 def test_lag_search_is_limited_to_max_itd():
     fs = 16000
     left, right = delayed_pair(12.0, fs, seconds=0.5)  # 750 us, outside +-300 us
