@@ -468,6 +468,37 @@ def test_band_itds_of_the_robust_stream():
         ItdStream(fs, method="gcc-phat-robust").pop_band_itds()
 
 
+def test_band_peaks_carry_no_height() -> None:
+    left, right = delayed_pair(3.0, 16000, seconds=0.5, seed=2)
+    stream = ItdStream(16000, method="gcc-phat-robust", frame_itds=True)
+    stream.push(left, right)
+    bands = stream.pop_band_itds()
+    assert len(bands) > 0 and bands.confidence.dtype == np.float64 and np.isnan(bands.confidence).all()
+
+
+def test_a_robust_stream_analyses_each_frame_in_the_push_that_completes_it() -> None:
+    # gcc-phat-robust at 16 kHz: 512-sample frames every 160 samples; a push of exactly one frame analyses it.
+    left, right = delayed_pair(3.0, 16000, seconds=0.5, seed=2)
+    stream = ItdStream(16000, method="gcc-phat-robust", frame_itds=True, frame_bins=True)
+    assert len(stream.push(left[:512], right[:512])) == 0  # no window yet
+    assert stream.pop_frame_itds().times_s.tolist() == [0.016]
+    assert stream.pop_frame_bins()[0].tolist() == [0.016]
+    stream.push(left[512:672], right[512:672])  # one frame hop more: the second frame
+    assert stream.pop_frame_bins()[0].tolist() == [0.026]
+
+
+def test_a_robust_stream_finishes_no_window_before_its_last_sample() -> None:
+    # Windows of 2400 samples every 320: a push one sample short of the second window gives the first only, and
+    # the next sample gives the second; both as the whole-signal extraction gives them.
+    left, right = delayed_pair(3.0, 16000, seconds=0.5, seed=2)
+    whole = extract_itds(left, right, 16000, method="gcc-phat-robust")
+    stream = ItdStream(16000, method="gcc-phat-robust")
+    first = stream.push(left[:2719], right[:2719])
+    second = stream.push(left[2719:2720], right[2719:2720])
+    assert first.times_s.tolist() == [0.075] and second.times_s.tolist() == [0.095]
+    np.testing.assert_array_equal(np.concatenate([first.itds_s, second.itds_s]), whole.itds_s[:2])
+
+
 def test_pairs_stream_gives_every_pairs_itd_of_one_window_as_one_vector() -> None:
     """Four microphones hearing one noise source: each pair's ITDs equal those of its own ItdStream, joined by
     window into (K, P) vectors, and they match the array's geometry."""
