@@ -192,6 +192,55 @@ def test_unequal_channels_are_named_in_full() -> None:
         ItdStream(16000).push(left[:10], right[:9])
 
 
+def test_samples_of_any_real_dtype_are_read_as_float_and_others_are_named_in_full() -> None:
+    left, right = delayed_pair(2.0, 16000, seconds=0.3)
+    as_int = (np.round(left * 30000).astype(np.int16), np.round(right * 30000).astype(np.int16))
+    from_int = extract_itds(*as_int, 16000, method="gcc-phat", energy_threshold=0.0)
+    from_float = extract_itds(*(a.astype(np.float64) for a in as_int), 16000, method="gcc-phat",
+                              energy_threshold=0.0)
+    for field in ("times_s", "itds_s", "confidence", "energy"):  # int16 squares would overflow unconverted
+        np.testing.assert_array_equal(getattr(from_int, field), getattr(from_float, field))
+    with pytest.raises(TypeError, match=r"^left must hold real samples, got dtype complex128$"):
+        extract_itds(left + 0j, right, 16000)
+    with pytest.raises(TypeError, match=r"^right must hold real samples, got dtype <U1$"):
+        extract_itds(left, np.array(["a"] * right.size), 16000)
+    with pytest.raises(ValueError, match=r"^left must be a 1-D array of samples, got shape \(1, 4800\)$"):
+        ItdStream(16000).push(left[None], right)
+    left[[5, 9]] = [np.nan, -np.inf]
+    with pytest.raises(ValueError, match=r"^left holds 2 NaN or infinite sample\(s\); clean the audio before "):
+        extract_itds(left, right, 16000)
+
+
+def test_the_energy_gate_keeps_a_window_at_exactly_e_a_and_only_silence_at_zero() -> None:
+    # Samples of +-0.5: every window's mean power is exactly 0.25.
+    right = 0.5 * np.sign(np.random.default_rng(0).standard_normal(8000))
+    left = np.roll(right, 3)
+    n_windows = 1 + (8000 - 2400) // 320
+    assert len(extract_itds(left, right, 16000, method="gcc-phat", energy_threshold=0.25)) == n_windows
+    assert len(extract_itds(left, right, 16000, method="gcc-phat", energy_threshold=0.2500001)) == 0
+    # E_A = 0 keeps every window that is not silent, however faint
+    left[:4000], right[:4000] = 0.0, 0.0
+    left[4000:] *= 1e-3
+    right[4000:] *= 1e-3
+    faint = extract_itds(left, right, 16000, method="gcc-phat", energy_threshold=0.0)
+    assert faint.times_s.tolist() == [(s + 1200) / 16000 for s in range(0, 8000 - 2399, 320) if s + 2400 > 4000]
+
+
+def test_a_window_at_exactly_the_least_confidence_is_kept() -> None:
+    left, right = delayed_pair(2.0, 16000, seconds=0.5)
+    everything = extract_itds(left, right, 16000, method="gcc-phat")
+    least = int(np.argmin(everything.confidence))
+    kept = extract_itds(left, right, 16000, method="gcc-phat", min_confidence=float(everything.confidence[least]))
+    assert kept.times_s.tolist() == everything.times_s.tolist()
+
+
+@pytest.mark.parametrize("asked", ["frame_itds", "frame_bins"])
+def test_frame_results_of_a_method_without_frames_are_named_in_full(asked: str) -> None:
+    with pytest.raises(ValueError, match=rf"^{asked} needs the per-frame correlations of 'gcc-phat-robust' "
+                                         rf"\(frame_corr_power > 0\); method 'gcc-phat' has none: pass {asked}=False$"):
+        ItdStream(16000, method="gcc-phat", **{asked: True})
+
+
 def test_lag_search_is_limited_to_max_itd():
     fs = 16000
     left, right = delayed_pair(12.0, fs, seconds=0.5)  # 750 us, outside +-300 us
