@@ -1,6 +1,7 @@
 from __future__ import annotations
 
 import inspect
+import re
 
 import numpy as np
 import pytest
@@ -40,6 +41,33 @@ def test_public_signature_and_paper_defaults():
     assert sig.parameters["hop_s"].default == 0.02  # f = 20 ms
     assert sig.parameters["energy_threshold"].default == 1e-3  # E_A = 0.001
     assert sig.parameters["method"].default == "correlogram"
+
+
+def test_every_form_has_the_same_defaults() -> None:
+    from avcore.itd import make_method
+
+    whole = inspect.signature(extract_itds).parameters
+    shared = ["method", "window_s", "hop_s", "energy_threshold", "max_itd_s", "min_confidence"]
+    for form in (make_method, ItdStream.__init__):
+        params = inspect.signature(form).parameters
+        assert [params[name].default for name in shared] == [whole[name].default for name in shared], form
+
+
+@pytest.mark.parametrize("args,error,message", [
+    ((16000, "gcc-phat", "0.15"), TypeError, "window_s must be a number of seconds, got str"),
+    (("16000",), TypeError, "samplerate must be a number of hertz, got str"),
+    ((True,), TypeError, "samplerate must be a number of hertz, got bool"),
+    ((-16000,), ValueError, "samplerate must be a positive number of hertz, got -16000"),
+    ((16000, "gcc-phat", 0.0), ValueError, "window_s must be a positive number of seconds, got 0.0"),
+    ((16000, "gcc-phat", 0.15, float("nan")), ValueError, "hop_s must be a positive number of seconds, got nan"),
+    ((16000, "gcc-phat", 0.15, 0.02, 1e-3, -1e-3), ValueError, "max_itd_s must be a positive number of seconds, "
+                                                                "got -0.001"),
+])
+def test_each_wrong_length_or_rate_is_named_with_its_unit(args: tuple, error: type, message: str) -> None:
+    from avcore.itd import make_method
+
+    with pytest.raises(error, match=f"^{re.escape(message)}$"):
+        make_method(*args)
 
 
 @pytest.mark.parametrize("method", ALL_METHODS)
