@@ -72,9 +72,9 @@ class FrameMethod(ItdMethod):
     over_subtraction : float
         Factor on the noise floor (1; 0 switches the signal-to-noise weighting off).
     noise_rise_db_per_s : float
-        How fast the noise floor may rise, dB per second.
+        How fast the noise floor may rise, dB per second (3).
     smoothing_s : float, seconds
-        Time constant of the power smoothing before minimum tracking.
+        Time constant of the power smoothing before minimum tracking (30 ms).
     coherence_power : float
         Exponent on the coherence magnitude (2; 0 disables the coherence weighting).
     coherence_s : float, seconds

@@ -1,0 +1,101 @@
+"""The frame methods' contract (avcore.itd.robust): their settings' bounds, band and defaults, as documented."""
+from __future__ import annotations
+
+import inspect
+import re
+
+import numpy as np
+import pytest
+
+from avcore.itd import RobustCorrelogram, RobustGccPhat
+from avcore.itd.robust import FrameMethod, _ratio
+
+
+def make(**settings):
+    """A gcc-phat-robust of 150 ms windows at 16 kHz, frames every 10 ms, as the stream builds it."""
+    return RobustGccPhat(16000, 2400, 1e-3, **{"frame_hop_len": 160, **settings})
+
+
+@pytest.mark.parametrize("settings", [
+    {"frame_s": 16 / 16000}, {"frame_s": 1200 / 16000}, {"frame_hop_len": 1}, {"onset_floor": 0.0},
+    {"onset_floor": 1.0}, {"coherence_power": 0.0, "diffuse_power": 0.0, "flatness_power": 0.0, "frame_snr_power": 0.0},
+    {"speed_of_sound": 0.5}, {"low_hz": 0.0}, {"over_subtraction": 0.0}, {"dereverb_taps": 0, "dereverb_delay": 1},
+    {"dereverb_step": 1.999},
+])
+def test_each_setting_is_accepted_at_its_documented_edge(settings: dict) -> None:
+    method = make(**settings)
+    assert method.frame_hop == settings.get("frame_hop_len", 160)
+
+
+@pytest.mark.parametrize("settings,message", [
+    ({"frame_s": 15 / 16000}, "frame_s=0.0009375 s must give between 16 samples and half the window (1200 samples), "
+                              "got 15"),
+    ({"frame_s": 1201 / 16000}, "frame_s=0.0750625 s must give between 16 samples and half the window (1200 "
+                                "samples), got 1201"),
+    ({"frame_hop_len": 0}, "frame_hop_len must be a positive number of samples, got 0"),
+    ({"frame_hop_len": 160.0}, "frame_hop_len must be a positive number of samples, got 160.0"),
+    ({"onset_floor": -0.1}, "onset_floor must lie in [0, 1], got -0.1"),
+    ({"onset_floor": 1.5}, "onset_floor must lie in [0, 1], got 1.5"),
+    ({"diffuse_power": -1.0}, "coherence_power, diffuse_power, flatness_power and frame_snr_power must be >= 0, got "
+                              "2.0, -1.0, 8.0 and 8.0"),
+    ({"speed_of_sound": 0.0}, "mic_distance_m and speed_of_sound must be positive, got 0.12 and 0.0"),
+    ({"low_hz": 4000.0}, "need 0 <= low_hz < high_hz, got low_hz=4000.0, high_hz=4000.0"),
+    ({"over_subtraction": -1.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s "
+                                 "> 0; got -1.0, 3.0, 0.03, 0.03"),
+    ({"noise_rise_db_per_s": 0.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s "
+                                   "> 0; got 1.0, 0.0, 0.03, 0.03"),
+    ({"smoothing_s": 0.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s > 0; "
+                           "got 1.0, 3.0, 0.0, 0.03"),
+    ({"coherence_s": 0.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s > 0; "
+                           "got 1.0, 3.0, 0.03, 0.0"),
+    ({"dereverb_delay": 0}, "dereverb_taps must be an integer >= 0, dereverb_delay an integer >= 1 and dereverb_step "
+                            "in (0, 2), got 3, 0 and 0.2"),
+    ({"dereverb_step": 0.0}, "dereverb_taps must be an integer >= 0, dereverb_delay an integer >= 1 and "
+                             "dereverb_step in (0, 2), got 3, 2 and 0.0"),
+    ({"low_hz": 7990.0, "high_hz": 7995.0}, "no frequency bin lies in [7990.0, 7995.0] Hz at 16000.0 Hz"),
+])
+def test_each_setting_out_of_bounds_is_named_in_full(settings: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+        make(**settings)
+
+
+def test_the_band_holds_both_its_edges_and_nothing_above() -> None:
+    # 1024-point frames at 16 kHz: bins every 15.625 Hz, so 125 Hz (bin 8) and 4 kHz (bin 256) are bins.
+    method = make(low_hz=125.0)
+    assert method.nfft == 1024 and method.n_used == 257
+    assert method.freqs_hz[method.n_used - 1] == 4000.0
+    assert np.flatnonzero(method.band).tolist() == list(range(8, 257))
+
+
+def test_frame_methods_are_run_by_the_stream_only() -> None:
+    method = make()
+    spectrum = np.ones(method.n_used, dtype=complex)
+    with pytest.raises(NotImplementedError, match=r"^frame methods run through ItdStream; use frame_terms and "
+                                                  r"finish_window$"):
+        method.weighted_cross_spectrum(spectrum, spectrum)
+    with pytest.raises(NotImplementedError, match=r"^frame methods run through ItdStream \(extract_itds does that "
+                                                  r"for you\)$"):
+        method.estimate(np.zeros((1, 2400)), np.zeros((1, 2400)))
+
+
+def test_a_silent_bin_has_an_infinite_ratio() -> None:
+    ratio = _ratio(np.array([2.0, 0.0, 3.0]), np.array([4.0, 0.0, 0.0]))
+    assert ratio.tolist() == [0.5, np.inf, np.inf]
+
+
+def test_the_defaults_are_the_documented_ones() -> None:
+    params = inspect.signature(FrameMethod.__init__).parameters
+    defaults = {name: p.default for name, p in params.items() if p.default is not inspect.Parameter.empty}
+    assert defaults == {
+        "frame_s": 0.032, "onset_floor": 0.2, "over_subtraction": 1.0, "noise_rise_db_per_s": 3.0,
+        "smoothing_s": 0.03, "coherence_power": 2.0, "coherence_s": 0.03, "diffuse_power": 2.0,
+        "diffuse_subtract": True, "mic_distance_m": 0.12, "speed_of_sound": 343.0, "flatness_power": 0.0,
+        "frame_snr_power": 0.0, "low_hz": 80.0, "high_hz": 4000.0, "dereverb_taps": 0, "dereverb_delay": 2,
+        "dereverb_step": 0.2,
+    }
+    assert inspect.signature(RobustCorrelogram.__init__).parameters["n_channels"].default == 32
+    own = inspect.signature(RobustGccPhat.__init__).parameters
+    assert {name: own[name].default for name in ("flatness_power", "frame_snr_power", "frame_corr_power",
+                                                  "dereverb_taps", "band_edges_hz")} == {
+        "flatness_power": 8.0, "frame_snr_power": 8.0, "frame_corr_power": 2.0, "dereverb_taps": 3,
+        "band_edges_hz": (800.0, 1600.0, 2600.0)}
