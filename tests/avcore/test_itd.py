@@ -70,6 +70,32 @@ def test_each_wrong_length_or_rate_is_named_with_its_unit(args: tuple, error: ty
         make_method(*args)
 
 
+def test_each_shared_setting_is_accepted_at_its_edge_and_named_in_full_past_it() -> None:
+    from avcore.itd import make_method
+
+    # accepted: a window of 16 samples with lags up to 7 (2 x 7 < 16), a hop of one sample, confidence bounds 1 and -1
+    impl, framing = make_method(16000, "gcc-phat", 16 / 16000, 1 / 16000, 0.0, 6.9 / 16000, 1.0)
+    assert (framing.window_len, framing.hop_len, impl.max_lag, framing.min_confidence) == (16, 1, 7, 1.0)
+    assert make_method(16000, "gcc-phat", 0.15, 0.02, 1e-3, 1e-3, -1.0)[1].min_confidence == -1.0
+    # frames every half hop when the hop is even, every hop when it is odd (the windows start on the frames' grid)
+    assert make_method(16000, "gcc-phat-robust", 0.15, 320 / 16000, 1e-3, 1e-3, -1.0)[0].frame_hop == 160
+    assert make_method(16000, "gcc-phat-robust", 0.15, 321 / 16000, 1e-3, 1e-3, -1.0)[0].frame_hop == 321
+    wrong = [
+        ((0.15, 0.02, True, 1e-3, -1.0), "energy_threshold must be a non-negative mean power, got True"),
+        ((0.15, 0.02, float("nan"), 1e-3, -1.0), "energy_threshold must be a non-negative mean power, got nan"),
+        ((0.15, 0.02, 1e-3, 1e-3, -1.5), "min_confidence must lie in [-1, 1], got -1.5"),
+        ((0.15, 0.02, 1e-3, 1e-3, 1.5), "min_confidence must lie in [-1, 1], got 1.5"),
+        ((15 / 16000, 0.02, 1e-3, 1e-4, -1.0), "window_s=0.0009375 s is only 15 samples at 16000.0 Hz; use a longer "
+                                               "window"),
+        ((0.15, 0.4 / 16000, 1e-3, 1e-3, -1.0), "hop_s=2.5e-05 s is shorter than one sample at 16000.0 Hz"),
+        ((16 / 16000, 0.02, 1e-3, 7.9 / 16000, -1.0), "max_itd_s=0.00049375 s (8 samples) needs a window longer than "
+                                                      "16 samples, got window_s=0.001 s (16 samples)"),
+    ]
+    for args, message in wrong:
+        with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
+            make_method(16000, "gcc-phat", *args)
+
+
 @pytest.mark.parametrize("method", ALL_METHODS)
 @pytest.mark.parametrize("fs,delay", [(16000, 3.0), (16000, -2.37), (16000, 0.0), (48000, 7.61), (48000, -11.0)])
 def test_pure_delays_recovered_within_a_tenth_of_a_sample(method, fs, delay):
