@@ -7,8 +7,8 @@ import re
 import numpy as np
 import pytest
 
-from avcore.itd import RobustCorrelogram, RobustGccPhat
-from avcore.itd.robust import FrameMethod, _ratio
+from avcore.itd import RobustCorrelogram, RobustGccPhat, extract_itds
+from avcore.itd.robust import FrameMethod, FrameState, _ratio
 
 
 def make(**settings):
@@ -99,3 +99,33 @@ def test_the_defaults_are_the_documented_ones() -> None:
                                                   "dereverb_taps", "band_edges_hz")} == {
         "flatness_power": 8.0, "frame_snr_power": 8.0, "frame_corr_power": 2.0, "dereverb_taps": 3,
         "band_edges_hz": (800.0, 1600.0, 2600.0)}
+
+
+def test_band_edges_must_be_finite_increasing_frequencies() -> None:
+    assert make(band_edges_hz=(800.0, 800.5)).frame_corr_power == 2.0  # half a hertz apart is increasing
+    for edges in [(800.0, 800.0), (1600.0, 800.0), (800.0, float("nan")), ((800.0, 1600.0),)]:
+        with pytest.raises(ValueError, match=f"^band_edges_hz must be increasing frequencies in Hz, got "
+                                             f"{re.escape(repr(edges))}$"):
+            make(band_edges_hz=edges)
+
+
+def test_a_delay_near_the_end_of_the_search_is_found() -> None:
+    # max_itd_s of 3 samples: the frames' lag grid (quarter samples) must reach +-3 samples. (The parabola's vertex
+    # stays within half a step of an inner grid point, so delays past 2.875 samples read as 2.875.)
+    rng = np.random.default_rng(4)
+    right = 0.1 * rng.standard_normal(16000)
+    freqs = np.fft.rfftfreq(16000)
+    for delay in (2.8, -2.8):
+        left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * freqs * delay), 16000)
+        track = extract_itds(left, right, 16000, method="gcc-phat-robust", max_itd_s=3 / 16000)
+        assert np.median(track.itds_s) * 16000 == pytest.approx(delay, abs=0.05)
+
+
+def test_a_frame_method_keeps_no_band_peaks_or_bins_unless_asked() -> None:
+    method = make()
+    rng = np.random.default_rng(0)
+    frames = 0.1 * rng.standard_normal((2, 3, method.frame_len))
+    assert set(method.frame_terms(frames[0], frames[1], FrameState())) == {"corr", "total"}
+    method.keep_band_peaks = method.keep_bins = True
+    assert set(method.frame_terms(frames[0], frames[1], FrameState())) == {"corr", "total", "frame_band_itds",
+                                                                          "frame_bins"}
