@@ -129,3 +129,88 @@ def test_a_frame_method_keeps_no_band_peaks_or_bins_unless_asked() -> None:
     method.keep_band_peaks = method.keep_bins = True
     assert set(method.frame_terms(frames[0], frames[1], FrameState())) == {"corr", "total", "frame_band_itds",
                                                                           "frame_bins"}
+
+
+# -- each cue alone, on frames whose spectra are known --------------------------------------------------------------
+CUES_OFF = {"onset_floor": 1.0, "over_subtraction": 0.0, "coherence_power": 0.0, "diffuse_power": 0.0,
+            "diffuse_subtract": False, "flatness_power": 0.0, "frame_snr_power": 0.0, "dereverb_taps": 0}
+RISE = 10 ** (3.0 * 0.010 / 10)  # the noise floor's rise per 10 ms frame at the default 3 dB/s
+
+
+def steady_then_louder(n_frames: int = 10, louder_from: int = 5) -> np.ndarray:
+    """(n, 512) frames of a signal periodic over one frame hop (every frame has the same spectrum), twice as loud
+    (four times the power) from frame ``louder_from`` on."""
+    period = 0.1 * np.random.default_rng(0).standard_normal(160)
+    signal = np.tile(period, n_frames + 4)
+    frames = np.stack([signal[i * 160:i * 160 + 512] for i in range(n_frames)])
+    gain = np.where(np.arange(n_frames) >= louder_from, 2.0, 1.0)
+    return frames * gain[:, None]
+
+
+def frame_weights(frames_left: np.ndarray, frames_right: np.ndarray | None = None, **cue) -> np.ndarray:
+    """Each frame's total weight with one cue on, over its total weight with every cue off."""
+    right = frames_left if frames_right is None else frames_right
+    alone = make(**{**CUES_OFF, **cue}).frame_terms(frames_left, right, FrameState())["total"][:, 0]
+    plain = make(**CUES_OFF).frame_terms(frames_left, right, FrameState())["total"][:, 0]
+    return alone / plain
+
+
+def test_with_every_cue_off_each_bin_of_the_band_weighs_one() -> None:
+    method = make(**CUES_OFF)
+    frames = steady_then_louder()
+    total = method.frame_terms(frames, frames, FrameState())["total"][:, 0]
+    np.testing.assert_allclose(total, method.band @ method._fold[:method.n_used], rtol=1e-12)
+
+
+def test_the_onset_cue_weighs_a_steady_frame_at_its_floor_and_a_louder_one_by_its_new_share() -> None:
+    # new energy share 1 - previous / current: 0 for a steady frame, 3/4 for one four times as powerful
+    weights = frame_weights(steady_then_louder(), onset_floor=0.2)
+    np.testing.assert_allclose(weights, [0.2] * 5 + [0.2 + 0.8 * 0.75] + [0.2] * 4, rtol=1e-9)
+
+
+def test_the_noise_floor_weighs_steady_sound_out_and_rises_3_db_a_second() -> None:
+    # A steady sound is its own noise floor (weight 1 - N / P = 0). Four times louder, the floor climbs from the old
+    # level by the allowed rise each frame: weight 1 - RISE^(n+1) / 4 at the louder stretch's frame n.
+    weights = frame_weights(steady_then_louder(), over_subtraction=1.0)
+    np.testing.assert_allclose(weights[:5], 0.0, atol=1e-12)
+    np.testing.assert_allclose(weights[5:], 1 - RISE ** np.arange(1, 6) / 4, rtol=1e-9)
+    doubled = frame_weights(steady_then_louder(), over_subtraction=2.0)
+    np.testing.assert_allclose(doubled[5:], 1 - 2 * RISE ** np.arange(1, 6) / 4, rtol=1e-9)
+
+
+def test_the_frame_snr_cue_weighs_every_bin_by_the_frames_share_above_the_floor() -> None:
+    weights = frame_weights(steady_then_louder(), frame_snr_power=0.5)
+    np.testing.assert_allclose(weights[:5], 0.0, atol=1e-8)  # the square root of a share of 1e-17 (rounding)
+    np.testing.assert_allclose(weights[5:], np.sqrt(1 - RISE ** np.arange(1, 6) / 4), rtol=1e-9)
+
+
+def test_the_coherence_cue_keeps_one_sound_in_both_ears_and_weighs_two_unrelated_ones_down() -> None:
+    rng = np.random.default_rng(1)
+    left, other = 0.1 * rng.standard_normal((2, 40, 512))
+    np.testing.assert_allclose(frame_weights(left, coherence_power=2.0), 1.0, rtol=1e-9)
+    unrelated = frame_weights(left, other, coherence_power=2.0)
+    assert unrelated[0] == pytest.approx(1.0)  # one frame alone is fully coherent with itself
+    assert np.mean(unrelated[20:]) < 0.2  # averaged over ~30 ms, the unrelated noises' coherence falls
+
+
+def test_the_flatness_cue_weighs_a_click_out_and_keeps_a_tone() -> None:
+    # A click has a flat spectrum (flatness 1: weight 0); a tone's spectrum is one peak (flatness near 0: weight
+    # near 1), each raised to the power.
+    click = np.zeros((1, 512))
+    click[0, 256] = 1.0
+    tone = np.sin(2 * np.pi * 1000.0 * np.arange(512) / 16000)[None]
+    assert frame_weights(click, flatness_power=0.5)[0] == pytest.approx(0.0, abs=1e-6)
+    tone_weight = frame_weights(tone, flatness_power=0.5)[0]
+    assert 0.9 < tone_weight < 1.0
+    assert frame_weights(tone, flatness_power=2.0)[0] == pytest.approx(tone_weight ** 4, rel=1e-9)
+
+
+def test_the_coherence_cue_raises_the_coherence_to_its_power() -> None:
+    rng = np.random.default_rng(1)
+    left, other = 0.1 * rng.standard_normal((2, 40, 512))
+
+    def bin_weights(power: float) -> np.ndarray:  # frame_corr_power 0: the terms hold each bin's weight
+        method = make(**{**CUES_OFF, "coherence_power": power, "frame_corr_power": 0.0})
+        return method.frame_terms(left, other, FrameState())["weight"]
+
+    np.testing.assert_allclose(bin_weights(0.5), bin_weights(2.0) ** 0.25, rtol=1e-9, atol=1e-12)
