@@ -20,7 +20,7 @@ def make(**settings):
     {"frame_s": 16 / 16000}, {"frame_s": 1200 / 16000}, {"frame_hop_len": 1}, {"onset_floor": 0.0},
     {"onset_floor": 1.0}, {"coherence_power": 0.0, "diffuse_power": 0.0, "flatness_power": 0.0, "frame_snr_power": 0.0},
     {"speed_of_sound": 0.5}, {"low_hz": 0.0}, {"over_subtraction": 0.0}, {"dereverb_taps": 0, "dereverb_delay": 1},
-    {"dereverb_step": 1.999},
+    {"dereverb_step": 1.999}, {"noise_rise_db_per_s": 0.5},
 ])
 def test_each_setting_is_accepted_at_its_documented_edge(settings: dict) -> None:
     method = make(**settings)
@@ -65,6 +65,7 @@ def test_the_band_holds_both_its_edges_and_nothing_above() -> None:
     assert method.nfft == 1024 and method.n_used == 257
     assert method.freqs_hz[method.n_used - 1] == 4000.0
     assert np.flatnonzero(method.band).tolist() == list(range(8, 257))
+    assert method.frames_per_window == 12  # 512-sample frames every 160 that fit in 2400: starts 0 ... 1760
 
 
 def test_frame_methods_are_run_by_the_stream_only() -> None:
@@ -191,6 +192,10 @@ def test_the_coherence_cue_keeps_one_sound_in_both_ears_and_weighs_two_unrelated
     unrelated = frame_weights(left, other, coherence_power=2.0)
     assert unrelated[0] == pytest.approx(1.0)  # one frame alone is fully coherent with itself
     assert np.mean(unrelated[20:]) < 0.2  # averaged over ~30 ms, the unrelated noises' coherence falls
+    # unrelated, then the same noise in both: the coherence comes back within a few 30 ms time constants
+    both = np.concatenate([other[:20], left[20:]])
+    recovering = frame_weights(left, both, coherence_power=2.0)
+    assert recovering[19] < 0.5 and recovering[29] > 0.9
 
 
 def test_the_flatness_cue_weighs_a_click_out_and_keeps_a_tone() -> None:
