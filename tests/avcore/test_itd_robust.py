@@ -7,7 +7,7 @@ import re
 import numpy as np
 import pytest
 
-from avcore.itd import RobustCorrelogram, RobustGccPhat, extract_itds
+from avcore.itd import ItdStream, RobustCorrelogram, RobustGccPhat, extract_itds
 from avcore.itd.robust import FrameMethod, FrameState, _ratio
 
 
@@ -219,3 +219,95 @@ def test_the_coherence_cue_raises_the_coherence_to_its_power() -> None:
         return method.frame_terms(left, other, FrameState())["weight"]
 
     np.testing.assert_allclose(bin_weights(0.5), bin_weights(2.0) ** 0.25, rtol=1e-9, atol=1e-12)
+
+
+def test_a_frames_height_is_its_normalised_correlation_whatever_the_power() -> None:
+    # the frames' correlations are raised to frame_corr_power before the window sums them; a frame's own height
+    # takes the power back off, so it reads the same for every power
+    rng = np.random.default_rng(3)
+    right = 0.1 * rng.standard_normal(16000)
+    left = np.roll(right, 3) + 0.05 * rng.standard_normal(16000)
+    heights = []
+    for power in (1.0, 2.0, 4.0):
+        stream = ItdStream(16000, method="gcc-phat-robust", frame_itds=True, frame_corr_power=power)
+        stream.push(left, right)
+        heights.append(stream.pop_frame_itds().confidence)
+    assert 0.5 < np.median(heights[0]) < 0.99
+    np.testing.assert_allclose(heights[1], heights[0], rtol=1e-9)
+    np.testing.assert_allclose(heights[2], heights[0], rtol=1e-9)
+    with pytest.raises(ValueError, match=r"^frame ITDs need the per-frame correlations: frame_corr_power > 0$"):
+        make(frame_corr_power=0.0).frame_itds({})
+
+
+def test_the_robust_correlogram_on_a_pure_delay_with_every_cue_off_is_fully_confident() -> None:
+    # every channel's weighted energy is then its raw energy (confidence 1 each), and its correlation at the delay
+    # is 1: the confidence-weighted mean is 1
+    rng = np.random.default_rng(3)
+    right = 0.1 * rng.standard_normal(16000)
+    freqs = np.fft.rfftfreq(16000)
+    left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * freqs * 3.0), 16000)
+    track = extract_itds(left, right, 16000, method="correlogram-robust", **CUES_OFF)
+    np.testing.assert_allclose(track.confidence, 1.0, atol=1e-3)
+    assert np.median(track.itds_s) * 16000 == pytest.approx(3.0, abs=0.01)
+
+
+def test_the_robust_correlograms_top_channel_stays_below_nyquist() -> None:
+    assert RobustCorrelogram(8000, 1200, 1e-3, frame_hop_len=80).center_hz.max() == pytest.approx(0.45 * 8000)
+    assert RobustCorrelogram(16000, 2400, 1e-3, frame_hop_len=160).center_hz.max() == pytest.approx(4000.0)
+
+
+def test_the_dereverberation_removes_an_echo_two_frames_late() -> None:
+    # Spectra with an echo of 0.7 two frames later (an AR process at lag 2): predicted from the frame two back
+    # (taps 1, delay 2), the prediction error tends to the new part alone, about half the power.
+    method = make(dereverb_taps=1, dereverb_delay=2)
+    rng = np.random.default_rng(3)
+    spectra = np.zeros((2, 400, method.n_used), dtype=complex)
+    for t in range(400):
+        new = rng.standard_normal((2, method.n_used)) + 1j * rng.standard_normal((2, method.n_used))
+        spectra[:, t] = new + (0.7 * spectra[:, t - 2] if t >= 2 else 0.0)
+    left, right = method._dereverberate(spectra.copy(), (np.abs(spectra) ** 2).sum(axis=0), FrameState())
+    before = np.mean(np.abs(spectra[:, 300:]) ** 2)
+    after = np.mean(np.abs(np.stack([left, right])[:, 300:]) ** 2)
+    assert after / before < 0.6  # the new part alone: 1 - 0.7^2 = 0.51 of the power
+
+
+def test_half_the_power_coherent_reads_as_a_confidence_of_one_over_root_two() -> None:
+    # left = right delayed + as much unrelated noise: each channel's normalised correlation at the delay is
+    # S / sqrt(S (S + N)) = 1 / sqrt(2), and with every cue off each channel is fully confident
+    rng = np.random.default_rng(3)
+    right = 0.1 * rng.standard_normal(32000)
+    freqs = np.fft.rfftfreq(32000)
+    left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * freqs * 3.0), 32000)
+    left += 0.1 * rng.standard_normal(32000)
+    track = extract_itds(left, right, 16000, method="correlogram-robust", **CUES_OFF)
+    assert np.all((track.confidence > 0.6) & (track.confidence < 0.8))
+    assert np.median(track.confidence) == pytest.approx(2 ** -0.5, abs=0.02)
+
+
+def test_each_gammatone_channel_votes_by_its_normalised_correlation_not_its_energy() -> None:
+    # A loud narrow band (300-500 Hz, a few channels) at +3 samples and a band 20 dB quieter over many channels
+    # (1-4 kHz) at -3: the channels vote equally, so the many quiet ones win.
+    rng = np.random.default_rng(3)
+    freqs = np.fft.rfftfreq(32000, 1 / 16000)
+
+    def band(low: float, high: float, delay: float, rms: float) -> tuple[np.ndarray, np.ndarray]:
+        spectrum = np.fft.rfft(rng.standard_normal(32000)) * ((freqs >= low) & (freqs <= high))
+        right = np.fft.irfft(spectrum, 32000)
+        left = np.fft.irfft(spectrum * np.exp(-2j * np.pi * freqs * delay / 16000), 32000)
+        return left * rms / right.std(), right * rms / right.std()
+
+    (l_loud, r_loud), (l_quiet, r_quiet) = band(300, 500, 3.0, 0.1), band(1000, 4000, -3.0, 0.01)
+    track = extract_itds(l_loud + l_quiet, r_loud + r_quiet, 16000, method="correlogram-robust", **CUES_OFF)
+    assert np.median(track.itds_s) * 16000 == pytest.approx(-3.0, abs=0.5)
+
+
+def test_a_frames_height_is_the_peak_of_its_own_correlation() -> None:
+    rng = np.random.default_rng(3)
+    frames = 0.1 * rng.standard_normal((2, 6, 512))
+    frames[0] += np.roll(frames[1], 2, axis=1)
+    for power in (1.0, 3.0):
+        method = make(frame_corr_power=power)
+        terms = method.frame_terms(frames[0], frames[1], FrameState())
+        _, heights = method.frame_itds(terms)
+        correlation = terms["corr"] / terms["total"]  # the normalised correlation raised to the power
+        np.testing.assert_allclose(heights, correlation.max(axis=1) ** (1 / power), rtol=1e-9)
