@@ -311,3 +311,40 @@ def test_a_frames_height_is_the_peak_of_its_own_correlation() -> None:
         _, heights = method.frame_itds(terms)
         correlation = terms["corr"] / terms["total"]  # the normalised correlation raised to the power
         np.testing.assert_allclose(heights, correlation.max(axis=1) ** (1 / power), rtol=1e-9)
+
+
+def sound_field(cosines: np.ndarray, rng: np.random.Generator, seconds: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Left and right signals at 16 kHz of independent noises arriving as plane waves on the default pair (12 cm,
+    343 m/s), one per direction cosine; many directions drawn uniformly in cosine make a diffuse (isotropic) field,
+    whose coherence is sinc(2 f d / c)."""
+    n = int(16000 * seconds)
+    freqs = np.fft.rfftfreq(n, 1 / 16000)
+    left, right = np.zeros(freqs.size, complex), np.zeros(freqs.size, complex)
+    for cosine in cosines:
+        spectrum = np.fft.rfft(rng.standard_normal(n))
+        half_delay = 0.5 * 0.12 * cosine / 343.0
+        left += spectrum * np.exp(-2j * np.pi * freqs * half_delay)
+        right += spectrum * np.exp(2j * np.pi * freqs * half_delay)
+    return np.fft.irfft(left, n), np.fft.irfft(right, n)
+
+
+def test_the_diffuse_cue_weighs_a_diffuse_field_down_and_keeps_a_direct_sound() -> None:
+    rng = np.random.default_rng(5)
+    diffuse, direct = sound_field(rng.uniform(-1, 1, 200), rng), sound_field(np.array([0.5]), rng)
+
+    def mean_weight(left: np.ndarray, right: np.ndarray) -> float:  # over in-band bins, after 100 ms
+        method = make(**{**CUES_OFF, "diffuse_power": 2.0, "frame_corr_power": 0.0})
+        frames = [np.stack([x[i * 160:i * 160 + 512] for i in range(90)]) for x in (left, right)]
+        weights = method.frame_terms(*frames, FrameState())["weight"]
+        return float(weights[10:, method.band > 0].mean())
+
+    assert mean_weight(*diffuse) < 0.3  # the coherent-to-diffuse ratio near 0: direct share near 0
+    assert mean_weight(*direct) > 0.99  # fully coherent: direct share 1
+
+
+def test_subtracting_the_diffuse_part_lowers_a_diffuse_fields_correlation() -> None:
+    left, right = sound_field(np.random.default_rng(5).uniform(-1, 1, 200), np.random.default_rng(6))
+    heights = [np.median(extract_itds(left, right, 16000, method="gcc-phat-robust", energy_threshold=0.0,
+                                      **{**CUES_OFF, "diffuse_subtract": subtract}).confidence)
+               for subtract in (False, True)]
+    assert heights[1] < 0.75 * heights[0]
