@@ -348,3 +348,75 @@ def test_subtracting_the_diffuse_part_lowers_a_diffuse_fields_correlation() -> N
                                       **{**CUES_OFF, "diffuse_subtract": subtract}).confidence)
                for subtract in (False, True)]
     assert heights[1] < 0.75 * heights[0]
+
+
+def bin_weights(frames_left: np.ndarray, frames_right: np.ndarray, **cues) -> np.ndarray:
+    """(m, K) each bin's weight with the given cues (frame_corr_power 0: the terms hold the weights)."""
+    method = make(**{**CUES_OFF, "frame_corr_power": 0.0, **cues})
+    return method.frame_terms(frames_left, frames_right, FrameState())["weight"]
+
+
+def test_the_cues_multiply() -> None:
+    # each cue's weight depends on the frames alone, so together they weigh each bin by their product
+    rng = np.random.default_rng(2)
+    left, right = sound_field(np.array([0.3, -0.6]), rng)
+    frames = [np.stack([x[i * 160:i * 160 + 512] * (1 + (i % 7)) for i in range(40)]) for x in (left, right)]
+    cues = [{"frame_snr_power": 0.5}, {"over_subtraction": 1.0}, {"onset_floor": 0.2}, {"coherence_power": 2.0},
+            {"diffuse_power": 2.0}, {"flatness_power": 0.5}]
+    together = bin_weights(*frames, **{k: v for cue in cues for k, v in cue.items()})
+    product = np.prod([bin_weights(*frames, **cue) for cue in cues], axis=0)
+    np.testing.assert_allclose(together, product, rtol=1e-9, atol=1e-15)
+    assert 0 < together[5:].mean() < product[5:].max()
+    np.testing.assert_allclose(bin_weights(*frames, diffuse_power=0.5),  # and each is raised to its power
+                               bin_weights(*frames, diffuse_power=2.0) ** 0.25, rtol=1e-9, atol=1e-12)
+
+
+def test_a_silent_frame_weighs_nothing_with_the_coherence_cue() -> None:
+    frames = 0.1 * np.random.default_rng(0).standard_normal((8, 512))
+    frames[:3] = 0.0
+    weights = bin_weights(frames, frames, coherence_power=2.0)
+    assert np.all(weights[:3] == 0.0) and np.all(weights[3:].sum(axis=1) > 0)
+
+
+def test_the_flatness_is_measured_over_the_band_only() -> None:
+    # a click (flat) plus a hum at 10 Hz, below the band: still flat within the band, so weighed out
+    click = np.zeros((1, 512))
+    click[0, 256] = 1.0
+    hum = 0.3 * np.cos(2 * np.pi * 10.0 * np.arange(512) / 16000)[None]
+    assert frame_weights(click + hum, flatness_power=0.5)[0] < 0.1
+
+
+def test_one_band_edge_cuts_the_correlation_into_two_pieces_of_the_same_sum() -> None:
+    rng = np.random.default_rng(3)
+    frames = 0.1 * rng.standard_normal((2, 6, 512))
+    frames[0] += np.roll(frames[1], 2, axis=1)
+    uncut = make(band_edges_hz=()).frame_terms(frames[0], frames[1], FrameState())["corr"]
+    cut = make(band_edges_hz=(1600.0,)).frame_terms(frames[0], frames[1], FrameState())["corr"]
+    np.testing.assert_allclose(cut, uncut, rtol=1e-9, atol=1e-15)
+
+
+def test_a_band_without_weight_gives_no_peak() -> None:
+    # an edge at 60 Hz makes a band of bins 0-3, all below the 80 Hz band: it never has weight
+    left, right = sound_field(np.array([0.5]), np.random.default_rng(1), seconds=0.5)
+    cut = ItdStream(16000, method="gcc-phat-robust", frame_itds=True, band_edges_hz=(60.0,))
+    cut.push(left, right)
+    frames, bands = cut.pop_frame_itds(), cut.pop_band_itds()
+    assert len(frames) > 0 and bands.times_s.tolist() == frames.times_s.tolist()
+
+
+def test_a_dereverberated_silent_frame_stays_silent_and_one_tap_is_used() -> None:
+    # after an echoing stretch the predictor predicts sound; a silent frame's error would be that prediction: louder
+    # than the frame, so the frame passes unchanged (zero)
+    method = make(dereverb_taps=1, dereverb_delay=2)
+    rng = np.random.default_rng(3)
+    spectra = np.zeros((2, 60, method.n_used), dtype=complex)
+    for t in range(59):
+        new = rng.standard_normal((2, method.n_used)) + 1j * rng.standard_normal((2, method.n_used))
+        spectra[:, t] = new + (0.7 * spectra[:, t - 2] if t >= 2 else 0.0)
+    left, right = method._dereverberate(spectra.copy(), (np.abs(spectra) ** 2).sum(axis=0), FrameState())
+    assert np.all(left[59] == 0) and np.all(right[59] == 0)
+    frames = 0.1 * rng.standard_normal((2, 8, 512))
+    with_tap = make(**{**CUES_OFF, "dereverb_taps": 1}).frame_terms(frames[0], frames[1], FrameState())["corr"]
+    without = make(**CUES_OFF).frame_terms(frames[0], frames[1], FrameState())["corr"]
+    np.testing.assert_allclose(with_tap[:2], without[:2], rtol=1e-9)  # nothing to predict from yet
+    assert np.abs(with_tap[4:] - without[4:]).max() > 0.01 * np.abs(without).max()  # predicted from t - 2 on
