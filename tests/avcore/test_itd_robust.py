@@ -256,16 +256,26 @@ def test_the_robust_correlograms_top_channel_stays_below_nyquist() -> None:
     assert RobustCorrelogram(16000, 2400, 1e-3, frame_hop_len=160).center_hz.max() == pytest.approx(4000.0)
 
 
-def test_the_dereverberation_removes_an_echo_two_frames_late() -> None:
-    # Spectra with an echo of 0.7 two frames later (an AR process at lag 2): predicted from the frame two back
-    # (taps 1, delay 2), the prediction error tends to the new part alone, about half the power.
-    method = make(dereverb_taps=1, dereverb_delay=2)
-    rng = np.random.default_rng(3)
-    spectra = np.zeros((2, 400, method.n_used), dtype=complex)
-    for t in range(400):
-        new = rng.standard_normal((2, method.n_used)) + 1j * rng.standard_normal((2, method.n_used))
+def echoing_spectra(n_bins: int, n_frames: int, n_echoing: int, rng: np.random.Generator) -> np.ndarray:
+    """(2, n_frames, n_bins) left and right frame spectra with an echo of 0.7 two frames later (an AR process at lag
+    2) for the first ``n_echoing`` frames, silent after."""
+    spectra = np.zeros((2, n_frames, n_bins), dtype=complex)
+    for t in range(n_echoing):
+        new = rng.standard_normal((2, n_bins)) + 1j * rng.standard_normal((2, n_bins))
         spectra[:, t] = new + (0.7 * spectra[:, t - 2] if t >= 2 else 0.0)
-    left, right = method._dereverberate(spectra.copy(), (np.abs(spectra) ** 2).sum(axis=0), FrameState())
+    return spectra
+
+
+def dereverberated(method: FrameMethod, spectra: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return method._dereverberate(spectra.copy(), (np.abs(spectra) ** 2).sum(axis=0), FrameState())
+
+
+def test_the_dereverberation_removes_an_echo_two_frames_late() -> None:
+    # Predicted from the frame two back (taps 1, delay 2), the prediction error tends to the new part alone, about
+    # half the power.
+    method = make(dereverb_taps=1, dereverb_delay=2)
+    spectra = echoing_spectra(method.n_used, 400, 400, np.random.default_rng(3))
+    left, right = dereverberated(method, spectra)
     before = np.mean(np.abs(spectra[:, 300:]) ** 2)
     after = np.mean(np.abs(np.stack([left, right])[:, 300:]) ** 2)
     assert after / before < 0.6  # the new part alone: 1 - 0.7^2 = 0.51 of the power
@@ -409,11 +419,7 @@ def test_a_dereverberated_silent_frame_stays_silent_and_one_tap_is_used() -> Non
     # than the frame, so the frame passes unchanged (zero)
     method = make(dereverb_taps=1, dereverb_delay=2)
     rng = np.random.default_rng(3)
-    spectra = np.zeros((2, 60, method.n_used), dtype=complex)
-    for t in range(59):
-        new = rng.standard_normal((2, method.n_used)) + 1j * rng.standard_normal((2, method.n_used))
-        spectra[:, t] = new + (0.7 * spectra[:, t - 2] if t >= 2 else 0.0)
-    left, right = method._dereverberate(spectra.copy(), (np.abs(spectra) ** 2).sum(axis=0), FrameState())
+    left, right = dereverberated(method, echoing_spectra(method.n_used, 60, 59, rng))
     assert np.all(left[59] == 0) and np.all(right[59] == 0)
     frames = 0.1 * rng.standard_normal((2, 8, 512))
     with_tap = make(**{**CUES_OFF, "dereverb_taps": 1}).frame_terms(frames[0], frames[1], FrameState())["corr"]
