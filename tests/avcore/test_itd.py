@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from avcore.gammatone import erb_space_hz, gammatone_power_response
 from avcore.geometry import MicPair
-from avcore.itd import METHODS, ItdStream, ItdTrack, extract_itds
+from avcore.itd import METHODS, ItdStream, ItdTrack, extract_itds, make_method
 
 ALL_METHODS = ["correlogram", "gcc-phat", "correlogram-robust", "gcc-phat-robust"]
 
@@ -44,8 +44,6 @@ def test_public_signature_and_paper_defaults():
 
 
 def test_every_form_has_the_same_defaults() -> None:
-    from avcore.itd import make_method
-
     whole = inspect.signature(extract_itds).parameters
     shared = ["method", "window_s", "hop_s", "energy_threshold", "max_itd_s", "min_confidence"]
     for form in (make_method, ItdStream.__init__):
@@ -64,15 +62,11 @@ def test_every_form_has_the_same_defaults() -> None:
                                                                 "got -0.001"),
 ])
 def test_each_wrong_length_or_rate_is_named_with_its_unit(args: tuple, error: type, message: str) -> None:
-    from avcore.itd import make_method
-
     with pytest.raises(error, match=f"^{re.escape(message)}$"):
         make_method(*args)
 
 
 def test_each_shared_setting_is_accepted_at_its_edge_and_named_in_full_past_it() -> None:
-    from avcore.itd import make_method
-
     # accepted: a window of 16 samples with lags up to 7 (2 x 7 < 16), a hop of one sample, confidence bounds 1 and -1
     impl, framing = make_method(16000, "gcc-phat", 16 / 16000, 1 / 16000, 0.0, 6.9 / 16000, 1.0)
     assert (framing.window_len, framing.hop_len, impl.max_lag, framing.min_confidence) == (16, 1, 7, 1.0)

@@ -1,4 +1,5 @@
-"""The frame methods' contract (avcore.itd.robust): their settings' bounds, band and defaults, as documented."""
+"""The frame methods' contract (avcore.itd.robust): settings, band and defaults as documented; each weighting cue
+on frames whose spectra are known; the correlogram's channels, the frames' heights and the dereverberation."""
 from __future__ import annotations
 
 import inspect
@@ -14,6 +15,19 @@ from avcore.itd.robust import FrameMethod, FrameState, _ratio
 def make(**settings):
     """A gcc-phat-robust of 150 ms windows at 16 kHz, frames every 10 ms, as the stream builds it."""
     return RobustGccPhat(16000, 2400, 1e-3, **{"frame_hop_len": 160, **settings})
+
+
+def delayed_noise(delay: float, n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """(left, right): n samples of white noise (rms 0.1), the left channel ``delay`` samples late (exact: a phase ramp
+    on a periodic signal)."""
+    right = 0.1 * rng.standard_normal(n)
+    left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * np.fft.rfftfreq(n) * delay), n)
+    return left, right
+
+
+def frames_of(signal: np.ndarray, count: int) -> np.ndarray:
+    """(count, 512) frames every 160 samples, as gcc-phat-robust cuts them at 16 kHz."""
+    return np.stack([signal[i * 160:i * 160 + 512] for i in range(count)])
 
 
 @pytest.mark.parametrize("settings", [
@@ -113,11 +127,8 @@ def test_band_edges_must_be_finite_increasing_frequencies() -> None:
 def test_a_delay_near_the_end_of_the_search_is_found() -> None:
     # max_itd_s of 3 samples: the frames' lag grid (quarter samples) must reach +-3 samples. (The parabola's vertex
     # stays within half a step of an inner grid point, so delays past 2.875 samples read as 2.875.)
-    rng = np.random.default_rng(4)
-    right = 0.1 * rng.standard_normal(16000)
-    freqs = np.fft.rfftfreq(16000)
     for delay in (2.8, -2.8):
-        left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * freqs * delay), 16000)
+        left, right = delayed_noise(delay, 16000, np.random.default_rng(4))
         track = extract_itds(left, right, 16000, method="gcc-phat-robust", max_itd_s=3 / 16000)
         assert np.median(track.itds_s) * 16000 == pytest.approx(delay, abs=0.05)
 
@@ -142,8 +153,7 @@ def steady_then_louder(n_frames: int = 10, louder_from: int = 5) -> np.ndarray:
     """(n, 512) frames of a signal periodic over one frame hop (every frame has the same spectrum), twice as loud
     (four times the power) from frame ``louder_from`` on."""
     period = 0.1 * np.random.default_rng(0).standard_normal(160)
-    signal = np.tile(period, n_frames + 4)
-    frames = np.stack([signal[i * 160:i * 160 + 512] for i in range(n_frames)])
+    frames = frames_of(np.tile(period, n_frames + 4), n_frames)
     gain = np.where(np.arange(n_frames) >= louder_from, 2.0, 1.0)
     return frames * gain[:, None]
 
@@ -154,6 +164,12 @@ def frame_weights(frames_left: np.ndarray, frames_right: np.ndarray | None = Non
     alone = make(**{**CUES_OFF, **cue}).frame_terms(frames_left, right, FrameState())["total"][:, 0]
     plain = make(**CUES_OFF).frame_terms(frames_left, right, FrameState())["total"][:, 0]
     return alone / plain
+
+
+def bin_weights(frames_left: np.ndarray, frames_right: np.ndarray, **cues) -> np.ndarray:
+    """(m, K) each bin's weight with the given cues (frame_corr_power 0: the terms hold the weights)."""
+    method = make(**{**CUES_OFF, "frame_corr_power": 0.0, **cues})
+    return method.frame_terms(frames_left, frames_right, FrameState())["weight"]
 
 
 def test_with_every_cue_off_each_bin_of_the_band_weighs_one() -> None:
@@ -213,12 +229,8 @@ def test_the_flatness_cue_weighs_a_click_out_and_keeps_a_tone() -> None:
 def test_the_coherence_cue_raises_the_coherence_to_its_power() -> None:
     rng = np.random.default_rng(1)
     left, other = 0.1 * rng.standard_normal((2, 40, 512))
-
-    def bin_weights(power: float) -> np.ndarray:  # frame_corr_power 0: the terms hold each bin's weight
-        method = make(**{**CUES_OFF, "coherence_power": power, "frame_corr_power": 0.0})
-        return method.frame_terms(left, other, FrameState())["weight"]
-
-    np.testing.assert_allclose(bin_weights(0.5), bin_weights(2.0) ** 0.25, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(bin_weights(left, other, coherence_power=0.5),
+                               bin_weights(left, other, coherence_power=2.0) ** 0.25, rtol=1e-9, atol=1e-12)
 
 
 def test_a_frames_height_is_its_normalised_correlation_whatever_the_power() -> None:
@@ -242,10 +254,7 @@ def test_a_frames_height_is_its_normalised_correlation_whatever_the_power() -> N
 def test_the_robust_correlogram_on_a_pure_delay_with_every_cue_off_is_fully_confident() -> None:
     # every channel's weighted energy is then its raw energy (confidence 1 each), and its correlation at the delay
     # is 1: the confidence-weighted mean is 1
-    rng = np.random.default_rng(3)
-    right = 0.1 * rng.standard_normal(16000)
-    freqs = np.fft.rfftfreq(16000)
-    left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * freqs * 3.0), 16000)
+    left, right = delayed_noise(3.0, 16000, np.random.default_rng(3))
     track = extract_itds(left, right, 16000, method="correlogram-robust", **CUES_OFF)
     np.testing.assert_allclose(track.confidence, 1.0, atol=1e-3)
     assert np.median(track.itds_s) * 16000 == pytest.approx(3.0, abs=0.01)
@@ -285,9 +294,7 @@ def test_half_the_power_coherent_reads_as_a_confidence_of_one_over_root_two() ->
     # left = right delayed + as much unrelated noise: each channel's normalised correlation at the delay is
     # S / sqrt(S (S + N)) = 1 / sqrt(2), and with every cue off each channel is fully confident
     rng = np.random.default_rng(3)
-    right = 0.1 * rng.standard_normal(32000)
-    freqs = np.fft.rfftfreq(32000)
-    left = np.fft.irfft(np.fft.rfft(right) * np.exp(-2j * np.pi * freqs * 3.0), 32000)
+    left, right = delayed_noise(3.0, 32000, rng)
     left += 0.1 * rng.standard_normal(32000)
     track = extract_itds(left, right, 16000, method="correlogram-robust", **CUES_OFF)
     assert np.all((track.confidence > 0.6) & (track.confidence < 0.8))
@@ -343,10 +350,8 @@ def test_the_diffuse_cue_weighs_a_diffuse_field_down_and_keeps_a_direct_sound() 
     diffuse, direct = sound_field(rng.uniform(-1, 1, 200), rng), sound_field(np.array([0.5]), rng)
 
     def mean_weight(left: np.ndarray, right: np.ndarray) -> float:  # over in-band bins, after 100 ms
-        method = make(**{**CUES_OFF, "diffuse_power": 2.0, "frame_corr_power": 0.0})
-        frames = [np.stack([x[i * 160:i * 160 + 512] for i in range(90)]) for x in (left, right)]
-        weights = method.frame_terms(*frames, FrameState())["weight"]
-        return float(weights[10:, method.band > 0].mean())
+        weights = bin_weights(frames_of(left, 90), frames_of(right, 90), diffuse_power=2.0)
+        return float(weights[10:, make().band > 0].mean())
 
     assert mean_weight(*diffuse) < 0.3  # the coherent-to-diffuse ratio near 0: direct share near 0
     assert mean_weight(*direct) > 0.99  # fully coherent: direct share 1
@@ -360,17 +365,12 @@ def test_subtracting_the_diffuse_part_lowers_a_diffuse_fields_correlation() -> N
     assert heights[1] < 0.75 * heights[0]
 
 
-def bin_weights(frames_left: np.ndarray, frames_right: np.ndarray, **cues) -> np.ndarray:
-    """(m, K) each bin's weight with the given cues (frame_corr_power 0: the terms hold the weights)."""
-    method = make(**{**CUES_OFF, "frame_corr_power": 0.0, **cues})
-    return method.frame_terms(frames_left, frames_right, FrameState())["weight"]
-
-
 def test_the_cues_multiply() -> None:
     # each cue's weight depends on the frames alone, so together they weigh each bin by their product
     rng = np.random.default_rng(2)
     left, right = sound_field(np.array([0.3, -0.6]), rng)
-    frames = [np.stack([x[i * 160:i * 160 + 512] * (1 + (i % 7)) for i in range(40)]) for x in (left, right)]
+    gains = 1 + np.arange(40)[:, None] % 7  # levels changing from frame to frame
+    frames = [frames_of(x, 40) * gains for x in (left, right)]
     cues = [{"frame_snr_power": 0.5}, {"over_subtraction": 1.0}, {"onset_floor": 0.2}, {"coherence_power": 2.0},
             {"diffuse_power": 2.0}, {"flatness_power": 0.5}]
     together = bin_weights(*frames, **{k: v for cue in cues for k, v in cue.items()})
