@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-__all__ = ["Group3D", "compact_groups"]
+__all__ = ["Group3D", "compact_groups", "held_bodies"]
 
 _CUT2 = 9.0  # squared Mahalanobis cut-off (chi-square with 3 dof: 97.1 % of a Gaussian inside)
 # E[d^2 | d^2 < c] / 3 for a 3-D Gaussian: the factor by which the truncated covariance is too small.
@@ -249,11 +249,7 @@ def merge_close(groups: list[Group3D], points: np.ndarray, distance_m: float,
     masses = [g.mass for g in groups]
     while len(clusters) > 1:
         m = np.asarray(means)
-        d = m[:, None] - m[None, :]
-        dh, dy = np.hypot(d[..., 0], d[..., 2]), np.abs(d[..., 1])
-        inside = dy < vertical_m
-        reach = np.sqrt(np.maximum(distance_m**2 - (dy * distance_m / vertical_m) ** 2, 0.0)) + reach_per_m * dy
-        score = np.where(inside, dh / np.maximum(reach, 1e-12), np.inf)
+        score = merge_scores(m, m, distance_m, vertical_m, reach_per_m)
         np.fill_diagonal(score, np.inf)
         i, j = np.unravel_index(int(np.argmin(score)), score.shape)
         if score[i, j] >= 1:
@@ -266,6 +262,15 @@ def merge_close(groups: list[Group3D], points: np.ndarray, distance_m: float,
         means.pop(j)
         masses.pop(j)
     return clusters
+
+
+def merge_scores(a: np.ndarray, b: np.ndarray, distance_m: float, vertical_m: float, reach_per_m: float
+                 ) -> np.ndarray:
+    """(A, B) scores of :func:`merge_close` between the means ``a`` (A, 3) and ``b`` (B, 3): below 1, one person."""
+    d = np.asarray(a, dtype=np.float64).reshape(-1, 1, 3) - np.asarray(b, dtype=np.float64).reshape(1, -1, 3)
+    dh, dy = np.hypot(d[..., 0], d[..., 2]), np.abs(d[..., 1])
+    reach = np.sqrt(np.maximum(distance_m**2 - (dy * distance_m / vertical_m) ** 2, 0.0)) + reach_per_m * dy
+    return np.where(dy < vertical_m, dh / np.maximum(reach, 1e-12), np.inf)
 
 
 def _weighted_quantiles(x: np.ndarray, w: np.ndarray, q: tuple[float, float]) -> np.ndarray:
@@ -310,3 +315,68 @@ def merge_within_width(groups: list[Group3D], points: np.ndarray, clusters: list
         _, i, j = best
         clusters[i] += clusters.pop(j)
     return clusters
+
+
+def held_bodies(points: np.ndarray, previous_m: np.ndarray, previous_mass: np.ndarray, current_m: np.ndarray, *,
+                radius_m: float, half_height_m: float, match_m: float, min_points: float, min_share: float,
+                min_contrast: float = 5.0, merge: tuple[float, float, float] | None = None, n_shift: int = 5
+                ) -> list[tuple[int, np.ndarray]]:
+    """The people of the previous interval that this interval's groups lost, where their bodies still hold points.
+
+    Algorithm 1 initialises each interval's model from the previous one (the paper's section 4.4) but decides who
+    is there from this interval's data alone, so a person standing still whose points happen to fall into another
+    cluster's tail, or to be cut into pieces too small to be groups, is lost for an interval and found again in the
+    next. A previous person (``previous_m`` (Q, 3), with the mass ``previous_mass`` (Q,) their group had) that no
+    current person (``current_m`` (N, 3)) stands for is looked for in a vertical cylinder (``radius_m``
+    horizontally, ``half_height_m`` up and down) around where they were, re-centred ``n_shift`` times on the mean of
+    its points (a person moves a little between intervals). A current person stands for the previous one closest to
+    them horizontally, within ``match_m`` (a body is vertical: its centre found at the torso once and at the legs
+    once is one person), the closest pairs first, so two people side by side found as one lose one. Points in a
+    current person's cylinder, or in one held before, are not taken. The person is held when the cylinder keeps at
+    least ``min_points`` points and ``min_share`` of their previous mass (a person who left leaves the few outliers
+    any cylinder holds), its points are ``min_contrast`` times as dense as those of the ring around it (out to twice
+    the radius, points not taken: a body stands out of its surroundings, a patch of outliers does not, so a false
+    person made of outliers is not carried on), its centre stays within ``match_m`` of where they were,
+    horizontally, and :func:`merge_close` with ``merge`` (distance_m, vertical_m, reach_per_m) would not join it to
+    a current person (then it is a part of them, such as the legs of someone walking behind others).
+
+    Returns (index into ``previous_m``, boolean mask (M,) over ``points``) per person held.
+    """
+    pts = np.asarray(points, dtype=np.float64)
+    previous = np.asarray(previous_m, dtype=np.float64).reshape(-1, 3)
+    current = np.asarray(current_m, dtype=np.float64).reshape(-1, 3)
+
+    def horizontal(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        d = a - b
+        return np.hypot(d[..., 0], d[..., 2])
+
+    def cylinder(centre: np.ndarray, r: float = radius_m) -> np.ndarray:
+        return (horizontal(pts, centre) < r) & (np.abs(pts[:, 1] - centre[1]) < half_height_m)
+
+    taken = np.zeros(pts.shape[0], dtype=bool)
+    for c in current:
+        taken |= cylinder(c)
+    found = np.zeros(previous.shape[0], dtype=bool)
+    d = horizontal(previous[:, None], current[None])
+    for _ in range(min(d.shape)):
+        i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+        if d[i, j] >= match_m:
+            break
+        found[i] = True
+        d[i, :], d[:, j] = np.inf, np.inf
+    held = []
+    for i in np.flatnonzero(~found):
+        centre, inside = previous[i], np.zeros(pts.shape[0], dtype=bool)
+        for _ in range(n_shift):
+            inside = cylinder(centre) & ~taken
+            if not inside.any():
+                break
+            centre = pts[inside].mean(axis=0)
+        count = int(inside.sum())
+        ring = int((cylinder(centre, 2 * radius_m) & ~taken).sum()) - count  # its area is 3 cylinders'
+        part = merge is not None and current.shape[0] and np.min(merge_scores(centre, current, *merge)) < 1
+        if (count >= min_points and count >= min_share * previous_mass[i] and count >= min_contrast * ring / 3
+                and horizontal(centre, previous[i]) < match_m and not part):
+            held.append((int(i), inside))
+            taken |= inside
+    return held
