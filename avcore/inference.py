@@ -33,7 +33,14 @@ from avcore.mixture import (
     unpack,
     warn_not_converged,
 )
-from avcore.refine3d import Group3D, compact_groups, group_from_members, merge_close, merge_within_width
+from avcore.refine3d import (
+    Group3D,
+    compact_groups,
+    group_from_members,
+    held_bodies,
+    merge_close,
+    merge_within_width,
+)
 from avcore.itd.pairs import FrameBins
 from avcore.speaking import SpeakingTest, bin_shares, speaking_threshold
 
@@ -88,6 +95,9 @@ class MotionGuidedParams:
         and the previous interval's fit with N components: people move little between intervals, so EM needs
         fewer iterations (a speed-up; the paper initialises every N from the selected model only). The fit can
         differ too: EM from another start may end at another optimum, and BIC may then pick another N.
+    hold_radius_m, hold_share : with ``refine_3d``, a person of the previous interval that this one lost is kept
+        where a vertical cylinder of this radius around them holds ``hold_share`` of the points they had when last
+        found (:func:`avcore.refine3d.held_bodies`, which says what else it asks). None: each interval decides alone.
     """
 
     n_max: int = 10
@@ -108,6 +118,8 @@ class MotionGuidedParams:
     body_radius_m: float | None = 0.3
     body_keeps_groups: bool = True
     warm_start_candidates: bool = True
+    hold_radius_m: float | None = 0.3
+    hold_share: float = 0.5
 
     def __post_init__(self) -> None:
         if not 0 <= self.n_max <= 50:
@@ -123,13 +135,18 @@ class MotionGuidedParams:
             raise ValueError(f"body_width_m must be None or > 0 metres, got {self.body_width_m}")
         if self.body_radius_m is not None and not self.body_radius_m > 0:
             raise ValueError(f"body_radius_m must be None or > 0 metres, got {self.body_radius_m}")
+        if self.hold_radius_m is not None and not self.hold_radius_m > 0:
+            raise ValueError(f"hold_radius_m must be None or > 0 metres, got {self.hold_radius_m}")
+        if not 0 <= self.hold_share <= 1:
+            raise ValueError(f"hold_share must be in [0, 1], got {self.hold_share}")
         if not isinstance(self.body_keeps_groups, bool):
             raise TypeError(f"body_keeps_groups must be a bool, got {type(self.body_keeps_groups).__name__}")
 
     @classmethod
     def paper(cls) -> MotionGuidedParams:
         """The method as the paper describes it: moments of eq. (hat_svect), determinant test, tau_A = K/(N+2)."""
-        return cls(speaking=SpeakingTest(outlier_aware=False), refine_3d=False, warm_start_candidates=False)
+        return cls(speaking=SpeakingTest(outlier_aware=False), refine_3d=False, warm_start_candidates=False,
+                   hold_radius_m=None)
 
 
 @dataclass(frozen=True)
@@ -201,11 +218,13 @@ class MotionGuidedHearing:
         self.support = self.mics.itd_interval()
         self.previous_: Mixture1D | None = None
         self._candidates: Packed | None = None
+        self._people: tuple[np.ndarray, np.ndarray] | None = None
 
     def reset(self) -> None:
         """Forget the previous interval."""
         self.previous_ = None
         self._candidates = None
+        self._people = None
 
     def _empty_output(self, bic: np.ndarray, n_sel: int, tau: float) -> MotionGuidedOutput:
         return MotionGuidedOutput(np.empty((0, 3)), np.empty((0, 3, 3)), np.empty(0, dtype=bool), np.empty(0),
@@ -296,6 +315,10 @@ class MotionGuidedHearing:
             beta = np.stack([beta[:, g].sum(axis=1) for g in groups], axis=1).reshape(a.size, len(groups))
         if p.refine_3d:
             positions, cov, abar, beta, model = self._refine(pts, v, a, alpha, beta, model)
+            mass = abar
+            if p.hold_radius_m is not None and self._people is not None:
+                positions, cov, abar, beta, model, mass = self._hold(pts, v, a, positions, cov, abar, beta, model)
+            self._people = (positions, mass)
         else:
             positions, cov, abar = _weighted_moments(pts, alpha)
             keep = (abar > 1e-9) & (np.linalg.det(cov) >= p.min_det_m6) if model.n_components else abar > 0
@@ -307,6 +330,37 @@ class MotionGuidedHearing:
                                                 np.array([self.support]))
         return MotionGuidedOutput(positions, cov, speaking, prob, model.means.copy(), bbar, abar, model, bic, n_sel,
                                   tau)
+
+    def _hold(self, pts: np.ndarray, v: np.ndarray, a: np.ndarray, positions: np.ndarray, cov: np.ndarray,
+              abar: np.ndarray, beta: np.ndarray, model: Mixture1D
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Mixture1D, np.ndarray]:
+        """The previous interval's people this one lost, kept where their bodies still hold points (``hold_radius_m``).
+
+        Each person held is placed at the mean of the points of its cylinder (eq. hat_svect on the body) and gets a
+        1-D component from their projections, weighted by their share of the points; its ITD posteriors are those of
+        the model with that component (the other people's stay as the fit gave them). Returns the arguments with
+        the people held appended, and every person's mass for the next interval's hold: a person held keeps the
+        mass they had when last found, so that holding cannot wear it down to what a few outliers reach.
+        """
+        p = self.params
+        held = held_bodies(pts, *self._people, positions, radius_m=p.hold_radius_m, half_height_m=p.merge_vertical_m,
+                           match_m=2 * p.hold_radius_m, min_points=p.min_points, min_share=p.hold_share,
+                           merge=(p.merge_distance_m, p.merge_vertical_m, p.merge_reach_per_m))
+        if not held:
+            return positions, cov, abar, beta, model, abar
+        groups = [group_from_members(pts, m.astype(np.float64)) for _, m in held]
+        m1 = np.array([v[m].mean() for _, m in held])
+        s2 = np.array([max(v[m].var(), p.em.var_floor_s2) for _, m in held])
+        w = np.append(model.weights[:-1], [g.mass / pts.shape[0] for g in groups])
+        w = w * min(1.0, (1.0 - p.em.min_outlier_weight) / w.sum())
+        model = Mixture1D(np.append(w, 1.0 - w.sum()), np.append(model.means, m1), np.append(model.variances, s2),
+                          self.support)
+        n = positions.shape[0]
+        beta = np.concatenate([beta, model.responsibilities(a)[:, n:-1]], axis=1) if a.size else \
+            np.zeros((0, n + len(held)))
+        return (np.concatenate([positions, [g.mean for g in groups]]), np.concatenate([cov, [g.cov for g in groups]]),
+                np.append(abar, [g.mass for g in groups]), beta, model,
+                np.append(abar, [self._people[1][i] for i, _ in held]))
 
     def _keep(self, model: Mixture1D, keep: np.ndarray) -> Mixture1D:
         """The model restricted to the kept components; the weight of dropped ones goes to the outlier class."""

@@ -431,6 +431,9 @@ def test_a_head_and_a_body_in_two_clusters_are_one_person_with_both_shares() -> 
     ({"merge_reach_per_m": -0.1}, "merge_reach_per_m must be >= 0, got -0.1"),
     ({"body_width_m": 0.0}, "body_width_m must be None or > 0 metres, got 0.0"),
     ({"body_radius_m": -0.3}, "body_radius_m must be None or > 0 metres, got -0.3"),
+    ({"hold_radius_m": 0.0}, "hold_radius_m must be None or > 0 metres, got 0.0"),
+    ({"hold_share": 1.5}, r"hold_share must be in \[0, 1\], got 1.5"),
+    ({"hold_share": -0.1}, r"hold_share must be in \[0, 1\], got -0.1"),
 ])
 def test_motion_guided_params_name_what_is_wrong(kwargs: dict, message: str) -> None:
     with pytest.raises(ValueError, match=f"^{message}$"):
@@ -438,8 +441,10 @@ def test_motion_guided_params_name_what_is_wrong(kwargs: dict, message: str) -> 
 
 
 def test_motion_guided_params_at_their_limits_are_accepted() -> None:
-    p = MotionGuidedParams(n_max=0, merge_reach_per_m=0.0, body_width_m=None, body_radius_m=None)
-    assert (p.n_max, p.body_width_m, p.body_radius_m) == (0, None, None)
+    p = MotionGuidedParams(n_max=0, merge_reach_per_m=0.0, body_width_m=None, body_radius_m=None, hold_radius_m=None,
+                           hold_share=0.0)
+    assert (p.n_max, p.body_width_m, p.body_radius_m, p.hold_radius_m) == (0, None, None, None)
+    assert MotionGuidedParams(hold_share=1.0).hold_share == 1.0
     assert MotionGuidedParams(n_max=50).n_max == 50
     with pytest.raises(TypeError, match="^body_keeps_groups must be a bool, got int$"):
         MotionGuidedParams(body_keeps_groups=1)  # type: ignore[arg-type]
@@ -838,3 +843,60 @@ def test_face_guided_variances_adapt_down_to_their_floor() -> None:
     out = FaceGuidedHearing(MICS, FaceGuidedParams(update_variances=True)).step(PEOPLE[:1], itds)
     assert out.model.variances[0] == pytest.approx(1e-10, rel=1e-9)
 
+
+
+def test_a_person_the_groups_lose_for_an_interval_is_held_and_heard(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The second interval's groups lose the middle person (as when their points fall into a neighbour's
+    cluster); the hold keeps them where their points are, with a 1-D component that hears their ITDs."""
+    import avcore.inference as inference
+
+    real = inference.compact_groups
+    losing = {"on": False}
+
+    def groups(pts: np.ndarray, w: np.ndarray, **kw: object) -> list:
+        found = real(pts, w, **kw)
+        return [g for g in found if not (losing["on"] and np.linalg.norm(g.mean - PEOPLE[1]) < 0.4)]
+
+    monkeypatch.setattr(inference, "compact_groups", groups)
+    rng = np.random.default_rng(30)
+    first, second = _interval(rng, speaker=None), _interval(rng, speaker=1)
+    for hold in (None, 0.3):
+        mg = MotionGuidedHearing(MICS, MotionGuidedParams(hold_radius_m=hold))
+        losing["on"] = False
+        assert mg.step(*first).n == 3
+        losing["on"] = True
+        out = mg.step(*second)
+        errors = _nearest(out.positions, PEOPLE)
+        if hold is None:
+            assert out.n == 2 and errors[1] > 0.5
+            continue
+        assert out.n == 3 and np.all(errors < 0.05)
+        middle = int(np.argmin(np.linalg.norm(out.positions - PEOPLE[1], axis=1)))
+        assert list(out.speaking) == [i == middle for i in range(3)]
+        assert out.model.n_components == 3
+        assert abs(out.itd_means[middle] - MICS.itd(PEOPLE[1])) < 10e-6
+        assert out.point_counts[middle] > 500  # its body's points, not its group's
+        losing["on"] = False
+        assert mg.step(*_interval(rng, speaker=None)).n == 3  # found again by its groups: not held twice
+
+
+def test_a_held_person_fading_away_is_let_go(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Held against the mass they had when last found, not the last hold's: 60 % of the points are held, then 35 %
+    (over half of 60 %) are not."""
+    import avcore.inference as inference
+
+    real = inference.compact_groups
+    monkeypatch.setattr(inference, "compact_groups", lambda pts, w, **kw: [
+        g for g in real(pts, w, **kw) if not (losing and np.linalg.norm(g.mean - PEOPLE[1]) < 0.4)])
+    rng = np.random.default_rng(31)
+    mg = MotionGuidedHearing(MICS)
+    losing = False
+    assert mg.step(*_interval(rng, speaker=None)).n == 3
+    losing = True
+    counts = []
+    for share in (0.6, 0.35):
+        pts, itds = _interval(rng, speaker=None)
+        middle = np.arange(pts.shape[0]) // 550 == 1
+        keep = ~middle | (rng.random(pts.shape[0]) < share)
+        counts.append(mg.step(pts[keep], itds).n)
+    assert counts == [3, 2]

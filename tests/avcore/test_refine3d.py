@@ -8,7 +8,9 @@ from avcore.refine3d import (
     UNIFORM_PEAKEDNESS,
     compact_groups,
     group_from_members,
+    held_bodies,
     merge_close,
+    merge_scores,
     merge_within_width,
 )
 
@@ -157,3 +159,82 @@ def test_a_body_moving_at_both_sides_is_one_person_its_neighbour_is_not() -> Non
     assert sorted(map(sorted, merge_within_width(pair, raised, [[0], [1]], 0.6))) == [[0], [1]]
     with pytest.raises(ValueError, match="width_m"):
         merge_within_width(groups, pts, apart, 0.0)
+
+
+HOLD = dict(radius_m=0.3, half_height_m=1.2, match_m=0.6, min_points=15.0, min_share=0.5, min_contrast=5.0)
+
+
+def _room(rng: np.random.Generator, n: int) -> np.ndarray:
+    z = rng.uniform(0.8, 6, n)
+    return np.c_[rng.uniform(-1, 1, n) * 0.577 * z, rng.uniform(-1, 1, n) * 0.4 * z, z]
+
+
+def test_a_person_the_groups_lost_is_held_where_their_body_still_is() -> None:
+    rng = np.random.default_rng(20)
+    a, b = _blob(rng, [-0.5, 0.0, 2.0], 300), _blob(rng, [0.6, 0.1, 2.5], 300)
+    pts = np.concatenate([a, b, _room(rng, 80)])
+    previous = np.array([[-0.5, 0.0, 2.0], [0.55, 0.05, 2.45]])  # b moved 7 cm since
+    ((index, mask),) = held_bodies(pts, previous, np.array([300.0, 300.0]), np.array([[-0.49, 0.01, 2.0]]), **HOLD)
+    assert index == 1
+    assert mask[300:600].mean() > 0.9 and not mask[:300].any()  # b's points, none of a's
+    assert mask[600:].sum() <= 3  # the room's outliers a 0.3 m cylinder happens to cross
+    np.testing.assert_allclose(pts[mask].mean(axis=0), b.mean(axis=0), atol=0.02)
+
+
+def test_nobody_is_held_who_left_was_found_or_drifted_away() -> None:
+    rng = np.random.default_rng(21)
+    a = _blob(rng, [-0.5, 0.0, 2.0], 300)
+    room = _room(rng, 80)
+    mass = np.array([300.0])
+    # left: the cylinder holds the room's few outliers
+    assert held_bodies(np.concatenate([a, room]), [[0.6, 0.1, 2.5]], mass, [[-0.5, 0.0, 2.0]], **HOLD) == []
+    # found: a current person 0.5 m away horizontally (and 0.9 m below) stands for them
+    assert held_bodies(a, [[-0.5, 0.0, 2.0]], mass, [[-0.1, 0.9, 2.3]], **HOLD) == []
+    # one current person stands for one previous person: of two side by side, the other is looked for
+    two = np.concatenate([a, _blob(rng, [0.0, 0.0, 2.0], 300)])
+    ((index, _),) = held_bodies(two, [[-0.5, 0.0, 2.0], [0.0, 0.0, 2.0]], [300.0, 300.0], [[-0.45, 0.0, 2.0]], **HOLD)
+    assert index == 1
+    # too few points for the mass they had: 40 left of 300
+    assert held_bodies(a[:40], [[-0.5, 0.0, 2.0]], mass, np.empty((0, 3)), **HOLD) == []
+    assert len(held_bodies(a[:40], [[-0.5, 0.0, 2.0]], [60.0], np.empty((0, 3)), **HOLD)) == 1
+    # fewer than min_points whatever the mass
+    assert held_bodies(a[:14], [[-0.5, 0.0, 2.0]], [10.0], np.empty((0, 3)), **HOLD) == []
+
+
+def test_a_held_person_does_not_take_a_current_persons_points_or_wander_off() -> None:
+    rng = np.random.default_rng(22)
+    q = np.array([0.0, 0.2, 3.0])
+    beside = q + [0.7, 0.0, 0.0] + rng.normal(0, [0.2, 0.1, 0.1], (300, 3))  # someone else, 0.7 m away
+    # re-centring walks from the first point in reach onto the other body: too far to be the same person
+    assert held_bodies(beside, [q], [60.0], np.empty((0, 3)), **HOLD) == []
+    assert len(held_bodies(beside, [q], [60.0], np.empty((0, 3)), **{**HOLD, "match_m": 1.0})) == 1
+    # found as a current person 0.7 m away, so not standing for q: their points are still not q's
+    assert held_bodies(beside, [q], [60.0], [q + [0.7, 0.0, 0.0]], **{**HOLD, "match_m": 0.5}) == []
+
+
+def test_a_false_person_made_of_outliers_is_not_carried_on() -> None:
+    rng = np.random.default_rng(23)
+    q = np.array([0.4, 0.0, 3.0])
+    field = q + rng.uniform(-1, 1, (1500, 3)) * [0.8, 1.0, 0.8]  # outliers as dense as a crowd's, all around q
+    inside = np.hypot(*(field - q)[:, [0, 2]].T) < 0.3
+    assert inside.sum() > 30  # enough points, and half of the 30 the false person had
+    assert held_bodies(field, [q], [30.0], np.empty((0, 3)), **HOLD) == []
+    assert len(held_bodies(field, [q], [30.0], np.empty((0, 3)), **{**HOLD, "min_contrast": 0.0})) == 1
+    body = _blob(rng, q, 200)
+    assert len(held_bodies(np.concatenate([body, field[::10]]), [q], [150.0], np.empty((0, 3)), **HOLD)) == 1
+
+
+def test_a_held_person_that_would_be_a_part_of_a_current_one_is_not_held() -> None:
+    rng = np.random.default_rng(24)
+    walker = np.array([0.35, 0.2, 3.1])
+    legs = walker + [-0.05, 0.8, 0.4] + rng.normal(0, [0.08, 0.15, 0.04], (60, 3))  # below and behind the torso
+    previous = [walker - [0.1, 0, 0], walker + [-0.05, 0.75, 0.35]]  # the legs were taken for a person
+    mass = [300.0, 50.0]
+    merge = (0.3, 1.2, 0.3)  # MotionGuidedParams' merge_distance_m, merge_vertical_m, merge_reach_per_m
+    assert merge_scores(legs.mean(axis=0), walker, *merge)[0, 0] < 1
+    ((index, _),) = held_bodies(legs, previous, mass, [walker], **HOLD)
+    assert index == 1
+    assert held_bodies(legs, previous, mass, [walker], **HOLD, merge=merge) == []
+    # the same legs 1.5 m to the side of the walker are somebody of their own
+    beside = [walker + [1.5, 0, 0]]
+    assert [i for i, _ in held_bodies(legs, previous, mass, beside, **HOLD, merge=merge)] == [1]
