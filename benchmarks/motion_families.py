@@ -5,6 +5,8 @@ section 7.1 sequences.
     python benchmarks/motion_families.py                 # every family of both, seeds 0-2, 60 intervals each
     python benchmarks/motion_families.py --families parts:seated skeletons:behind --seeds 0 1 2 3 4
     python benchmarks/motion_families.py --skeletons-truth points   # the skeletons scored on another truth
+    python benchmarks/motion_families.py --families plain:static plain:moving --plain 40 0.25 --seeds 10 11 12 \
+        --variants paper no-hold avhear      # plain clothes made harder: 40 points a person, 25 % outliers
 
 Per family, summed over the seeds and shown per 60-interval sequence: visual TP % (the people found within
 tau_loc = 0.35 m of the truth), false positives, the mean localisation error of the true positives (ALE), and the
@@ -33,18 +35,25 @@ from avcore.inference import MotionGuidedHearing, MotionGuidedParams  # noqa: E4
 from sim import bodies, plain, skeletons  # noqa: E402
 from sim.synthetic import generate_sequence  # noqa: E402
 
-VARIANTS = {"paper": MotionGuidedParams.paper, "avhear": MotionGuidedParams}
+VARIANTS = {"paper": MotionGuidedParams.paper, "avhear": MotionGuidedParams,
+            "no-hold": lambda: MotionGuidedParams(hold_radius_m=None)}  # avhear without the previous people's hold
 MOVING = {"parts:walking", "parts:crossing", "skeletons:standing", "skeletons:behind", "plain:moving", "DynCon"}
 FAMILIES = ([f"parts:{f}" for f in bodies.FAMILIES] + [f"skeletons:{f}" for f in skeletons.FAMILIES]
             + [f"plain:{f}" for f in plain.FAMILIES] + ["StaCon", "DynCon"])
 
 
-def sequence(family: str, seed: int, n_intervals: int, skeletons_truth: str = "moving") -> list:
+def sequence(family: str, seed: int, n_intervals: int, skeletons_truth: str = "moving",
+             plain_config: tuple[int, float] | None = None) -> list:
+    """One sequence of ``family``; ``plain_config`` (points a person, outlier share) overrides sim.plain's."""
     kind, _, name = family.partition(":")
     if kind == "parts":
         return bodies.generate_bodies(name, seed=seed, n_intervals=n_intervals)
     if kind == "plain":
-        return plain.generate_plain(name, seed=seed, config=plain.PlainConfig(n_intervals=n_intervals))
+        config = plain.PlainConfig(n_intervals=n_intervals)
+        if plain_config is not None:
+            config = plain.PlainConfig(n_intervals=n_intervals, points_per_person=plain_config[0],
+                                       outlier_share=plain_config[1])
+        return plain.generate_plain(name, seed=seed, config=config)
     if kind == "skeletons":
         config = skeletons.BodyConfig(n_intervals=n_intervals, truth_point=skeletons_truth)
         return skeletons.generate_family(name, seed=seed, config=config)
@@ -59,8 +68,8 @@ def paper_truth(iv) -> np.ndarray:  # noqa: ANN001
                      for g, i in enumerate(iv.truth_ids)]).reshape(-1, 3)
 
 
-def run(family: str, seeds: list[int], variant: str, n_intervals: int, skeletons_truth: str = "moving"
-        ) -> tuple[EvalTotals, EvalTotals, list[float]]:
+def run(family: str, seeds: list[int], variant: str, n_intervals: int, skeletons_truth: str = "moving",
+        plain_config: tuple[int, float] | None = None) -> tuple[EvalTotals, EvalTotals, list[float]]:
     """The variant's totals against the paper's truth (the headline) and against the generator's own truth (the
     centre of the visible moving body, for the body generators), and its step times (s)."""
     mics = MicPair()
@@ -68,7 +77,7 @@ def run(family: str, seeds: list[int], variant: str, n_intervals: int, skeletons
     times: list[float] = []
     for seed in seeds:
         hearing = MotionGuidedHearing(mics, VARIANTS[variant]())
-        for iv in sequence(family, seed, n_intervals, skeletons_truth):
+        for iv in sequence(family, seed, n_intervals, skeletons_truth, plain_config):
             t0 = time.perf_counter()
             out = hearing.step(iv.points, iv.itds)
             times.append(time.perf_counter() - t0)
@@ -87,7 +96,12 @@ def main() -> None:
     parser.add_argument("--variants", nargs="+", default=["paper", "avhear"], choices=list(VARIANTS))
     parser.add_argument("--skeletons-truth", default="moving", choices=["moving", "points", "body", "head"],
                         help="the skeletons' truth point (sim.skeletons.BodyConfig.truth_point; default %(default)s)")
+    parser.add_argument("--plain", nargs=2, type=float, metavar=("POINTS", "OUTLIERS"),
+                        help="sim.plain's points a person and outlier share (default 600 0.12)")
     args = parser.parse_args()
+    plain_config = None if args.plain is None else (int(args.plain[0]), args.plain[1])
+    if plain_config is not None and not (plain_config[0] >= 1 and 0 <= plain_config[1] < 1):
+        parser.error(f"--plain needs at least 1 point a person and an outlier share in [0, 1), got {args.plain}")
     n_seq = len(args.seeds)
     print(f"Algorithm 1, {args.intervals} intervals per sequence, seeds {args.seeds}; FP per sequence, ALE in cm on "
           f"the paper's truth (each person's points' mean); 'body': TP and ALE on the generator's own truth (the "
@@ -96,7 +110,7 @@ def main() -> None:
           f"{'audio TP':>9} {'audio FP':>9} {'hidden':>7} {'step ms':>8}  target")
     for family in args.families:
         for variant in args.variants:
-            t, body, times = run(family, args.seeds, variant, args.intervals, args.skeletons_truth)
+            t, body, times = run(family, args.seeds, variant, args.intervals, args.skeletons_truth, plain_config)
             n, nb = t.tp + t.fn, body.tp + body.fn
             ale = 100 * float(np.mean(t.errors_m)) if t.errors_m else float("nan")
             ale_body = 100 * float(np.mean(body.errors_m)) if body.errors_m else float("nan")
