@@ -366,15 +366,16 @@ def held_bodies(points: np.ndarray, previous_m: np.ndarray, previous_mass: np.nd
         d[i, :], d[:, j] = np.inf, np.inf
     held = []
     for i in np.flatnonzero(~found):
-        centre, inside = previous[i], np.zeros(pts.shape[0], dtype=bool)
+        centre = previous[i]
         for _ in range(n_shift):
             inside = cylinder(centre) & ~taken
             if not inside.any():
                 break
             centre = pts[inside].mean(axis=0)
+        inside = cylinder(centre) & ~taken
         count = int(inside.sum())
         ring = int((cylinder(centre, 2 * radius_m) & ~taken).sum()) - count  # its area is 3 cylinders'
-        part = merge is not None and current.shape[0] and np.min(merge_scores(centre, current, *merge)) < 1
+        part = merge is not None and current.shape[0] > 0 and np.min(merge_scores(centre, current, *merge)) < 1
         if (count >= min_points and count >= min_share * previous_mass[i] and count >= min_contrast * ring / 3
                 and horizontal(centre, previous[i]) < match_m and not part):
             held.append((int(i), inside))
