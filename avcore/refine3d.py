@@ -335,8 +335,8 @@ def held_bodies(points: np.ndarray, previous_m: np.ndarray, previous_mass: np.nd
     current person's cylinder, or in one held before, are not taken. The person is held when the cylinder keeps at
     least ``min_points`` points and ``min_share`` of their previous mass (a person who left leaves the few outliers
     any cylinder holds), its points are ``min_contrast`` times as dense as those of the ring around it (out to twice
-    the radius, points not taken: a body stands out of its surroundings, a patch of outliers does not, so a false
-    person made of outliers is not carried on), its centre stays within ``match_m`` of where they were,
+    the radius, points neither taken nor in another previous person's cylinder: a body stands out of its
+    surroundings, a patch of outliers does not, so a false person made of outliers is not carried on), its centre stays within ``match_m`` of where they were,
     horizontally, and :func:`merge_close` with ``merge`` (distance_m, vertical_m, reach_per_m) would not join it to
     a current person (then it is a part of them, such as the legs of someone walking behind others).
 
@@ -364,6 +364,8 @@ def held_bodies(points: np.ndarray, previous_m: np.ndarray, previous_mass: np.nd
             break
         found[i] = True
         d[i, :], d[:, j] = np.inf, np.inf
+    around = [cylinder(q) for q in previous]  # each previous person's cylinder: a person, not the background
+    cover = np.sum(around, axis=0)  # how many previous cylinders hold each point
     held = []
     for i in np.flatnonzero(~found):
         centre = previous[i]
@@ -374,7 +376,8 @@ def held_bodies(points: np.ndarray, previous_m: np.ndarray, previous_mass: np.nd
             centre = pts[inside].mean(axis=0)
         inside = cylinder(centre) & ~taken
         count = int(inside.sum())
-        ring = int((cylinder(centre, 2 * radius_m) & ~taken).sum()) - count  # its area is 3 cylinders'
+        others = cover - around[i] > 0
+        ring = int((cylinder(centre, 2 * radius_m) & ~taken & ~others & ~inside).sum())  # 3 cylinders' area
         part = merge is not None and current.shape[0] > 0 and np.min(merge_scores(centre, current, *merge)) < 1
         if (count >= min_points and count >= min_share * previous_mass[i] and count >= min_contrast * ring / 3
                 and horizontal(centre, previous[i]) < match_m and not part):

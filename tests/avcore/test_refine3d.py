@@ -238,3 +238,14 @@ def test_a_held_person_that_would_be_a_part_of_a_current_one_is_not_held() -> No
     # the same legs 1.5 m to the side of the walker are somebody of their own
     beside = [walker + [1.5, 0, 0]]
     assert [i for i, _ in held_bodies(legs, previous, mass, beside, **HOLD, merge=merge)] == [1]
+
+
+def test_people_side_by_side_lost_together_are_both_held() -> None:
+    """Their neighbours' bodies fill each other's ring; a person of the previous interval is not background."""
+    rng = np.random.default_rng(25)
+    centres = np.array([[-0.55, 0.0, 2.0], [0.0, 0.0, 2.0], [0.55, 0.0, 2.0]])
+    pts = np.concatenate([c + rng.uniform(-1, 1, (600, 3)) * [0.21, 0.4, 0.1] for c in centres])
+    held = held_bodies(pts, centres, [500.0] * 3, centres[2:], **HOLD)
+    assert [i for i, _ in held] == [0, 1]
+    for i, mask in held:
+        np.testing.assert_allclose(pts[mask].mean(axis=0), centres[i], atol=0.03)
