@@ -336,9 +336,10 @@ def held_bodies(points: np.ndarray, previous_m: np.ndarray, previous_mass: np.nd
     least ``min_points`` points and ``min_share`` of their previous mass (a person who left leaves the few outliers
     any cylinder holds), its points are ``min_contrast`` times as dense as those of the ring around it (out to twice
     the radius, points neither taken nor in another previous person's cylinder: a body stands out of its
-    surroundings, a patch of outliers does not, so a false person made of outliers is not carried on), its centre stays within ``match_m`` of where they were,
-    horizontally, and :func:`merge_close` with ``merge`` (distance_m, vertical_m, reach_per_m) would not join it to
-    a current person (then it is a part of them, such as the legs of someone walking behind others).
+    surroundings, a patch of outliers does not, so a false person made of outliers is not carried on), its centre
+    stays within ``match_m`` of where they were, horizontally, and :func:`merge_close` with ``merge`` (distance_m,
+    vertical_m, reach_per_m) would not join it to a current person (then it is a part of them, such as the legs of
+    someone walking behind others).
 
     Returns (index into ``previous_m``, boolean mask (M,) over ``points``) per person held.
     """
