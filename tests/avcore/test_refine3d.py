@@ -238,6 +238,11 @@ def test_a_held_person_that_would_be_a_part_of_a_current_one_is_not_held() -> No
     # the same legs 1.5 m to the side of the walker are somebody of their own
     beside = [walker + [1.5, 0, 0]]
     assert [i for i, _ in held_bodies(legs, previous, mass, beside, **HOLD, merge=merge)] == [1]
+    # and so is a person 0.45 m beside the walker at one height (a merge score of 1.5)
+    neighbour = walker + [0.45, 0.0, 0.0] + rng.normal(0, [0.03, 0.1, 0.03], (60, 3))
+    assert merge_scores(neighbour.mean(axis=0), walker, *merge)[0, 0] == pytest.approx(1.5, abs=0.1)
+    found = held_bodies(neighbour, [walker - [0.1, 0, 0], walker + [0.45, 0, 0]], mass, [walker], **HOLD, merge=merge)
+    assert [i for i, _ in found] == [1]
 
 
 def test_people_side_by_side_lost_together_are_both_held() -> None:
@@ -249,3 +254,83 @@ def test_people_side_by_side_lost_together_are_both_held() -> None:
     assert [i for i, _ in held] == [0, 1]
     for i, mask in held:
         np.testing.assert_allclose(pts[mask].mean(axis=0), centres[i], atol=0.03)
+
+
+def _disc(n: int, centre: list[float], radius: float, rng: np.random.Generator) -> np.ndarray:
+    """``n`` points on a horizontal circle of ``radius`` around ``centre`` (evenly spaced: their mean is the centre)."""
+    a = 2 * np.pi * (np.arange(n) + rng.random()) / n
+    return np.asarray(centre) + np.c_[radius * np.cos(a), np.zeros(n), radius * np.sin(a)]
+
+
+@pytest.mark.parametrize(("n_body", "n_ring", "held"), [(50, 30, True), (55, 30, True), (45, 30, False)])
+def test_the_density_contrast_at_its_edge(n_body: int, n_ring: int, held: bool) -> None:
+    """Held when the cylinder's count is at least 5 times the ring's per cylinder area (the ring is 3 of them)."""
+    rng = np.random.default_rng(26)
+    q = [0.0, 0.0, 2.0]
+    pts = np.concatenate([_disc(n_body, q, 0.05, rng), _disc(n_ring, q, 0.45, rng),
+                          _disc(40, q, 0.75, rng)])  # beyond the ring (twice the radius): not counted
+    found = held_bodies(pts, [q], [2.0 * n_body], np.empty((0, 3)), **{**HOLD, "min_contrast": 5.0})
+    assert len(found) == int(held)
+    default = {k: v for k, v in HOLD.items() if k != "min_contrast"}
+    assert len(held_bodies(pts, [q], [2.0 * n_body], np.empty((0, 3)), **default)) == int(held)
+
+
+def test_the_counts_at_their_edges() -> None:
+    rng = np.random.default_rng(27)
+    q = [0.0, 0.0, 2.0]
+    fifteen = _disc(15, q, 0.05, rng)
+    assert len(held_bodies(fifteen, [q], [30.0], np.empty((0, 3)), **HOLD)) == 1  # 15 points, half of 30
+    assert held_bodies(fifteen, [q], [30.1], np.empty((0, 3)), **HOLD) == []
+    assert held_bodies(fifteen[:14], [q], [1.0], np.empty((0, 3)), **HOLD) == []
+    # no current person at all: nobody stands for q, and nobody makes it a part
+    assert len(held_bodies(fifteen, [q], [30.0], np.empty((0, 3)), **HOLD, merge=(0.3, 1.2, 0.3))) == 1
+
+
+def test_every_current_person_keeps_their_points_and_so_does_each_person_held() -> None:
+    """A lost person 0.45 m behind a person found (whose previous self the found one stands for) would take the found
+    one's points if they were free; they are not, before and after another person is held."""
+    rng = np.random.default_rng(28)
+    a, c = np.array([-1.0, 0.0, 2.0]), np.array([1.0, 0.0, 2.0])
+    r = 0.25 * np.sqrt(rng.random(200))
+    t = rng.uniform(0, 2 * np.pi, 200)
+    crowd = c + np.c_[r * np.cos(t), np.zeros(200), r * np.sin(t)]  # the found person's points
+    behind = c + [0.0, 0.0, 0.45]
+    hold = {**HOLD, "min_contrast": 0.0}
+    # the found person first or last among the current ones
+    for current in ([c, a + [0, 0, 3.0]], [a + [0, 0, 3.0], c]):
+        assert held_bodies(crowd, [c, behind], [200.0, 20.0], current, **hold) == []
+    lone = _disc(40, a, 0.05, rng)  # somebody lost where nobody was found: held first
+    held = held_bodies(np.concatenate([lone, crowd]), [a, behind, c], [40.0, 20.0, 200.0], [c], **hold)
+    assert [i for i, _ in held] == [0]
+
+
+def test_current_people_stand_for_the_previous_ones_closest_pairs_first() -> None:
+    rng = np.random.default_rng(29)
+    previous = np.array([[0.0, 0.0, 2.0], [0.5, 0.0, 2.0]])
+    pts = np.concatenate([_disc(60, p, 0.03, rng) for p in previous])
+    small = {**HOLD, "radius_m": 0.1, "match_m": 0.35, "min_contrast": 0.0}
+    # one person found 0.3 m from the first and 0.2 m from the second stands for the second
+    assert [i for i, _ in held_bodies(pts, previous, [60.0, 60.0], [[0.3, 0.0, 2.0]], **small)] == [0]
+    # two found, each closest to another previous person than the first pair in the list
+    current = np.array([[0.45, 0.0, 2.0], [0.05, 0.0, 2.0]])
+    assert held_bodies(pts, previous, [60.0, 60.0], current, **small) == []
+
+
+def test_the_ring_is_measured_around_where_the_person_is_now() -> None:
+    """Re-centred 0.25 m from where they were, the ring around the new centre counts the points by the old one."""
+    rng = np.random.default_rng(30)
+    q = np.array([0.0, 0.0, 2.0])
+    pts = np.concatenate([_disc(50, q + [0.25, 0, 0], 0.02, rng), _disc(36, q - [0.29, 0, 0], 0.005, rng)])
+    assert held_bodies(pts, [q], [50.0], np.empty((0, 3)), **HOLD) == []  # 50 < 5 * 36 / 3
+    ((_, mask),) = held_bodies(pts[:50], [q], [50.0], np.empty((0, 3)), **HOLD)
+    np.testing.assert_allclose(pts[:50][mask].mean(axis=0), q + [0.25, 0, 0], atol=0.01)
+
+
+def test_merge_scores_follow_merge_closes_ellipse_and_reach() -> None:
+    a = np.array([[0.0, 0.0, 2.0]])
+    b = np.array([[0.27, 0.6, 2.0], [0.0, 1.2, 2.0], [0.2, 0.0, 2.0]])
+    s = merge_scores(a, b, 0.3, 1.2, 0.0)
+    np.testing.assert_allclose(s[0, 0], 0.27 / np.sqrt(0.3**2 - (0.6 * 0.3 / 1.2) ** 2))
+    assert s[0, 0] > 1 and s[0, 1] == np.inf and s[0, 2] == pytest.approx(0.2 / 0.3)
+    np.testing.assert_allclose(merge_scores(a, b, 0.3, 1.2, 0.3)[0, 0],
+                               0.27 / (np.sqrt(0.3**2 - (0.6 * 0.3 / 1.2) ** 2) + 0.3 * 0.6))
