@@ -348,7 +348,9 @@ class MotionGuidedHearing:
                            merge=(p.merge_distance_m, p.merge_vertical_m, p.merge_reach_per_m))
         if not held:
             return positions, cov, abar, beta, model, abar
-        groups = [group_from_members(pts, m.astype(np.float64)) for _, m in held]
+        # the cylinder's points as they are (group_from_members expects a chi-square cut and corrects for it)
+        groups = [Group3D(m.astype(np.float64), float(m.sum()), pts[m].mean(axis=0), np.cov(pts[m].T, bias=True))
+                  for _, m in held]
         m1 = np.array([v[m].mean() for _, m in held])
         s2 = np.array([max(v[m].var(), p.em.var_floor_s2) for _, m in held])
         w = np.append(model.weights[:-1], [g.mass / pts.shape[0] for g in groups])

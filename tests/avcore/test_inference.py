@@ -858,6 +858,14 @@ def test_a_person_the_groups_lose_for_an_interval_is_held_and_heard(monkeypatch:
         return [g for g in found if not (losing["on"] and np.linalg.norm(g.mean - PEOPLE[1]) < 0.4)]
 
     monkeypatch.setattr(inference, "compact_groups", groups)
+    masks = []
+
+    def held(*args: object, **kw: object) -> list:
+        masks[:] = inference_held(*args, **kw)
+        return list(masks)
+
+    inference_held = inference.held_bodies
+    monkeypatch.setattr(inference, "held_bodies", held)
     rng = np.random.default_rng(30)
     first, second = _interval(rng, speaker=None), _interval(rng, speaker=1)
     for hold in (None, 0.3):
@@ -876,6 +884,9 @@ def test_a_person_the_groups_lose_for_an_interval_is_held_and_heard(monkeypatch:
         assert out.model.n_components == 3
         assert abs(out.itd_means[middle] - MICS.itd(PEOPLE[1])) < 10e-6
         assert out.point_counts[middle] > 500  # its body's points, not its group's
+        ((_, mask),) = masks  # placed at its cylinder's points, with their covariance as it is
+        np.testing.assert_allclose(out.positions[middle], second[0][mask].mean(axis=0))
+        np.testing.assert_allclose(out.covariances[middle], np.cov(second[0][mask].T, bias=True))
         losing["on"] = False
         assert mg.step(*_interval(rng, speaker=None)).n == 3  # found again by its groups: not held twice
 
