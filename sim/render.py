@@ -25,6 +25,7 @@ import numpy as np
 
 from avcore.stereo import StereoRig
 from sim.person_body import BodyPose, body_quads, body_texture, table_quads
+from sim.relief import turned_span, turned_view
 from sim.roomsim import resolve_data_dir
 
 __all__ = [
@@ -305,7 +306,8 @@ class Person:
     little); the shoulders rock with them. table : a table in front of a seated person hides the lower body (drawn by
     :meth:`props`). mouth_open : in [0, 1], how far the mouth is open (:meth:`FaceTexture.with_mouth`).
     hand_over_mouth : a hand covers the mouth (:func:`hand_over_mouth`). yaw_rad : the head turned about the
-    vertical axis through the face's centre (a positive turn takes the face's right edge, image right, closer).
+    vertical axis through the face's centre (a positive turn takes the face's right edge, image right, closer),
+    drawn with the head's relief (:mod:`sim.relief`: the far cheek goes behind the nose).
     """
 
     face: FaceTexture
@@ -339,10 +341,14 @@ class Person:
         dx = self.sway_m * np.sin(2 * np.pi * self.sway_hz * t + self.phase)
         return np.asarray(self.position) + np.array([dx, 0.0, 0.0])
 
-    def across(self) -> np.ndarray:
-        """(3,) the unit vector along the face from its left edge to its right (image left to right), turned by
-        ``yaw_rad``: positive z is away from the cameras."""
-        return np.array([np.cos(self.yaw_rad), 0.0, -np.sin(self.yaw_rad)])
+    def face_span(self) -> tuple[float, float]:
+        """Where the labelled face lies across the head, in texture pixels from the face box's middle, the head
+        turned by ``yaw_rad`` (:func:`sim.relief.turned_span`): (-w/2, w/2) facing the cameras."""
+        bx, _, bw, _ = self.face.face_box
+        if not self.yaw_rad:
+            return -bw / 2.0, bw / 2.0
+        lo, hi = turned_span(self.face, self.yaw_rad)
+        return lo - (bx + bw / 2.0), hi - (bx + bw / 2.0)
 
     def quads(self, t: float) -> list[tuple[np.ndarray, np.ndarray]]:
         """The person's planes at time ``t``: [(corners (4, 3) metres TL, TR, BR, BL, texture), ...], body first."""
@@ -354,11 +360,13 @@ class Person:
         tex = self.face.with_mouth(self.mouth_open)
         if self.hand_over_mouth:
             tex = hand_over_mouth(self.face, tex)
+        if self.yaw_rad:
+            tex = turned_view(self.face, tex, self.yaw_rad)  # the turn drawn on a head facing the cameras
         bx, by, bw, bh = self.face.face_box
         m_per_px = self.face_width_m / bw
         centre = self.face_centre(t)
         angle = self.nod_rad * np.sin(2 * np.pi * self.nod_hz * t + self.phase)
-        right = self.across()
+        right = np.array([1.0, 0.0, 0.0])
         down = np.array([0.0, np.cos(angle), np.sin(angle)])
         # texture pixel (px, py) sits at centre + right * (px - fx) * m + down * (py - fy) * m
         fx, fy = bx + bw / 2.0, by + bh / 2.0
@@ -554,7 +562,8 @@ class StereoSceneRenderer:
             bx, by, bw, bh = p.face.face_box
             m = p.face_width_m / bw
             c = p.face_centre(t)
-            corners = c + np.outer([-bw / 2, bw / 2, bw / 2, -bw / 2], p.across() * m) \
+            lo, hi = p.face_span()
+            corners = c + np.outer([lo, hi, hi, lo], [m, 0.0, 0.0]) \
                 + np.outer([-bh / 2, -bh / 2, bh / 2, bh / 2], [0.0, m, 0.0])
             uv = self._project(corners, "left")
             lo, hi = uv.min(axis=0), uv.max(axis=0)

@@ -189,6 +189,7 @@ def test_a_hand_hides_the_mouth_and_a_turned_head_narrows_the_face() -> None:
     from dataclasses import replace
 
     from avcore.stereo import StereoRig
+    from sim.relief import turned_span
     from sim.render import Person, StereoSceneRenderer, hand_over_mouth
 
     face = replace(drawn_face_texture(), drawn_mouth=True)
@@ -202,8 +203,8 @@ def test_a_hand_hides_the_mouth_and_a_turned_head_narrows_the_face() -> None:
     skin = np.array(skin_of(face))
     assert np.abs(opened[mouth].astype(float).mean(axis=(0, 1)) - skin).max() > 40  # the open mouth shows
     assert np.abs(covered[mouth].astype(float).mean(axis=(0, 1)) - 0.92 * skin).max() < 12  # the palm hides it
-    # turned 45 degrees straight ahead: the truth's box narrows by about cos 45 (its near edge 6 cm nearer) and the
-    # skin drawn stays inside it
+    # turned 45 degrees straight ahead: the truth's box narrows to the turned face's span and the skin drawn stays
+    # inside it
     rig = StereoRig.ideal(554.0, (640, 480), 0.12)
     boxes = []
     for deg in (0.0, 45.0):
@@ -215,5 +216,7 @@ def test_a_hand_hides_the_mouth_and_a_turned_head_narrows_the_face() -> None:
         x, y, w, h = boxes[-1]
         ys, xs = np.nonzero(np.all(np.abs(frame.left.astype(int) - (150, 180, 220)) < 12, axis=2))
         assert xs.min() >= x - 1 and xs.max() <= x + w + 1 and ys.min() >= y - 0.25 * h
-    assert boxes[1][2] == pytest.approx(boxes[0][2] * np.cos(np.deg2rad(45.0)), rel=0.08)
+    lo, hi = turned_span(drawn_face_texture(), np.deg2rad(45.0))  # the far cheek behind the nose: narrower
+    assert boxes[1][2] == pytest.approx(boxes[0][2] * (hi - lo) / drawn_face_texture().face_box[2], rel=0.03)
+    assert boxes[1][2] < 0.97 * boxes[0][2]
     assert boxes[1][3] == pytest.approx(boxes[0][3], rel=0.08)
