@@ -315,12 +315,12 @@ class TrackingBlazeFace:
     The squares around the faces go to ``near`` when given (the short-range model, the cheaper), each
     ``near_context`` face widths a side, else to the full-range model at ``context`` widths (the face then spans
     192 / ``context`` px of its input, where it is found best). A face its square loses is looked for there again
-    in each of the next ``lost_frames`` frames (as :class:`avcore.faces.TrackingFaceDetector` does), so that a face
-    missed in one frame (turned, blurred) comes back at once rather than at the scan's next pass; only detections
-    are returned, never a kept box. A square around a face reports that face alone (its detection nearest the
-    face's centre, within one face width): something face-like beside a face (a hand over a checked shirt) is no
-    newcomer unless the scan, at the full range's stricter threshold, finds it. Stateful: one instance per video
-    stream."""
+    in each of the next ``lost_frames`` frames (as :class:`avcore.faces.TrackingFaceDetector` does), by the full
+    range too (at ``context``: the short range loses heads turned far), so that a face missed in one frame (turned,
+    blurred) comes back at once rather than at the scan's next pass; only detections are returned, never a kept
+    box. A square around a face reports that face alone (its detection nearest the face's centre, within one face
+    width): something face-like beside a face (a hand over a checked shirt) is no newcomer unless the scan, at the
+    full range's stricter threshold, finds it. Stateful: one instance per video stream."""
 
     base: BlazeFaceDetector
     near: BlazeFaceNet | None = None
@@ -378,6 +378,11 @@ class TrackingBlazeFace:
                 around = [as_full_range(f) for f in each]
             else:
                 around = self.base.run_each(bgr, self._around(tracked, self.context))
+            lost = [box for box, _ in self._lost]
+            if lost and self.near is not None:
+                far = self.base.run_each(bgr, self._around(lost, self.context))
+                around = around[:len(self._previous)] + [FaceDetections.concat([a, f]) for a, f in
+                                                         zip(around[len(self._previous):], far)]
         self._frame += 1
         own = [_own_face(self.base.suppress(f), box) for f, box in zip(around, tracked)]
         found = self.base.suppress(FaceDetections.concat([self.base.run(bgr, squares), *own]))

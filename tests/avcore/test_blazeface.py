@@ -272,3 +272,21 @@ def test_a_lost_face_is_looked_for_where_it_was_for_lost_frames_frames() -> None
         TrackingBlazeFace(base, lost_frames=-1)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="scan_every"):
         TrackingBlazeFace(base, scan_every=0)  # type: ignore[arg-type]
+
+
+@pytest.mark.shared_data
+def test_a_face_the_short_range_loses_is_looked_for_by_the_full_range(model: Path, shared_data: Path) -> None:
+    """A face the short-range model stops finding (a head turned far, the short range's weakness) is looked for in
+    its lost square by the full range, which finds it the next frame; the scan never comes round meanwhile."""
+    from app.sources.sim import SimSource
+    from avcore.blazeface import BlazeFaceDetector, FaceDetections, TrackingBlazeFace
+
+    class Blind:  # a short range that finds nothing
+        def run_each(self, bgr: np.ndarray, squares: list) -> list[FaceDetections]:
+            return [FaceDetections.empty() for _ in squares]
+
+    left, _ = SimSource.from_preset("S1", duration_s=1.0, seed=0, data_dir=shared_data)._images(0)
+    tracker = TrackingBlazeFace(BlazeFaceDetector(model, tiles=2), near=Blind(),  # type: ignore[arg-type]
+                                scan_every=100)
+    found = [len(tracker.detect(left)) for _ in range(5)]
+    assert found[0] == 1 and found[1:] == [0, 1, 0, 1]  # the whole scan; lost; found by the full range; ...
