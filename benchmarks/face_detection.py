@@ -143,6 +143,74 @@ def turning_row(sets: dict, model: Path, yaws: list[float], step_deg: float = 5.
     print(f"{'tracked':<12} " + " ".join(f"{c:>14}" for c in cells) + "  (turning, 5 degrees a step)", flush=True)
 
 
+def head_views(data: Path, yaw_deg: float, distance_m: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each simulated face (``sim.render.load_textures``) on a head turned by ``yaw_deg`` (with its relief,
+    :mod:`sim.relief`) ``distance_m`` in front of the simulated rig's left camera: (left image, the face's box)."""
+    from sim.render import Person, StereoSceneRenderer, load_textures
+    from avcore.stereo import StereoRig
+
+    textures, _ = load_textures(data.parent)
+    scene = _SCENES.setdefault("scene", StereoSceneRenderer(
+        StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12), []))
+    out = []
+    for face in textures:
+        scene.people = [Person(face, (-0.06, -0.05, distance_m), yaw_rad=float(np.radians(yaw_deg)))]
+        frame = scene.render(0.0)
+        out.append((frame.left, frame.face_boxes_left[0]))
+    return out
+
+
+_SCENES: dict = {}  # the room is drawn once
+
+
+def centre_inside(dets: np.ndarray, box: np.ndarray) -> bool:
+    """Whether a detection's centre lies inside ``box`` (x, y, w, h)."""
+    if not len(dets):
+        return False
+    c = dets[:, :2] + dets[:, 2:] / 2
+    return bool(((c[:, 0] >= box[0]) & (c[:, 0] <= box[0] + box[2]) & (c[:, 1] >= box[1])
+                 & (c[:, 1] <= box[1] + box[3])).any())
+
+
+def head_table(data: Path, backends: list, model: Path | None, yaws: list[float], distances: list[float],
+               step_deg: float = 5.0) -> None:
+    """Turned heads in the simulated room: each face at each distance turned both ways by each of ``yaws``, found
+    by each backend on the single image and, for BlazeFace, by the tracker following the head as it turns from 0
+    in ``step_deg`` steps, two frames a step (the simulator turns heads over 0.3 s: about 5 degrees a frame)."""
+    from avcore.blazeface import TrackingBlazeFace
+
+    print(f"\nturned heads in the simulated room (faces at {', '.join(f'{d:g}' for d in distances)} m, turned both "
+          "ways): the face found (a detection's centre in the turned face's box)")
+    print(f"{'backend':<12} " + " ".join(f"{f'{y:g} deg':>14}" for y in yaws))
+    views = {(y, d, sign): head_views(data, sign * y, d) for y in yaws for d in distances for sign in (1, -1)}
+    rows = [(name, lambda img, det=det: detect_faces(img, det)) for name, det in backends]
+    for name, find in rows:
+        cells = []
+        for yaw in yaws:
+            hits = [centre_inside(find(img), box) for d in distances for sign in (1, -1)
+                    for img, box in views[(yaw, d, sign)]]
+            cells.append(f"{sum(hits):>3d}/{len(hits):<3d} {np.mean(hits):4.2f}   ")
+        print(f"{name:<12} " + " ".join(f"{c:>14}" for c in cells), flush=True)
+    if model is None:
+        return
+    found = {y: 0 for y in yaws}
+    total = 0
+    steps = np.arange(0.0, max(yaws) + step_deg / 2, step_deg)
+    for d in distances:
+        for sign in (1, -1):
+            sweep = {float(a): head_views(data, sign * a, d) for a in steps}
+            for k in range(len(sweep[0.0])):
+                tracker, total = TrackingBlazeFace.from_model(model), total + 1
+                for a in steps:
+                    img, box = sweep[float(a)][k]
+                    for _ in range(2):
+                        dets = tracker.detect(img)
+                    for y in yaws:
+                        found[y] += int(abs(y - a) < 1e-9 and centre_inside(dets, box))
+    cells = [f"{found[y]:>3d}/{total:<3d} {found[y] / total:4.2f}   " for y in yaws]
+    print(f"{'tracked':<12} " + " ".join(f"{c:>14}" for c in cells) + "  (turning, 5 degrees a step)", flush=True)
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder with training.xml and testing.xml")
@@ -150,7 +218,9 @@ def main() -> int:
     parser.add_argument("--yunet-model", type=Path, default=None, help="YuNet ONNX file to benchmark too")
     parser.add_argument("--threads", type=int, default=1, help="OpenCV threads (default 1: one core)")
     parser.add_argument("--yaws", type=float, nargs="*", default=[0, 30, 45, 60],
-                        help="degrees of the turned-photograph table (none: no table)")
+                        help="degrees of the turned-photograph and turned-head tables (none: no tables)")
+    parser.add_argument("--distances", type=float, nargs="+", default=[1.3, 2.1, 2.9],
+                        help="metres from the camera of the turned-head table's faces")
     args = parser.parse_args()
     if not (args.data / "testing.xml").is_file():
         print(f"no labelled faces at {args.data}; give --data", file=sys.stderr)
@@ -163,6 +233,7 @@ def main() -> int:
         print(f"Haar left out: OpenCV {cv2.__version__} has no Haar cascades", file=sys.stderr)
     if args.yunet_model is not None:
         backends += [(f"yunet x{s:g}", YuNetFaceDetector(args.yunet_model, scale=s)) for s in args.scales]
+    model = None
     try:
         from app.models import blazeface_model
 
@@ -205,9 +276,11 @@ def main() -> int:
         print(f"{name:<12} " + " ".join(f"{c:>5d}/{t:<3d} {c / t if t else float('nan'):4.2f}"
                                         for c, t in zip(counts, totals)))
     if args.yaws:
+        blaze = model if any(name.startswith("blaze") for name, _ in backends) else None
         yaw_table(sets, backends, args.yaws)
-        if any(name.startswith("blaze") for name, _ in backends):
-            turning_row(sets, model, args.yaws)
+        if blaze is not None:
+            turning_row(sets, blaze, args.yaws)
+        head_table(args.data, backends, blaze, args.yaws, args.distances)
     print("paper: WaldBoost detector (no figures on these photographs); images are about 500x375 px")
     return 0
 
