@@ -40,14 +40,16 @@ if TYPE_CHECKING:
     from avcore.geometry import MicPair
     from avcore.stereo import StereoRig
 
-__all__ = ["FaceGuided", "MotionGuided", "Vision", "Voice", "detector_name", "face_detector", "hearing_mode"]
+__all__ = ["FaceGuided", "LipReader", "MotionGuided", "Vision", "Voice", "detector_name", "face_detector",
+           "faces_of_people", "hearing_mode"]
 
 
 @dataclass(frozen=True, eq=False)
 class Vision:
     """What vision yields for one result: its stamp, the frame it is shown on, the face boxes (None when
     motion-guided), the 3D points (the faces, or the HM3D points) and, with the lips' cue, each face's lip
-    activity, its place in the face's own range and the face's track (:class:`avcore.lips.LipTracks`)."""
+    activity, its place in the face's own range and the face's track (:class:`avcore.lips.LipTracks`);
+    motion-guided with the lips' cue, ``face_xyz`` the faces of the interval's last frame in 3D (None otherwise)."""
 
     stamp_s: float
     frame: StereoFrame
@@ -56,6 +58,42 @@ class Vision:
     lip_activity: np.ndarray | None = None
     lip_relative: np.ndarray | None = None
     lip_ids: np.ndarray | None = None
+    face_xyz: np.ndarray | None = None
+
+
+@dataclass(eq=False)
+class LipReader:
+    """The lips' cue on one video stream: the face mesh on each face (MediaPipe's, by ``runtime``), each face's
+    lip activity along its track (:class:`avcore.lips.LipTracks`) and whose still lips say nothing
+    (:class:`avcore.lips.HiddenLips`). The model is found (or a UserError says how to get it) when it is made."""
+
+    runtime: str = "opencv"
+    tracks: LipTracks = field(default_factory=LipTracks, init=False, repr=False)
+    hidden: HiddenLips = field(default_factory=HiddenLips, init=False, repr=False)
+    _mesh: Any = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        from app.models import facemesh_model
+        from avcore.facemesh import FaceMesh
+
+        self._mesh = FaceMesh(facemesh_model(), runtime=self.runtime)
+
+    def read(self, stamp_s: float, image: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each face's lip activity (NaN: no opinion), its place in its own range and its track's id."""
+        openings = mouth_opening(self._mesh.run(image, boxes).landmarks)
+        activity = self.tracks.update(stamp_s, boxes, openings)
+        return activity, self.tracks.relative, self.tracks.ids
+
+    def veto(self, stamp_s: float, ids: np.ndarray, output: Any, activity: np.ndarray, still_below: float,
+             alone: np.ndarray | None = None) -> Any:
+        """``output`` with the people whose lips are still (under ``still_below``) not speaking, but those whose
+        lips have stayed still through a second of their own voice (hidden) and those not ``alone`` (a group the
+        lips already chose within)."""
+        hidden = self.hidden.update(stamp_s, ids, output.speaking, activity, still_below)
+        keep = ~hidden if alone is None else alone & ~hidden
+        speaking, probability = veto_still_lips(output.speaking, output.probability, np.where(keep, activity, np.nan),
+                                                still_below)
+        return replace(output, speaking=speaking, probability=probability)
 
 
 @dataclass(eq=False)
@@ -64,19 +102,13 @@ class FaceGuided:
     (:mod:`avcore.lips`)."""
 
     config: PipelineConfig
-    _mesh: Any = field(default=None, init=False, repr=False)
-    _lips: LipTracks | None = field(default=None, init=False, repr=False)
-    _hidden: HiddenLips = field(default_factory=HiddenLips, init=False, repr=False)
+    _lips: LipReader | None = field(default=None, init=False, repr=False)
     _voices: VoiceTracks = field(default_factory=VoiceTracks, init=False, repr=False)
     _unexplained: tuple = field(default=(None, None), init=False, repr=False)  # (stamp, VoiceDirection | None)
 
     def __post_init__(self) -> None:
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
-            from app.models import facemesh_model
-            from avcore.facemesh import FaceMesh
-
-            self._mesh = FaceMesh(facemesh_model(), runtime=self.config.tflite_runtime)
-            self._lips = LipTracks()
+            self._lips = LipReader(self.config.tflite_runtime)
 
     @property
     def frame_capacity(self) -> int:
@@ -106,17 +138,10 @@ class FaceGuided:
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
         """The faces of this frame, from the stereo pair, an RGB-D camera's depth, or with one camera their size
         in the image (ValueError: a frame F3D cannot use)."""
-        if frame.depth_m is not None:
-            faces = locate_faces_depth(frame.left, frame.depth_m, rig, detector=detector)
-        elif frame.right is None:
-            faces = locate_faces_mono(frame.left, rig, detector=detector)
-        else:
-            faces = locate_faces(frame.left, frame.right, rig, detector=detector)
+        faces = _faces(frame, rig, detector)
         activity = relative = ids = None
         if self._lips is not None:
-            openings = mouth_opening(self._mesh.run(frame.left, faces.boxes).landmarks)
-            activity = self._lips.update(frame.stamp_s, faces.boxes, openings)
-            relative, ids = self._lips.relative, self._lips.ids
+            activity, relative, ids = self._lips.read(frame.stamp_s, frame.left, faces.boxes)
         return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity, relative, ids)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
@@ -155,13 +180,15 @@ class FaceGuided:
         # nor is one whose lips have stayed still through a second of its own voice (hidden: no opinion)
         lips = np.asarray(vision.lip_activity, dtype=np.float64)
         ids = np.arange(len(lips)) if vision.lip_ids is None else vision.lip_ids
-        hidden = self._hidden.update(vision.stamp_s, ids, out.speaking, lips, self.config.lip_still_below)
-        speaking, probability = veto_still_lips(out.speaking, out.probability,
-                                                np.where(alone & ~hidden, lips, np.nan), self.config.lip_still_below)
-        return replace(out, speaking=speaking, probability=probability)
+        assert self._lips is not None
+        return self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone)
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return vision.xyz
+
+    def people_lips(self, vision: Vision, output: Any) -> np.ndarray | None:
+        """Each person's lip activity (a person is a face), or None without the lips' cue."""
+        return vision.lip_activity
 
     def voices(self, array: MicArray, vision: Vision, itds: np.ndarray,
                new_id: Callable[[], int] | None = None) -> tuple[Voice, ...] | None:
@@ -196,6 +223,13 @@ class MotionGuided:
 
     config: PipelineConfig
     _interval: list = field(default_factory=list, init=False, repr=False)
+    _lips: LipReader | None = field(default=None, init=False, repr=False)
+    _last_faces: tuple = field(default=(None, None, None), init=False, repr=False)  # (xyz, activity, ids)
+    _people_lips: tuple = field(default=(None, None), init=False, repr=False)  # (stamp, each person's activity)
+
+    def __post_init__(self) -> None:
+        if self.config.lips:
+            self._lips = LipReader(self.config.tflite_runtime)
 
     @property
     def frame_capacity(self) -> int:
@@ -214,9 +248,9 @@ class MotionGuided:
     def frame_itds(self) -> bool:
         return False
 
-    def detector(self) -> None:
-        """No faces are looked for."""
-        return None
+    def detector(self) -> FaceDetector | None:
+        """No faces are looked for, but with the lips' cue (:func:`face_detector`)."""
+        return face_detector(self.config) if self.config.lips else None
 
     def hearing(self, mics: MicPair | MicArray) -> MotionGuidedHearing:
         """avhear's Algorithm 1, or the paper's as written (``config.motion_variant``)."""
@@ -224,9 +258,13 @@ class MotionGuided:
         return MotionGuidedHearing(mics, MotionGuidedParams.paper() if paper else MotionGuidedParams())
 
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector | None) -> Vision | None:
-        """The HM3D points once an interval is gathered (stamped at its centre, shown on its middle frame)."""
+        """The HM3D points once an interval is gathered (stamped at its centre, shown on its middle frame); with
+        the lips' cue the faces of every frame are read, and the last frame's go with the interval."""
         interval = self._interval
         interval.append(frame)
+        if self._lips is not None and detector is not None:
+            faces = _faces(frame, rig, detector)
+            self._last_faces = (faces.points, *self._lips.read(frame.stamp_s, frame.left, faces.boxes)[::2])
         if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
             return None
         if interval[0].depth_m is None and interval[0].right is None:
@@ -237,21 +275,67 @@ class MotionGuided:
         else:
             points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
         self._interval = []
+        face_xyz, activity, ids = self._last_faces
         return Vision(0.5 * (interval[0].stamp_s + interval[-1].stamp_s), interval[len(interval) // 2], None,
-                      points)
+                      points, activity, None, ids, face_xyz)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
-        """The hearing's step on the interval's points and ITDs."""
-        return hearing.step(vision.xyz, itds)
+        """The hearing's step on the interval's points and ITDs; with the lips' cue, a person whose face's lips
+        are still is not speaking (their face: :func:`faces_of_people`)."""
+        out = hearing.step(vision.xyz, itds)
+        if self._lips is None or vision.face_xyz is None:
+            return out
+        face = faces_of_people(out.positions, vision.face_xyz, self.config.lip_face_within_m)
+        lips = np.asarray(vision.lip_activity, dtype=np.float64).reshape(-1)
+        activity = np.where(face >= 0, lips[np.maximum(face, 0)] if lips.size else np.nan, np.nan)
+        ids = np.where(face >= 0, np.asarray(vision.lip_ids).reshape(-1)[np.maximum(face, 0)] if lips.size else -1,
+                       -1 - np.arange(len(face)))
+        self._people_lips = (vision.stamp_s, activity)
+        return self._lips.veto(vision.stamp_s, ids, out, activity, self.config.lip_still_below)
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return output.positions
+
+    def people_lips(self, vision: Vision, output: Any) -> np.ndarray | None:
+        """Each person's lip activity (their face's, NaN without one), or None without the lips' cue."""
+        stamp, activity = self._people_lips
+        return activity if stamp == vision.stamp_s else None
 
     def voices(self, array: MicArray, vision: Vision, itds: np.ndarray,
                new_id: Callable[[], int] | None = None) -> None:
         """Algorithm 1 gives every sound a cluster of its own: no voice is left over."""
         return None
+
+
+def _faces(frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Any:
+    """The faces of a frame in 3D: from the stereo pair, an RGB-D camera's depth, or with one camera their size in
+    the image."""
+    if frame.depth_m is not None:
+        return locate_faces_depth(frame.left, frame.depth_m, rig, detector=detector)
+    if frame.right is None:
+        return locate_faces_mono(frame.left, rig, detector=detector)
+    return locate_faces(frame.left, frame.right, rig, detector=detector)
+
+
+def faces_of_people(people_xyz: np.ndarray, faces_xyz: np.ndarray, within_m: float) -> np.ndarray:
+    """(N,) the face of each person of Algorithm 1 (index into ``faces_xyz``, -1: none): a person's cluster is their
+    moving body, whose face is above it, so faces and people are paired by their horizontal distance (x, z), the
+    closest pairs first, one for one, within ``within_m``."""
+    people = np.asarray(people_xyz, dtype=np.float64).reshape(-1, 3)
+    faces = np.asarray(faces_xyz, dtype=np.float64).reshape(-1, 3)
+    out = np.full(len(people), -1, dtype=int)
+    if not len(people) or not len(faces):
+        return out
+    d = np.hypot(people[:, None, 0] - faces[None, :, 0], people[:, None, 2] - faces[None, :, 2])
+    d[~np.isfinite(d)] = np.inf
+    for flat in np.argsort(d, axis=None):
+        i, j = np.unravel_index(flat, d.shape)
+        if d[i, j] > within_m:
+            break
+        if out[i] < 0 and j not in out:
+            out[i] = j
+    return out
 
 
 class SelfCalibrating:

@@ -87,10 +87,11 @@ class PipelineConfig:
         the face models, "opencv" (OpenCV's DNN) or "litert" (:mod:`avcore.tflite`).
     self_calibrate : face-guided: learn the correction c1, c0 of every pair while running, from people talking
         alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
-    lips : face-guided: the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): a
-        face whose lips are still (under ``lip_still_below``) is not speaking; faces within
-        ``lip_same_direction_s`` on every pair are heard as one, whose words go to the moving lips (to a second
-        face too above ``lip_both_above`` of its own range).
+    lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): a face whose lips
+        are still (under ``lip_still_below``) is not speaking; faces within ``lip_same_direction_s`` on every pair
+        are heard as one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its
+        own range). Motion-guided, a person's face is the one within ``lip_face_within_m`` of them horizontally
+        (:func:`app.hearing.faces_of_people`), and the veto applies to the person.
     """
 
     inference: Literal["face", "motion"] = "face"
@@ -111,6 +112,7 @@ class PipelineConfig:
     lip_still_below: float = 0.012
     lip_same_direction_s: float = 40e-6
     lip_both_above: float = 0.5
+    lip_face_within_m: float = 0.35
     interval_s: float = 0.4
     motion_variant: Literal["avhear", "paper"] = "avhear"
     frame_queue: int = 4
@@ -139,6 +141,9 @@ class PipelineConfig:
         if not 0 <= self.lip_same_direction_s < 1e-3:
             raise ValueError(f"lip_same_direction_s must be an ITD in [0, 1 ms) seconds, got "
                              f"{self.lip_same_direction_s!r}")
+        if not 0 < self.lip_face_within_m < 2:
+            raise ValueError(f"lip_face_within_m must be a horizontal distance in (0, 2) metres, got "
+                             f"{self.lip_face_within_m!r}")
         if not 0 < self.lip_both_above <= 1:
             raise ValueError(f"lip_both_above must be a share of a face's own lip range in (0, 1], got "
                              f"{self.lip_both_above!r}")
@@ -548,7 +553,8 @@ class Pipeline:
         output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
         ids = tracker.update(self.mode.people_xyz(vision, output), vision.stamp_s)
         result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,
-                        frame.depth_m, vision.lip_activity, self.mode.voices(hearing.array, vision, a, tracker.new_id))
+                        frame.depth_m, self.mode.people_lips(vision, output),
+                        self.mode.voices(hearing.array, vision, a, tracker.new_id))
         for voted in self._vote.push(result, ids, output.speaking, output.probability):
             self._emit_voted(*voted)  # the result whose vote this one completed (itself without a vote)
         self._fused += 1

