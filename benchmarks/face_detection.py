@@ -19,6 +19,7 @@ import argparse
 import sys
 import time
 import xml.etree.ElementTree as ET
+from functools import lru_cache
 from pathlib import Path
 
 import cv2
@@ -146,12 +147,10 @@ def turning_row(sets: dict, model: Path, yaws: list[float], step_deg: float = 5.
 def head_views(data: Path, yaw_deg: float, distance_m: float) -> list[tuple[np.ndarray, np.ndarray]]:
     """Each simulated face (``sim.render.load_textures``) on a head turned by ``yaw_deg`` (with its relief,
     :mod:`sim.relief`) ``distance_m`` in front of the simulated rig's left camera: (left image, the face's box)."""
-    from sim.render import Person, StereoSceneRenderer, load_textures
-    from avcore.stereo import StereoRig
+    from sim.render import Person, load_textures
 
     textures, _ = load_textures(data.parent)
-    scene = _SCENES.setdefault("scene", StereoSceneRenderer(
-        StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12), []))
+    scene = _scene()
     out = []
     for face in textures:
         scene.people = [Person(face, (-0.06, -0.05, distance_m), yaw_rad=float(np.radians(yaw_deg)))]
@@ -160,7 +159,12 @@ def head_views(data: Path, yaw_deg: float, distance_m: float) -> list[tuple[np.n
     return out
 
 
-_SCENES: dict = {}  # the room is drawn once
+@lru_cache(maxsize=1)
+def _scene():  # noqa: ANN202 - the simulated room, drawn once
+    from avcore.stereo import StereoRig
+    from sim.render import StereoSceneRenderer
+
+    return StereoSceneRenderer(StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12), [])
 
 
 def centre_inside(dets: np.ndarray, box: np.ndarray) -> bool:

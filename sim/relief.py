@@ -51,15 +51,19 @@ def _depth(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.where(inside, z, CENTRE_DEPTH)
 
 
+def _columns(face: FaceTexture, supersample: int) -> tuple[np.ndarray, np.ndarray]:
+    """The samples along a row: their texture column u and their place x across the face (face-box widths)."""
+    bx, _, bw, _ = face.face_box
+    u = (np.arange(face.image.shape[1] * supersample) + 0.5) / supersample - 0.5
+    return u, (u - (bx + bw / 2.0)) / bw
+
+
 def relief(face: FaceTexture, supersample: int = 1) -> np.ndarray:
     """(h, w * supersample) float: the depth under each texture pixel (``supersample`` samples a pixel along
     rows), in face-box widths, 0 on the face box's plane, positive away from the cameras."""
-    h, w = face.image.shape[:2]
-    bx, by, bw, bh = face.face_box
-    u = (np.arange(w * supersample) + 0.5) / supersample - 0.5
-    x = (u - (bx + bw / 2.0)) / bw
-    y = (np.arange(h) - (by + bh / 2.0)) / bw
-    return _depth(x[None, :], y[:, None])
+    _, by, bw, bh = face.face_box
+    y = (np.arange(face.image.shape[0]) - (by + bh / 2.0)) / bw
+    return _depth(_columns(face, supersample)[1][None, :], y[:, None])
 
 
 @lru_cache(maxsize=512)
@@ -72,8 +76,7 @@ def _turn_map(face: FaceTexture, yaw_key: int) -> tuple[np.ndarray, np.ndarray]:
     bx, _, bw, _ = face.face_box
     fx = bx + bw / 2.0
     z = relief(face, SUPERSAMPLE)
-    u = (np.arange(w * SUPERSAMPLE) + 0.5) / SUPERSAMPLE - 0.5
-    x = (u - fx) / bw
+    u, x = _columns(face, SUPERSAMPLE)
     seen_x = fx + (c * x[None, :] + s * z) * bw
     seen_z = -s * x[None, :] + c * z
     col = np.rint(seen_x).astype(np.int64)
