@@ -287,10 +287,9 @@ class MotionGuided:
         if self._lips is None or vision.face_xyz is None:
             return out
         face = faces_of_people(out.positions, vision.face_xyz, self.config.lip_face_within_m)
-        lips = np.asarray(vision.lip_activity, dtype=np.float64).reshape(-1)
-        activity = np.where(face >= 0, lips[np.maximum(face, 0)] if lips.size else np.nan, np.nan)
-        ids = np.where(face >= 0, np.asarray(vision.lip_ids).reshape(-1)[np.maximum(face, 0)] if lips.size else -1,
-                       -1 - np.arange(len(face)))
+        # -1 (no face) picks the appended NaN; a person without a face gets an id of their own for the hidden lips
+        activity = np.append(np.asarray(vision.lip_activity, dtype=np.float64).reshape(-1), np.nan)[face]
+        ids = np.where(face >= 0, np.append(np.asarray(vision.lip_ids).reshape(-1), 0)[face], -1 - np.arange(len(face)))
         self._people_lips = (vision.stamp_s, activity)
         return self._lips.veto(vision.stamp_s, ids, out, activity, self.config.lip_still_below)
 
