@@ -23,7 +23,16 @@ from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing, MotionGuidedParams
 from avcore.itd import gives_frame_itds
-from avcore.lips import HiddenLips, LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
+from avcore.lips import (
+    HiddenLips,
+    LipTracks,
+    SoundEnvelope,
+    choose_by_lips,
+    lip_synchrony,
+    lips_with_the_words,
+    same_direction_groups,
+    veto_still_lips,
+)
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
 from avcore.selfcal import ArrayYawCalibration, SelfCalibration, SelfCalibrationFit, YawFit
@@ -48,8 +57,9 @@ __all__ = ["FaceGuided", "LipReader", "MotionGuided", "Vision", "Voice", "detect
 class Vision:
     """What vision yields for one result: its stamp, the frame it is shown on, the face boxes (None when
     motion-guided), the 3D points (the faces, or the HM3D points) and, with the lips' cue, each face's lip
-    activity, its place in the face's own range and the face's track (:class:`avcore.lips.LipTracks`);
-    motion-guided with the lips' cue, ``face_xyz`` the faces of the interval's last frame in 3D (None otherwise)."""
+    activity, its place in the face's own range, the face's track and its recent mouth openings
+    (:class:`avcore.lips.LipTracks`); motion-guided with the lips' cue, ``face_xyz`` the faces of the interval's
+    last frame in 3D (None otherwise)."""
 
     stamp_s: float
     frame: StereoFrame
@@ -59,17 +69,21 @@ class Vision:
     lip_relative: np.ndarray | None = None
     lip_ids: np.ndarray | None = None
     face_xyz: np.ndarray | None = None
+    lip_series: list[np.ndarray] | None = None
 
 
 @dataclass(eq=False)
 class LipReader:
     """The lips' cue on one video stream: the face mesh on each face (MediaPipe's, by ``runtime``), each face's
-    lip activity along its track (:class:`avcore.lips.LipTracks`) and whose still lips say nothing
-    (:class:`avcore.lips.HiddenLips`). The model is found (or a UserError says how to get it) when it is made."""
+    lip activity along its track (:class:`avcore.lips.LipTracks`), whose still lips say nothing
+    (:class:`avcore.lips.HiddenLips`) and the sound's envelope its lips are compared with
+    (:class:`avcore.lips.SoundEnvelope`, fed by the pipeline's audio). The model is found (or a UserError says how
+    to get it) when it is made."""
 
     runtime: str = "opencv"
     tracks: LipTracks = field(default_factory=LipTracks, init=False, repr=False)
     hidden: HiddenLips = field(default_factory=HiddenLips, init=False, repr=False)
+    envelope: SoundEnvelope = field(default_factory=SoundEnvelope, init=False, repr=False)
     _mesh: Any = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -78,21 +92,31 @@ class LipReader:
 
         self._mesh = FaceMesh(facemesh_model(), runtime=self.runtime)
 
-    def read(self, stamp_s: float, image: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Each face's lip activity (NaN: no opinion), its place in its own range and its track's id."""
+    def read(self, stamp_s: float, image: np.ndarray, boxes: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
+        """Each face's lip activity (NaN: no opinion), its place in its own range, its track's id and its recent
+        mouth openings."""
         openings = mouth_opening(self._mesh.run(image, boxes).landmarks)
         activity = self.tracks.update(stamp_s, boxes, openings)
-        return activity, self.tracks.relative, self.tracks.ids
+        return activity, self.tracks.relative, self.tracks.ids, self.tracks.series()
 
     def veto(self, stamp_s: float, ids: np.ndarray, output: Any, activity: np.ndarray, still_below: float,
-             alone: np.ndarray | None = None) -> Any:
-        """``output`` with the people whose lips are still (under ``still_below``) not speaking, but those whose
-        lips have stayed still through a second of their own voice (hidden) and those not ``alone`` (a group the
-        lips already chose within)."""
+             alone: np.ndarray | None = None, relative: np.ndarray | None = None) -> Any:
+        """``output`` with the people whose lips are still (under ``still_below``, or with ``relative`` within
+        their own still level) not speaking, but those whose lips have stayed still through a second of their own
+        voice (hidden) and those not ``alone`` (a group the lips already chose within)."""
         hidden = self.hidden.update(stamp_s, ids, output.speaking, activity, still_below)
         keep = ~hidden if alone is None else alone & ~hidden
         speaking, probability = veto_still_lips(output.speaking, output.probability, np.where(keep, activity, np.nan),
-                                                still_below)
+                                                still_below, relative)
+        return replace(output, speaking=speaking, probability=probability)
+
+    def join(self, output: Any, activity: np.ndarray, relative: np.ndarray, series: list[np.ndarray]) -> Any:
+        """``output`` with the faces whose lips move with the sound speaking too while another is heard
+        (:func:`avcore.lips.lips_with_the_words`)."""
+        synchrony = lip_synchrony(series, self.envelope)
+        speaking, probability = lips_with_the_words(output.speaking, output.probability, activity, relative,
+                                                    synchrony)
         return replace(output, speaking=speaking, probability=probability)
 
 
@@ -127,6 +151,11 @@ class FaceGuided:
     def frame_itds(self) -> bool:
         return self.config.frame_itds and gives_frame_itds(self.config.itd_method)
 
+    @property
+    def envelope(self) -> SoundEnvelope | None:
+        """The sound's envelope the lips are compared with (the pipeline feeds it), or None without the lips."""
+        return None if self._lips is None else self._lips.envelope
+
     def detector(self) -> FaceDetector:
         """The detector ``face_detector`` names (:func:`face_detector`)."""
         return face_detector(self.config)
@@ -139,17 +168,18 @@ class FaceGuided:
         """The faces of this frame, from the stereo pair, an RGB-D camera's depth, or with one camera their size
         in the image (ValueError: a frame F3D cannot use)."""
         faces = _faces(frame, rig, detector)
-        activity = relative = ids = None
+        activity = relative = ids = series = None
         if self._lips is not None:
-            activity, relative, ids = self._lips.read(frame.stamp_s, frame.left, faces.boxes)
-        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity, relative, ids)
+            activity, relative, ids, series = self._lips.read(frame.stamp_s, frame.left, faces.boxes)
+        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity, relative, ids, lip_series=series)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
         """The hearing's step on this result's faces and ITDs, with the single frames' ITDs near it (``near()``);
         with the lips' cue, faces that direction cannot tell apart (:func:`avcore.lips.same_direction_groups`,
         within ``lip_same_direction_s``) are one object for the hearing, whose words go to the face whose lips move
-        (:func:`avcore.lips.choose_by_lips`), and the faces whose lips are still are not speaking.
+        (:func:`avcore.lips.choose_by_lips`), the faces whose lips are still are not speaking, and while one face
+        is heard, another whose lips move with the sound speaks too (:func:`avcore.lips.lips_with_the_words`).
 
         With several pairs, where the ITDs hold a voice that no visible face explains (:func:`unexplained_voice`),
         the bins' look is not taken for this result: a bin of that voice agrees best with whichever visible person
@@ -181,7 +211,10 @@ class FaceGuided:
         lips = np.asarray(vision.lip_activity, dtype=np.float64)
         ids = np.arange(len(lips)) if vision.lip_ids is None else vision.lip_ids
         assert self._lips is not None
-        return self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone)
+        out = self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone, vision.lip_relative)
+        if vision.lip_relative is None or vision.lip_series is None:
+            return out
+        return self._lips.join(out, lips, vision.lip_relative, vision.lip_series)
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return vision.xyz
@@ -247,6 +280,11 @@ class MotionGuided:
     @property
     def frame_itds(self) -> bool:
         return False
+
+    @property
+    def envelope(self) -> None:
+        """No envelope: Algorithm 1's lips only veto."""
+        return None
 
     def detector(self) -> FaceDetector | None:
         """No faces are looked for, but with the lips' cue (:func:`face_detector`)."""

@@ -36,6 +36,7 @@ from avcore.faces import FaceDetector
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedParams
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
+from avcore.lips import frame_powers
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
 from avcore.tracking import NearestTracker
@@ -177,6 +178,16 @@ class FrameItdsMessage:
     bins: FrameBins | None = None
 
 
+@dataclass(frozen=True, eq=False)
+class EnvelopeMessage:
+    """A block's sound power in frames of 10 ms (:func:`avcore.lips.frame_powers`), their times relative to
+    ``stamp_s``: what the lips are compared with."""
+
+    stamp_s: float
+    times_s: np.ndarray
+    powers: np.ndarray
+
+
 @dataclass(frozen=True)
 class ClockMessage:
     """The audio clock: every window centred before ``stamp_s`` has been extracted."""
@@ -184,7 +195,7 @@ class ClockMessage:
     stamp_s: float
 
 
-FusionMessage = Vision | ItdMessage | FrameItdsMessage | ClockMessage
+FusionMessage = Vision | ItdMessage | FrameItdsMessage | EnvelopeMessage | ClockMessage
 
 
 def _array(source: Any) -> MicArray:
@@ -438,6 +449,7 @@ class Pipeline:
         array = _array(src)
         stream: PairsItdStream | None = None
         frame_itds = self.mode.frame_itds
+        envelope = self.mode.envelope is not None
         start_s = expected_s = 0.0
         n = 0
         while True:
@@ -461,6 +473,9 @@ class Pipeline:
                                         frame_bins=frame_itds and array.n_pairs > 1)
                 start_s = block.stamp_s
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
+            if envelope:  # before the ITDs that complete a frame, so that its lips find the sound there
+                self._offer(self._q_fusion, EnvelopeMessage(block.stamp_s, *frame_powers(
+                    samples[:, list(array.channels)], src.samplerate_hz)))
             self._pass_itds(stream.push(samples), stream, start_s, frame_itds)
             # the audio clock: windows centred before this time are all extracted
             self._offer(self._q_fusion, ClockMessage(expected_s - c.window_s / 2))
@@ -524,6 +539,10 @@ class Pipeline:
             return sync.push_primary(message.stamp_s, message)
         if isinstance(message, ItdMessage):
             return sync.push_secondary(message.stamp_s, (message.stamp_s, message.itd_s))
+        if isinstance(message, EnvelopeMessage):
+            if self.mode.envelope is not None:
+                self.mode.envelope.push(message.stamp_s + message.times_s, message.powers)
+            return []
         if isinstance(message, FrameItdsMessage):
             t0, single, bands, bins = message.stamp_s, message.frames, message.bands, message.bins
             if bins is not None:

@@ -5,12 +5,15 @@ sound now and then (a smile, chewing). :class:`LipTracks` follows each face from
 centre, within half a face of where it was) and gives its **lip activity**: the standard deviation of its mouth's
 opening (:func:`avcore.facemesh.mouth_opening`, the gap over the mouth's width) over the last ``window_s``. A face
 with fewer than ``min_samples`` openings in that window (just arrived, turned away, the mesh lost) has no opinion
-(NaN), never "still".
+(NaN), never "still". Its **synchrony** (:func:`lip_synchrony`) is the correlation of its opening with the
+sound's log energy ``lead_s`` later (:class:`SoundEnvelope`): a talker's mouth moves about 75 ms before the sound it
+shapes, a listener's mouthing moves with nothing heard.
 
-:func:`veto_still_lips` is how the speaking test uses it: a face that the ITDs call speaking but whose lips are
-clearly still (activity under ``still_below``) is not speaking. Only this direction is taken: moving lips without
-sound (mouthing, chewing) do not make a speaker, and no opinion changes nothing; so the lips can remove the false
-alarms of two people in similar directions, and cannot add any.
+:func:`veto_still_lips` is how the speaking test uses them: a face that the ITDs call speaking but whose lips are
+clearly still (activity under ``still_below``, or within the face's own still level) is not speaking; moving lips
+without sound (mouthing, chewing) do not make a speaker, and no opinion changes nothing. Where two talk at once the
+direction gives the words to the louder: :func:`lips_with_the_words` lets a face speak too whose ITDs give it some
+support, whose lips move clearly and with the sound, while another face is heard speaking.
 
 Where direction cannot tell faces apart at all (:func:`same_direction_groups`: their mouths' ITDs within an ITD's
 accuracy on every pair, one behind the other), the hearing takes them as one object and :func:`choose_by_lips`
@@ -20,7 +23,7 @@ one's and a face's range depends on its photograph.
 
 Still lips are not always silent ones: a hand over the mouth, a mask or a mesh that has lost the lips read as a
 closed mouth. :class:`HiddenLips` drops the opinion of a face whose lips have stayed still through a second or more
-of its own voice (:meth:`HiddenLips.update`), so that the veto only takes the brief calls of a listener.
+of its own voice, heard alone (:meth:`HiddenLips.update`), so that the veto only takes the brief calls of a listener.
 """
 from __future__ import annotations
 
@@ -28,7 +31,51 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["HiddenLips", "LipTracks", "choose_by_lips", "same_direction_groups", "veto_still_lips"]
+__all__ = ["HiddenLips", "LipTracks", "SoundEnvelope", "choose_by_lips", "frame_powers", "lip_synchrony",
+           "lips_with_the_words", "same_direction_groups", "veto_still_lips"]
+
+ENVELOPE_HOP_S = 0.01
+
+
+def frame_powers(samples: np.ndarray, samplerate_hz: float, hop_s: float = ENVELOPE_HOP_S
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """The mean square of the channels' mean in consecutive frames of ``hop_s`` (the last one shorter), with each
+    frame's centre in seconds from the block's first sample: ``(times_s, powers)``, for :class:`SoundEnvelope`."""
+    x = np.asarray(samples, dtype=np.float64)
+    x = x.mean(axis=1) if x.ndim == 2 else x.reshape(-1)
+    hop = max(1, round(hop_s * samplerate_hz))
+    starts = np.arange(0, x.size, hop)
+    if starts.size == 0:
+        return np.zeros(0), np.zeros(0)
+    powers = np.add.reduceat(x ** 2, starts) / np.diff(np.append(starts, x.size))
+    return (starts + 0.5 * np.diff(np.append(starts, x.size))) / samplerate_hz, powers
+
+
+@dataclass(eq=False)
+class SoundEnvelope:
+    """The sound's log energy over the last ``keep_s``: ``push(times_s, powers)`` the frames' mean squares
+    (:func:`frame_powers`, stamped on the source's clock, in order); ``log_energy(times_s)`` the log10 of their mean
+    over ``smooth_s`` around each time (NaN where none was heard)."""
+
+    keep_s: float = 3.0
+    smooth_s: float = 0.03
+    _times: np.ndarray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
+    _powers: np.ndarray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
+
+    def push(self, times_s: np.ndarray, powers: np.ndarray) -> None:
+        t = np.append(self._times, np.asarray(times_s, dtype=np.float64).reshape(-1))
+        p = np.append(self._powers, np.asarray(powers, dtype=np.float64).reshape(-1))
+        keep = t >= t[-1] - self.keep_s if t.size else np.zeros(0, dtype=bool)
+        self._times, self._powers = t[keep], p[keep]
+
+    def log_energy(self, times_s: np.ndarray) -> np.ndarray:
+        q = np.asarray(times_s, dtype=np.float64).reshape(-1)
+        a = np.searchsorted(self._times, q - self.smooth_s / 2)
+        b = np.searchsorted(self._times, q + self.smooth_s / 2, side="right")
+        sums = np.append(0.0, np.cumsum(self._powers))
+        n = b - a
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(n > 0, np.log10((sums[b] - sums[a]) / np.maximum(n, 1) + 1e-10), np.nan)
 
 
 @dataclass(eq=False)
@@ -39,7 +86,7 @@ class LipTracks:
     After each update, :attr:`relative` (N,) places each face's activity between its track's floor and top, the
     ``floor_quantile`` and ``top_quantile`` of its activities over the last ``floor_window_s`` (0 at the jitter of
     a still mouth at that size, 1 at its lips moving as much as they have lately; NaN with fewer than
-    ``min_floor`` activities).
+    ``min_floor`` activities); :meth:`series` gives each face's openings over the last ``sync_window_s``.
     """
 
     window_s: float = 0.4
@@ -49,11 +96,13 @@ class LipTracks:
     floor_quantile: float = 20.0
     top_quantile: float = 90.0
     min_floor: int = 15
+    sync_window_s: float = 0.6
     relative: np.ndarray = field(default_factory=lambda: np.zeros(0), init=False, repr=False)
     ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int), init=False, repr=False)
     # each track: [centre (2,), width, [(t, opening)], [(t, activity)], id]
     _tracks: list = field(default_factory=list, init=False, repr=False)
     _next_id: int = field(default=0, init=False, repr=False)
+    _last: list = field(default_factory=list, init=False, repr=False)  # the last update's faces' tracks
 
     def __post_init__(self) -> None:
         if not self.window_s > 0:
@@ -68,11 +117,13 @@ class LipTracks:
         if o.shape[0] != b.shape[0]:
             raise ValueError(f"openings must have one value per box ({b.shape[0]}), got {o.shape[0]}")
         centres = b[:, :2] + 0.5 * b[:, 2:]
+        kept_s = max(self.window_s, self.sync_window_s)
         self._tracks = [t for t in self._tracks if t[2] and t[2][-1][0] >= stamp_s - self.window_s]
         free = list(range(len(self._tracks)))
         activity = np.full(len(b), np.nan)
         self.relative = np.full(len(b), np.nan)
         self.ids = np.zeros(len(b), dtype=int)
+        self._last = [None] * len(b)
         for i in np.argsort(-b[:, 2]):  # the nearest (largest) faces choose first
             best, best_d = None, self.max_jump * b[i, 2]
             for k in free:
@@ -86,10 +137,10 @@ class LipTracks:
             else:
                 free.remove(best)
             track = self._tracks[best]
-            self.ids[i] = track[4]
+            self.ids[i], self._last[i] = track[4], track
             track[0], track[1] = centres[i], b[i, 2]
-            track[2] = [(t, v) for t, v in track[2] if t > stamp_s - self.window_s] + [(float(stamp_s), o[i])]
-            values = np.array([v for _, v in track[2]])
+            track[2] = [(t, v) for t, v in track[2] if t > stamp_s - kept_s] + [(float(stamp_s), o[i])]
+            values = np.array([v for t, v in track[2] if t > stamp_s - self.window_s])
             values = values[np.isfinite(values)]
             if values.size >= self.min_samples:
                 activity[i] = float(np.std(values))
@@ -100,18 +151,39 @@ class LipTracks:
                     self.relative[i] = (activity[i] - floor) / max(top - floor, 1e-6)
         return activity
 
+    def series(self) -> list[np.ndarray]:
+        """For each face of the last update, its (t, opening) rows over the last ``sync_window_s`` (K, 2): a copy
+        that another thread may read (:func:`lip_synchrony`)."""
+        return [np.array(track[2], dtype=np.float64).reshape(-1, 2) for track in self._last]
+
+
+def lip_synchrony(series: list[np.ndarray], envelope: SoundEnvelope, lead_s: float = 0.075,
+                  min_samples: int = 6) -> np.ndarray:
+    """(N,) the correlation of each face's mouth opening (``series``, :meth:`LipTracks.series`) with
+    ``envelope``'s log energy ``lead_s`` after each opening; NaN with fewer than ``min_samples`` openings heard, or a
+    flat opening or sound."""
+    out = np.full(len(series), np.nan)
+    for i, rows in enumerate(series):
+        t, o = np.asarray(rows, dtype=np.float64).reshape(-1, 2).T
+        e = envelope.log_energy(t + lead_s)
+        ok = np.isfinite(o) & np.isfinite(e)
+        if ok.sum() >= min_samples and np.std(o[ok]) > 1e-9 and np.std(e[ok]) > 1e-9:
+            out[i] = float(np.corrcoef(o[ok], e[ok])[0, 1])
+    return out
+
 
 @dataclass(eq=False)
 class HiddenLips:
-    """Which faces' still lips say nothing: those heard speaking for at least ``heard_s`` (first to last) of the
-    last ``window_s`` with a median lip activity over those moments under ``moving_factor`` times the veto's
-    threshold.
+    """Which faces' still lips say nothing: those heard speaking alone (no other face heard then) for at least
+    ``heard_s`` (first to last) of the last ``window_s`` with a median lip activity over those moments under
+    ``moving_factor`` times the veto's threshold.
 
     A talker's lips move while they speak (at 3-8 syllables a second), so lips that stay near still through a second
     of the face's own voice are not seen (a hand, a mask, a mesh that has lost them), and their stillness is no
-    evidence; a listener called speaking by a neighbour's spill for a moment is still vetoed. The median, not each
-    moment: a hand's mesh jitters about the veto's threshold. ``update`` is called once per result; tracks without a
-    moment heard in ``window_s`` are forgotten.
+    evidence; a listener called speaking by a neighbour's spill is still vetoed: heard beside the talker, those
+    moments do not count, however often they come. The median, not each moment: a hand's mesh jitters about the
+    veto's threshold. ``update`` is called once per result; tracks without a moment heard in ``window_s`` are
+    forgotten.
     """
 
     window_s: float = 3.0
@@ -128,20 +200,29 @@ class HiddenLips:
         self._marks = {k: [m for m in v if m[0] > since] for k, v in self._marks.items()}
         self._marks = {k: v for k, v in self._marks.items() if v or k in now}
         hidden = np.zeros(len(ids), dtype=bool)
+        alone = int(np.count_nonzero(speaking)) == 1
         for i, k in enumerate(np.asarray(ids).tolist()):
             marks = self._marks.setdefault(k, [])
-            if speaking[i] and np.isfinite(activity[i]):
+            if speaking[i] and alone and np.isfinite(activity[i]):
                 marks.append((float(stamp_s), float(activity[i])))
             hidden[i] = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s \
                 and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
         return hidden
 
 
-def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.ndarray,
-                    still_below: float) -> tuple[np.ndarray, np.ndarray]:
-    """The speaking states and probabilities with the faces whose lips are still (``activity`` < ``still_below``)
-    not speaking: their probability is kept at most 0.5 (the results' promise: above 0.5 exactly when speaking)."""
-    still = np.isfinite(activity) & (np.nan_to_num(activity, nan=np.inf) < still_below)
+def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.ndarray, still_below: float,
+                    relative: np.ndarray | None = None, *, relative_below: float = 0.1,
+                    relative_cap: float = 0.03) -> tuple[np.ndarray, np.ndarray]:
+    """The speaking states and probabilities with the faces whose lips are still not speaking: ``activity`` under
+    ``still_below``, or (with ``relative``, :attr:`LipTracks.relative`) within ``relative_below`` of the face's own
+    still level while under ``relative_cap`` (a far face's mesh jitters above ``still_below`` with its lips shut;
+    the cap keeps lips that move plainly from being called still). Their probability is kept at most 0.5 (the
+    results' promise: above 0.5 exactly when speaking)."""
+    act = np.nan_to_num(np.asarray(activity, dtype=np.float64), nan=np.inf)
+    still = act < still_below
+    if relative is not None:
+        still |= (np.nan_to_num(np.asarray(relative, dtype=np.float64), nan=np.inf) < relative_below) \
+            & (act < relative_cap)
     veto = np.asarray(speaking, dtype=bool) & still
     return np.asarray(speaking, dtype=bool) & ~veto, np.where(veto, np.minimum(probability, 0.5), probability)
 
@@ -176,4 +257,24 @@ def choose_by_lips(speaking: np.ndarray, probability: np.ndarray, relative: np.n
         lose = seen[(seen != best) & (relative[seen] < both_above)]
         speaking[lose] = False
         probability[lose] = np.minimum(probability[lose], 0.5)
+    return speaking, probability
+
+
+def lips_with_the_words(speaking: np.ndarray, probability: np.ndarray, activity: np.ndarray, relative: np.ndarray,
+                        synchrony: np.ndarray, *, least_probability: float = 0.2, moving_above: float = 0.05,
+                        relative_above: float = 0.6, synchrony_above: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """Two talking at once: where another face is heard speaking, a face not heard speaking speaks too when its
+    ITDs still give it some support (``probability`` at least ``least_probability``) and its lips move plainly
+    (``activity`` above ``moving_above``, ``relative`` at least ``relative_above`` of its own range) and with the
+    sound (``synchrony``, :func:`lip_synchrony`, at least ``synchrony_above``); its probability becomes just
+    over 0.5. The direction gives most of an overlap's windows to the louder talker; a listener's mouthing moves
+    with no sound of its own and gets no ITD support, so it stays silent. NaN anywhere: no opinion, no change."""
+    speaking = np.asarray(speaking, dtype=bool).copy()
+    probability = np.asarray(probability, dtype=np.float64).copy()
+    others = np.count_nonzero(speaking) - speaking.astype(int)
+    with np.errstate(invalid="ignore"):
+        join = (~speaking & (others >= 1) & (probability >= least_probability) & (activity > moving_above)
+                & (relative >= relative_above) & (synchrony >= synchrony_above))
+    speaking[join] = True
+    probability[join] = np.maximum(probability[join], np.nextafter(0.5, 1.0))
     return speaking, probability

@@ -108,20 +108,39 @@ def test_a_groups_words_go_to_the_face_whose_lips_move() -> None:
 
 
 def test_hidden_lips_are_still_through_a_second_of_their_own_voice() -> None:
-    """Marks are kept only while a face is heard; hidden needs a second from the first mark to the last and a median
-    activity under twice the veto's threshold; a face not heard for the window is forgotten."""
+    """Marks are kept only while a face is heard alone; hidden needs a second from the first mark to the last and a
+    median activity under twice the veto's threshold; a face not heard for the window is forgotten."""
     hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0)
     ids = np.array([4, 5])
-    for t in np.arange(0.0, 0.99, 0.1):  # 0.0 .. 0.9: not yet a second
-        out = hidden.update(float(t), ids, np.array([True, True]), np.array([0.02, 0.03]), 0.012)
+    turns = [np.array([True, False]), np.array([False, True])]  # heard alone in turn, every 50 ms
+    for k, t in enumerate(np.arange(0.0, 0.99, 0.05)):  # face 4 from 0.0 to 0.9 s, face 5 from 0.05 to 0.95 s
+        out = hidden.update(float(t), ids, turns[k % 2], np.array([0.02, 0.02]), 0.012)
         assert not out.any()
-    out = hidden.update(1.0, ids, np.array([True, True]), np.array([0.02, 0.03]), 0.012)
-    assert out.tolist() == [True, False]  # median 0.02 < 0.024; 0.03 is lips moving
-    # silent moments add no marks: the same verdict 1.5 s later, from the marks still in the window
+    assert hidden.update(1.0, ids, turns[0], np.array([0.02, 0.02]), 0.012).tolist() == [True, False]
+    out = hidden.update(1.05, ids, turns[1], np.array([0.02, 0.02]), 0.012)
+    assert out.tolist() == [True, True]  # a second each; medians 0.02 < 0.024
+    for t in np.arange(1.1, 1.74, 0.05):  # face 5's lips move now: 13 marks at 0.06 against 11, its median too
+        out = hidden.update(t, ids, turns[1], np.array([0.02, 0.06]), 0.012)
+    assert out.tolist() == [True, False]
+    # silent moments add no marks: the same verdict later, from the marks still in the window
     assert hidden.update(2.5, ids, np.array([False, False]), np.array([0.5, 0.5]), 0.012).tolist() == [True, False]
     # a NaN (no opinion) is no mark either; after the window the marks are gone
-    assert hidden.update(4.5, ids, np.array([True, True]), np.array([np.nan, np.nan]), 0.012).tolist() == [False, False]
+    assert hidden.update(4.5, ids, turns[0], np.array([np.nan, np.nan]), 0.012).tolist() == [False, False]
     assert 4 not in hidden._marks or hidden._marks[4] == []
+
+
+def test_a_listener_heard_beside_the_talker_is_never_hidden() -> None:
+    """A neighbour's spill calls the listener speaking with the talker, for seconds on end: those moments are not
+    the listener's own voice, so their still lips keep their opinion (the veto still takes them)."""
+    hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0)
+    ids = np.array([1, 2])  # the talker (lips moving), the listener (still)
+    for t in np.arange(0.0, 3.0, 0.05):
+        out = hidden.update(float(t), ids, np.array([True, True]), np.array([0.08, 0.008]), 0.012)
+        assert not out.any()
+    # heard alone for a second with the same still lips: now they are hidden (a hand, a mask)
+    for t in np.arange(3.0, 4.12, 0.05):
+        out = hidden.update(float(t), ids, np.array([False, True]), np.array([0.08, 0.008]), 0.012)
+    assert out.tolist() == [False, True]
 
 
 def test_each_followed_face_keeps_its_track_number() -> None:
