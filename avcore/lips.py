@@ -39,16 +39,17 @@ ENVELOPE_HOP_S = 0.01
 
 def frame_powers(samples: np.ndarray, samplerate_hz: float, hop_s: float = ENVELOPE_HOP_S
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """The mean square of the channels' mean in consecutive frames of ``hop_s`` (the last one shorter), with each
-    frame's centre in seconds from the block's first sample: ``(times_s, powers)``, for :class:`SoundEnvelope`."""
+    """The mean square of the channels' mean in the block cut into frames of about ``hop_s`` (as many as round to
+    it, equal to a sample: a 32 ms block gives three of 10.7 ms, none left short), with each frame's centre in
+    seconds from the block's first sample: ``(times_s, powers)``, for :class:`SoundEnvelope`."""
     x = np.asarray(samples, dtype=np.float64)
     x = x.mean(axis=1) if x.ndim == 2 else x.reshape(-1)
-    hop = max(1, round(hop_s * samplerate_hz))
-    starts = np.arange(0, x.size, hop)
-    if starts.size == 0:
+    if x.size == 0:
         return np.zeros(0), np.zeros(0)
-    powers = np.add.reduceat(x ** 2, starts) / np.diff(np.append(starts, x.size))
-    return (starts + 0.5 * np.diff(np.append(starts, x.size))) / samplerate_hz, powers
+    n = max(1, round(x.size / (hop_s * samplerate_hz)))
+    edges = np.round(np.linspace(0, x.size, n + 1)).astype(int)
+    powers = np.add.reduceat(x ** 2, edges[:-1]) / np.diff(edges)
+    return 0.5 * (edges[:-1] + edges[1:]) / samplerate_hz, powers
 
 
 @dataclass(eq=False)

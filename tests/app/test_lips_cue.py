@@ -246,3 +246,48 @@ def test_a_missing_face_mesh_is_one_line_before_any_preparation(monkeypatch: pyt
     assert captured.err.strip().splitlines() == ["avhear: error: AVHEAR_FACEMESH=/nonexistent/face_landmark.tflite: "
                                                  "no such file; give the path of face_landmark.tflite"]
     assert "preparing" not in captured.out + captured.err  # refused before the simulated room is made
+
+
+def test_a_face_whose_lips_move_with_the_sound_speaks_beside_the_one_heard(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two talking at once, the direction giving the words to one: the other face, with some ITD support and lips
+    that open with the sound 75 ms before it, speaks too; the same lips out of step with the sound do not."""
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    mode = FaceGuided(PipelineConfig(lips=True))
+    assert mode.envelope is not None and FaceGuided(PipelineConfig()).envelope is None
+    frames = np.arange(0.005, 3.0, 0.01)
+    mode.envelope.push(frames, 1e-3 * (0.05 + 0.5 + 0.5 * np.sin(2 * np.pi * 4.0 * frames)) ** 2)
+    video = np.arange(2.4, 3.0, 1 / 30)
+    with_sound = np.stack([video, 0.2 + 0.1 * np.sin(2 * np.pi * 4.0 * (video + 0.075))], axis=1)
+    against = np.stack([video, 0.2 - 0.1 * np.sin(2 * np.pi * 4.0 * (video + 0.075))], axis=1)
+    apart = np.array([[-0.8, 0.0, 2.0], [0.0, 0.0, 2.0], [0.8, 0.0, 2.0]])
+    lips, relative = np.array([0.06, 0.07, 0.004]), np.array([0.9, 0.8, 0.0])
+
+    def step(series: list[np.ndarray]) -> np.ndarray:
+        vision = Vision(2.95, None, np.zeros((3, 4)), apart, lips, relative, np.array([1, 2, 3]), lip_series=series)
+        hearing = _Hearing((True, False, False))  # the second face's probability: 0.8, its ITDs agree
+        return mode.step(hearing, vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None)).speaking
+
+    assert step([with_sound, with_sound, against]).tolist() == [True, True, False]
+    assert step([with_sound, against, against]).tolist() == [True, False, False]
+
+
+def test_the_pipeline_feeds_the_lips_the_sound_it_hears(monkeypatch: pytest.MonkeyPatch) -> None:
+    pytest.importorskip("pyroomacoustics")
+    from app.errors import UserError
+    from app.models import facemesh_model
+    from avcore.lips import SoundEnvelope
+
+    try:
+        facemesh_model()
+    except UserError as exc:
+        pytest.skip(str(exc))
+    heard: list[tuple[np.ndarray, np.ndarray]] = []
+    push = SoundEnvelope.push
+    monkeypatch.setattr(SoundEnvelope, "push", lambda self, t, p: (heard.append((t, p)), push(self, t, p))[1])
+    assert main(["demo", "--duration", "2", "--fast", "--headless", "--read-lips"]) == 0
+    times = np.concatenate([t for t, _ in heard])
+    powers = np.concatenate([p for _, p in heard])
+    assert np.all(np.diff(times) > 0) and times[0] < 0.1 and times[-1] > 1.9  # the whole run, in order
+    np.testing.assert_allclose(np.diff(times)[:-1], 0.01, atol=1.5e-3)  # every 10 ms or so (the last block short)
+    assert powers.min() >= 0 and powers.max() > 1e-6  # the room's speech is heard

@@ -1,11 +1,21 @@
-"""avcore.lips: each face's lip activity followed from frame to frame, no opinion until it has seen enough, and the
-veto that only ever removes a speaker whose lips are still."""
+"""avcore.lips: each face's lip activity followed from frame to frame, no opinion until it has seen enough, the veto
+that removes a speaker whose lips are still, and the lips that move with the sound while another face talks."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from avcore.lips import HiddenLips, LipTracks, choose_by_lips, same_direction_groups, veto_still_lips
+from avcore.lips import (
+    HiddenLips,
+    LipTracks,
+    SoundEnvelope,
+    choose_by_lips,
+    frame_powers,
+    lip_synchrony,
+    lips_with_the_words,
+    same_direction_groups,
+    veto_still_lips,
+)
 
 
 def test_activity_is_the_spread_of_each_faces_opening_over_the_window() -> None:
@@ -152,3 +162,93 @@ def test_each_followed_face_keeps_its_track_number() -> None:
     tracks.update(0.033, np.array([[305, 100, 40, 40], [600, 100, 40, 40], [102, 100, 40, 40]]),
                   np.array([0.1, 0.1, 0.1]))
     assert tracks.ids[0] == first[1] and tracks.ids[2] == first[0] and tracks.ids[1] not in first
+
+
+def test_frame_powers_are_the_mean_square_of_the_channels_mean_in_frames_of_about_10_ms() -> None:
+    fs = 16000.0
+    x = np.zeros((480, 2))
+    x[:160] = [0.5, 0.3]  # first frame: the mean 0.4, power 0.16
+    x[160:320, 0] = 1.0  # second: the mean 0.5
+    x[320:, :] = -0.2  # third: 0.04
+    times, powers = frame_powers(x, fs)
+    np.testing.assert_allclose(powers, [0.16, 0.25, 0.04])
+    np.testing.assert_allclose(times, [0.005, 0.015, 0.025])  # each frame's centre
+    times, powers = frame_powers(np.ones(512), fs)  # a block of 32 ms: three frames of 10.7 ms, none left short
+    np.testing.assert_allclose(np.diff(times), 171 / fs, atol=1 / fs)
+    np.testing.assert_allclose(powers, 1.0)
+    assert len(times) == 3 and frame_powers(np.ones(40), fs)[0].tolist() == [20 / fs]  # a short block: one frame
+    assert frame_powers(np.zeros((0, 2)), fs)[0].size == 0
+
+
+def test_the_envelope_gives_the_log_energy_around_each_time_and_forgets_the_old() -> None:
+    env = SoundEnvelope(keep_s=1.0, smooth_s=0.03)
+    t = np.arange(0.005, 2.0, 0.01)
+    env.push(t[:100], np.full(100, 1e-2))
+    env.push(t[100:], np.full(t.size - 100, 1e-4))
+    np.testing.assert_allclose(env.log_energy([1.5, 1.95]), [-4.0, -4.0], rtol=1e-5)
+    # the first second is gone but its last frame (keep_s before the newest); a time never heard: NaN
+    assert np.isnan(env.log_energy([0.5, 0.97, 3.0])).all()
+    np.testing.assert_allclose(env.log_energy([1.003]), [np.log10((1e-2 + 2e-4) / 3)], rtol=1e-5)
+
+
+def test_synchrony_follows_the_sound_a_mouth_shapes_75_ms_later() -> None:
+    fs_frames = np.arange(0.005, 3.0, 0.01)
+    syllables = 0.5 + 0.5 * np.sin(2 * np.pi * 4.0 * fs_frames)  # the talker's sound, 4 syllables a second
+    env = SoundEnvelope()
+    env.push(fs_frames, 1e-3 * (0.05 + syllables) ** 2)
+    video = np.arange(2.0, 2.6, 1 / 30)
+    talker = np.stack([video, 0.3 * (0.5 + 0.5 * np.sin(2 * np.pi * 4.0 * (video + 0.075)))], axis=1)
+    mouthing = np.stack([video, 0.3 * (0.5 + 0.5 * np.sin(2 * np.pi * 2.7 * video + 1.0))], axis=1)
+    still = np.stack([video, np.full(video.size, 0.1)], axis=1)
+    few = talker[:5]
+    sync = lip_synchrony([talker, mouthing, still, few], env)
+    assert sync[0] > 0.9 and abs(sync[1]) < 0.5
+    assert np.isnan(sync[2:]).all()  # a flat mouth, and five openings, give no opinion
+    late = lip_synchrony([talker], env, lead_s=0.0)  # read without the lead the mouth's syllables miss the sound's
+    assert late[0] < sync[0] - 0.1
+
+
+def test_series_keeps_the_synchronys_window_while_activity_keeps_its_own() -> None:
+    tracks = LipTracks(window_s=0.4, min_samples=6, sync_window_s=0.6)
+    for k, t in enumerate(np.arange(0.0, 1.0, 1 / 30)):
+        act = tracks.update(float(t), np.array([[100, 100, 40, 40]]), np.array([0.1 * (k >= 15)]))
+    rows = tracks.series()[0]
+    assert rows.shape[1] == 2 and rows[0, 0] > 1.0 - 1 / 30 - 0.6 and rows[-1, 0] == pytest.approx(29 / 30)
+    assert len(rows) == 18 and act[0] == pytest.approx(0.0)  # 0.6 s of openings; the last 0.4 s all 0.1
+    tracks.update(1.0, np.zeros((0, 4)), np.zeros(0))
+    assert tracks.series() == []
+
+
+def test_lips_within_their_own_still_level_are_still_unless_they_plainly_move() -> None:
+    speaking, probability = np.ones(5, bool), np.full(5, 0.8)
+    activity = np.array([0.02, 0.04, 0.02, 0.02, 0.005])
+    relative = np.array([0.05, 0.05, 0.5, np.nan, np.nan])
+    s, p = veto_still_lips(speaking, probability, activity, 0.012, relative)
+    # a far face's jitter at its own floor: still; above the cap: moving; above its floor: moving; no floor yet:
+    # only the absolute threshold
+    assert s.tolist() == [False, True, True, True, False] and p.tolist() == [0.5, 0.8, 0.8, 0.8, 0.5]
+    assert veto_still_lips(speaking, probability, activity, 0.012)[0].tolist() == [True, True, True, True, False]
+    edge = veto_still_lips(speaking[:2], probability[:2], np.array([0.0299, 0.03]), 0.012, np.array([0.0999, 0.05]))
+    assert edge[0].tolist() == [False, True]
+    at_edge = veto_still_lips(speaking[:1], probability[:1], np.array([0.02]), 0.012, np.array([0.1]))
+    assert at_edge[0].tolist() == [True]
+
+
+def test_a_second_talker_whose_lips_move_with_the_sound_speaks_too() -> None:
+    heard = np.array([True, False])
+    prob = np.array([0.8, 0.3])
+    act, rel, sync = np.array([0.08, 0.08]), np.array([0.9, 0.8]), np.array([0.6, 0.5])
+    s, p = lips_with_the_words(heard, prob, act, rel, sync)
+    assert s.tolist() == [True, True] and p[0] == 0.8 and 0.5 < p[1] < 0.5001
+    # each condition alone keeps the second face silent: nobody else heard, too little ITD support, lips barely
+    # moving, moving less than their own range, out of step with the sound, no opinion
+    assert lips_with_the_words(np.array([False, False]), prob, act, rel, sync)[0].tolist() == [False, False]
+    for changed in ({"prob": 0.19}, {"act": 0.05}, {"rel": 0.59}, {"sync": 0.29}, {"sync": np.nan}, {"rel": np.nan}):
+        a = {"prob": prob.copy(), "act": act.copy(), "rel": rel.copy(), "sync": sync.copy()}
+        for k, v in changed.items():
+            a[k][1] = v
+        out = lips_with_the_words(heard, a["prob"], a["act"], a["rel"], a["sync"])
+        assert out[0].tolist() == [True, False] and out[1][1] == a["prob"][1], changed
+    edge = lips_with_the_words(heard, np.array([0.8, 0.2]), act, np.array([0.9, 0.6]), np.array([0.6, 0.3]))
+    assert edge[0].tolist() == [True, True]  # each threshold is inclusive but the activity's
+    assert lips_with_the_words(np.zeros(0, bool), np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0))[0].size == 0
