@@ -215,14 +215,18 @@ def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.
                     relative: np.ndarray | None = None, *, relative_below: float = 0.1,
                     relative_cap: float = 0.03) -> tuple[np.ndarray, np.ndarray]:
     """The speaking states and probabilities with the faces whose lips are still not speaking: ``activity`` under
-    ``still_below``, or (with ``relative``, :attr:`LipTracks.relative`) within ``relative_below`` of the face's own
-    still level while under ``relative_cap`` (a far face's mesh jitters above ``still_below`` with its lips shut;
-    the cap keeps lips that move plainly from being called still). Their probability is kept at most 0.5 (the
-    results' promise: above 0.5 exactly when speaking)."""
+    ``still_below``, or (with ``relative``, :attr:`LipTracks.relative`) while another face is heard speaking too,
+    within ``relative_below`` of the face's own still level and under ``relative_cap``. A far face's mesh jitters
+    above ``still_below`` with its lips shut, and a neighbour's spill calls it speaking beside the talker; heard
+    alone, its words are no one else's (a hand over a talker's mouth jitters at its own floor too). The cap keeps
+    lips that move plainly from being called still. Their probability is kept at most 0.5 (the results' promise:
+    above 0.5 exactly when speaking)."""
+    speaking = np.asarray(speaking, dtype=bool)
     act = np.nan_to_num(np.asarray(activity, dtype=np.float64), nan=np.inf)
     still = act < still_below
     if relative is not None:
-        still |= (np.nan_to_num(np.asarray(relative, dtype=np.float64), nan=np.inf) < relative_below) \
+        beside = np.count_nonzero(speaking) - speaking.astype(int) >= 1
+        still |= beside & (np.nan_to_num(np.asarray(relative, dtype=np.float64), nan=np.inf) < relative_below) \
             & (act < relative_cap)
     veto = np.asarray(speaking, dtype=bool) & still
     return np.asarray(speaking, dtype=bool) & ~veto, np.where(veto, np.minimum(probability, 0.5), probability)

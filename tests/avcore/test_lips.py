@@ -219,7 +219,7 @@ def test_series_keeps_the_synchronys_window_while_activity_keeps_its_own() -> No
     assert tracks.series() == []
 
 
-def test_lips_within_their_own_still_level_are_still_unless_they_plainly_move() -> None:
+def test_lips_within_their_own_still_level_are_still_beside_a_talker_unless_they_plainly_move() -> None:
     speaking, probability = np.ones(5, bool), np.full(5, 0.8)
     activity = np.array([0.02, 0.04, 0.02, 0.02, 0.005])
     relative = np.array([0.05, 0.05, 0.5, np.nan, np.nan])
@@ -230,8 +230,12 @@ def test_lips_within_their_own_still_level_are_still_unless_they_plainly_move() 
     assert veto_still_lips(speaking, probability, activity, 0.012)[0].tolist() == [True, True, True, True, False]
     edge = veto_still_lips(speaking[:2], probability[:2], np.array([0.0299, 0.03]), 0.012, np.array([0.0999, 0.05]))
     assert edge[0].tolist() == [False, True]
-    at_edge = veto_still_lips(speaking[:1], probability[:1], np.array([0.02]), 0.012, np.array([0.1]))
-    assert at_edge[0].tolist() == [True]
+    at_edge = veto_still_lips(speaking[:2], probability[:2], np.array([0.02, 0.05]), 0.012, np.array([0.1, 0.9]))
+    assert at_edge[0].tolist() == [True, True]
+    # heard alone (a hand over a lone talker's mouth jitters at its floor too): only the absolute threshold
+    alone = veto_still_lips(np.array([True, False]), probability[:2], np.array([0.02, 0.02]), 0.012,
+                            np.array([0.05, 0.05]))
+    assert alone[0].tolist() == [True, False] and alone[1].tolist() == [0.8, 0.8]
 
 
 def test_a_second_talker_whose_lips_move_with_the_sound_speaks_too() -> None:
