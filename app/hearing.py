@@ -257,7 +257,7 @@ class MotionGuided:
     config: PipelineConfig
     _interval: list = field(default_factory=list, init=False, repr=False)
     _lips: LipReader | None = field(default=None, init=False, repr=False)
-    _last_faces: tuple = field(default=(None,) * 5, init=False, repr=False)  # (xyz, activity, relative, ids, series)
+    _last_faces: tuple = field(default=(None, None, None), init=False, repr=False)  # (xyz, activity, ids)
     _people_lips: tuple = field(default=(None, None), init=False, repr=False)  # (stamp, each person's activity)
 
     def __post_init__(self) -> None:
@@ -282,9 +282,9 @@ class MotionGuided:
         return False
 
     @property
-    def envelope(self) -> SoundEnvelope | None:
-        """The sound's envelope the lips are compared with (the pipeline feeds it), or None without the lips."""
-        return None if self._lips is None else self._lips.envelope
+    def envelope(self) -> None:
+        """No envelope: Algorithm 1's lips only veto."""
+        return None
 
     def detector(self) -> FaceDetector | None:
         """No faces are looked for, but with the lips' cue (:func:`face_detector`)."""
@@ -302,7 +302,7 @@ class MotionGuided:
         interval.append(frame)
         if self._lips is not None and detector is not None:
             faces = _faces(frame, rig, detector)
-            self._last_faces = (faces.points, *self._lips.read(frame.stamp_s, frame.left, faces.boxes))
+            self._last_faces = (faces.points, *self._lips.read(frame.stamp_s, frame.left, faces.boxes)[::2])
         if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
             return None
         if interval[0].depth_m is None and interval[0].right is None:
@@ -313,33 +313,23 @@ class MotionGuided:
         else:
             points = harris_motion_points([f.left for f in interval], [f.right for f in interval], rig).points
         self._interval = []
-        face_xyz, activity, relative, ids, series = self._last_faces
+        face_xyz, activity, ids = self._last_faces
         return Vision(0.5 * (interval[0].stamp_s + interval[-1].stamp_s), interval[len(interval) // 2], None,
-                      points, activity, relative, ids, face_xyz, series)
+                      points, activity, None, ids, face_xyz)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
         """The hearing's step on the interval's points and ITDs; with the lips' cue, a person whose face's lips
-        are still is not speaking, and while one person is heard, another whose face's lips move with the sound
-        speaks too (their face: :func:`faces_of_people`; the face's lips over the interval's last frames)."""
+        are still is not speaking (their face: :func:`faces_of_people`)."""
         out = hearing.step(vision.xyz, itds)
         if self._lips is None or vision.face_xyz is None:
             return out
         face = faces_of_people(out.positions, vision.face_xyz, self.config.lip_face_within_m)
-
-        def per_person(values: Any, none: Any) -> np.ndarray:  # -1 (no face) picks the appended ``none``
-            return np.append(np.asarray(values).reshape(-1), none)[face]
-
-        activity = per_person(np.asarray(vision.lip_activity, dtype=np.float64), np.nan)
-        # a person without a face gets an id of their own for the hidden lips
-        ids = np.where(face >= 0, per_person(vision.lip_ids, 0), -1 - np.arange(len(face)))
+        # -1 (no face) picks the appended NaN; a person without a face gets an id of their own for the hidden lips
+        activity = np.append(np.asarray(vision.lip_activity, dtype=np.float64).reshape(-1), np.nan)[face]
+        ids = np.where(face >= 0, np.append(np.asarray(vision.lip_ids).reshape(-1), 0)[face], -1 - np.arange(len(face)))
         self._people_lips = (vision.stamp_s, activity)
-        relative = None if vision.lip_relative is None else per_person(vision.lip_relative, np.nan)
-        out = self._lips.veto(vision.stamp_s, ids, out, activity, self.config.lip_still_below, relative=relative)
-        if relative is None or vision.lip_series is None:
-            return out
-        series = [vision.lip_series[k] if k >= 0 else np.zeros((0, 2)) for k in face]
-        return self._lips.join(out, activity, relative, series)
+        return self._lips.veto(vision.stamp_s, ids, out, activity, self.config.lip_still_below)
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return output.positions

@@ -198,36 +198,6 @@ def test_algorithm_1_silences_a_person_whose_face_s_lips_are_still(monkeypatch: 
     assert out.speaking.tolist() == [True, True, False] and mode.people_lips(vision, out) is None
 
 
-def test_algorithm_1_hears_a_second_person_whose_face_s_lips_move_with_the_sound(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    """The first body heard, the third not (probability 0.1, under the join's 0.2), the second not heard but with
-    some ITD support: the second speaks when its face's lips move with the sound, not when they move against it;
-    the third never does, whatever its lips."""
-    from app.hearing import MotionGuided
-
-    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
-    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
-
-    class _OneHeard(_MotionHearing):
-        def step(self, *args: object) -> _MotionOutput:
-            out = super().step()
-            return _MotionOutput(out.positions, np.array([True, False, False]), np.array([0.9, 0.4, 0.1]))
-
-    mode = MotionGuided(PipelineConfig(inference="motion", lips=True))
-    assert mode.envelope is not None and MotionGuided(PipelineConfig(inference="motion")).envelope is None
-    frames = np.arange(0.005, 3.0, 0.01)
-    mode.envelope.push(frames, 1e-3 * (0.05 + 0.5 + 0.5 * np.sin(2 * np.pi * 4.0 * frames)) ** 2)
-    video = np.arange(2.4, 3.0, 1 / 30)
-    with_sound = np.stack([video, 0.2 + 0.1 * np.sin(2 * np.pi * 4.0 * (video + 0.075))], axis=1)
-    against = np.stack([video, 0.2 - 0.1 * np.sin(2 * np.pi * 4.0 * (video + 0.075))], axis=1)
-    faces = np.array([[0.75, -0.2, 2.0], [-0.8, -0.2, 2.0], [0.05, -0.2, 2.5]])  # above bodies 3, 1, 2
-    for second, expected in ((with_sound, [True, True, False]), (against, [True, False, False])):
-        vision = Vision(2.8, None, None, np.zeros((0, 3)), np.array([0.08, 0.06, 0.07]), np.array([0.9, 0.9, 0.8]),
-                        np.array([4, 5, 6]), faces, [with_sound, with_sound, second])
-        out = mode.step(_OneHeard(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
-        assert out.speaking.tolist() == expected
-
-
 def test_read_lips_with_motion_gives_each_person_their_face_s_lips(tmp_path: Path) -> None:
     from app.errors import UserError
     from app.models import facemesh_model
