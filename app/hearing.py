@@ -302,7 +302,8 @@ class MotionGuided:
         interval.append(frame)
         if self._lips is not None and detector is not None:
             faces = _faces(frame, rig, detector)
-            self._last_faces = (faces.points, *self._lips.read(frame.stamp_s, frame.left, faces.boxes)[::2])
+            activity, _, ids, _ = self._lips.read(frame.stamp_s, frame.left, faces.boxes)
+            self._last_faces = (faces.points, activity, ids)
         if frame.stamp_s - interval[0].stamp_s + 1e-9 < self.config.interval_s:
             return None
         if interval[0].depth_m is None and interval[0].right is None:
