@@ -32,6 +32,7 @@ from avcore.lips import (
     lips_with_the_words,
     same_direction_groups,
     veto_still_lips,
+    voice_without_lips,
 )
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
@@ -101,11 +102,16 @@ class LipReader:
         return activity, self.tracks.relative, self.tracks.ids, self.tracks.series()
 
     def veto(self, stamp_s: float, ids: np.ndarray, output: Any, activity: np.ndarray, still_below: float,
-             alone: np.ndarray | None = None, relative: np.ndarray | None = None) -> Any:
+             alone: np.ndarray | None = None, relative: np.ndarray | None = None,
+             frame_s: tuple[float, float] | None = None) -> Any:
         """``output`` with the people whose lips are still (under ``still_below``, or with ``relative`` within
         their own still level) not speaking, but those whose lips have stayed still through a second of their own
-        voice (hidden) and those not ``alone`` (a group the lips already chose within)."""
+        voice (hidden), the one heard alone while the sound is loud through the result's time frame ``frame_s``
+        (start, end) and no lips in view move (:func:`avcore.lips.voice_without_lips`), and those not ``alone`` (a
+        group the lips already chose within)."""
         hidden = self.hidden.update(stamp_s, ids, output.speaking, activity, still_below)
+        if frame_s is not None:
+            hidden |= voice_without_lips(output.speaking, activity, still_below, self.envelope.loud_share(*frame_s))
         keep = ~hidden if alone is None else alone & ~hidden
         speaking, probability = veto_still_lips(output.speaking, output.probability, np.where(keep, activity, np.nan),
                                                 still_below, relative)
@@ -207,11 +213,14 @@ class FaceGuided:
                                                    self.config.lip_both_above)
             out = replace(out, speaking=speaking, probability=probability)
         # a face in a group is not vetoed on its own: the sound says one of them speaks, and the lips chose who;
-        # nor is one whose lips have stayed still through a second of its own voice (hidden: no opinion)
+        # nor is one whose lips have stayed still through a second of its own voice, or that a voice no lips in
+        # view make is heard from (hidden: no opinion)
         lips = np.asarray(vision.lip_activity, dtype=np.float64)
         ids = np.arange(len(lips)) if vision.lip_ids is None else vision.lip_ids
         assert self._lips is not None
-        out = self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone, vision.lip_relative)
+        frame = self.time_frame()
+        out = self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone, vision.lip_relative,
+                              (vision.stamp_s - frame.window_s, vision.stamp_s + frame.after_s))
         if vision.lip_relative is None or vision.lip_series is None:
             return out
         return self._lips.join(out, lips, vision.lip_relative, vision.lip_series)

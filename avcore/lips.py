@@ -23,7 +23,8 @@ one's and a face's range depends on its photograph.
 
 Still lips are not always silent ones: a hand over the mouth, a mask or a mesh that has lost the lips read as a
 closed mouth. :class:`HiddenLips` drops the opinion of a face whose lips have stayed still through a second or more
-of its own voice, heard alone (:meth:`HiddenLips.update`), so that the veto only takes the brief calls of a listener.
+of its own voice, heard alone (:meth:`HiddenLips.update`), so that the veto only takes the brief calls of a listener;
+and :func:`voice_without_lips` at once while a voice is heard, on that face alone, that no lips in view make.
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["HiddenLips", "LipTracks", "SoundEnvelope", "choose_by_lips", "frame_powers", "lip_synchrony",
-           "lips_with_the_words", "same_direction_groups", "veto_still_lips"]
+           "lips_with_the_words", "same_direction_groups", "veto_still_lips", "voice_without_lips"]
 
 ENVELOPE_HOP_S = 0.01
 
@@ -77,6 +78,18 @@ class SoundEnvelope:
         n = b - a
         with np.errstate(divide="ignore", invalid="ignore"):
             return np.where(n > 0, np.log10((sums[b] - sums[a]) / np.maximum(n, 1) + 1e-10), np.nan)
+
+    def loud_share(self, start_s: float, end_s: float, above_db: float = 15.0, floor_quantile: float = 10.0
+                   ) -> float:
+        """The share of the frames heard within ``[start_s, end_s]`` whose log energy is ``above_db`` over the
+        floor, the ``floor_quantile`` percentile of every kept frame's (the room's quiet). NaN where no frame was
+        heard there."""
+        inside = (self._times >= start_s) & (self._times <= end_s)
+        if not inside.any():
+            return float("nan")
+        energy = self.log_energy(self._times)
+        floor = float(np.percentile(energy, floor_quantile))
+        return float(np.mean(energy[inside] > floor + above_db / 10.0))
 
 
 @dataclass(eq=False)
@@ -209,6 +222,28 @@ class HiddenLips:
             hidden[i] = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s \
                 and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
         return hidden
+
+
+def voice_without_lips(speaking: np.ndarray, activity: np.ndarray, still_below: float, loud_share: float,
+                       share_above: float = 0.35) -> np.ndarray:
+    """(N,) bool: the face whose still lips say nothing because a voice is heard that no visible lips make. It is
+    the only face heard speaking, the sound is loud (:meth:`SoundEnvelope.loud_share`) for at least ``share_above``
+    of the result's time frame, and no other face's lips move (activity at or above ``still_below``) or lack an
+    opinion (NaN: turned away, it may be the talker).
+
+    Someone speaks, the ITDs place the voice on this face alone and no lips in view shape it: the talker's mouth is
+    hidden (a hand, a mesh that reads closed lips), and :class:`HiddenLips` would only say so after a second of it,
+    too late for a short number. A third of the frame is more than a clap's 80 ms; the ends of a number, which the
+    veto trims, are quiet."""
+    speaking = np.asarray(speaking, dtype=bool)
+    act = np.asarray(activity, dtype=np.float64).reshape(-1)
+    out = np.zeros(len(speaking), dtype=bool)
+    if np.count_nonzero(speaking) != 1 or not loud_share >= share_above:  # False with a NaN share
+        return out
+    i = int(np.flatnonzero(speaking)[0])
+    others = np.delete(np.nan_to_num(act, nan=np.inf), i)
+    out[i] = not np.any(others >= still_below)
+    return out
 
 
 def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.ndarray, still_below: float,

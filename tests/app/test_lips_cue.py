@@ -76,6 +76,36 @@ def test_lips_still_through_a_second_of_their_own_voice_give_no_opinion(monkeypa
         assert out.speaking.tolist() == [False, True, False]
 
 
+def test_a_hand_over_a_lone_talkers_mouth_gives_no_opinion_at_once_while_a_voice_is_heard(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The hand from the number's first moment: the one face heard, the sound loud through the result's time frame
+    and no lips in view moving, the still lips say nothing (it speaks at once, not after a second). Lips moving in
+    view, a clap's short sound, or a frame that ends before the voice (``--latency low``) keep the veto."""
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    apart = np.array([[-0.8, 0.0, 2.0], [0.0, 0.0, 2.0], [0.8, 0.0, 2.0]])
+    frames = np.arange(0.005, 2.0, 0.01)
+
+    def said(loud: tuple[float, float], others: float, latency: str = "default") -> np.ndarray:
+        mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012, latency=latency))
+        assert mode.envelope is not None
+        mode.envelope.push(frames, np.where((frames > loud[0]) & (frames < loud[1]), 1e-3, 1e-6))
+        out = []
+        for k, t in enumerate(np.arange(1.0, 1.5, 1 / 30)):
+            hand = 0.009 + 0.002 * (k % 2)
+            vision = Vision(float(t), None, np.zeros((3, 4)), apart, np.array([hand, others, 0.004]), None,
+                            np.array([7, 8, 9]))
+            out.append(mode.step(_Hearing((True, False, False)), vision, np.zeros((0, 1)), np.zeros(0),
+                                 lambda: (None, None, None)).speaking)
+        return np.array(out)
+
+    assert said((1.0, 1.6), 0.004)[:, 0].all() and not said((1.0, 1.6), 0.004)[:, 1:].any()
+    assert not said((1.0, 1.6), 0.05)[:, 0].any()  # another face's lips move: they may be the talker's
+    assert not said((1.2, 1.28), 0.004)[:, 0].any()  # a clap: loud for a fifth of the frame
+    low = said((1.0, 1.6), 0.004, latency="low")[:, 0]  # the frame is the 0.4 s before each result
+    assert not low[0] and low[-1]
+
+
 @dataclass(frozen=True)
 class _GroupOutput:  # the fields of FaceGuidedOutput that follow each face
     speaking: np.ndarray

@@ -15,6 +15,7 @@ from avcore.lips import (
     lips_with_the_words,
     same_direction_groups,
     veto_still_lips,
+    voice_without_lips,
 )
 
 
@@ -189,6 +190,38 @@ def test_the_envelope_gives_the_log_energy_around_each_time_and_forgets_the_old(
     # the first second is gone but its last frame (keep_s before the newest); a time never heard: NaN
     assert np.isnan(env.log_energy([0.5, 0.97, 3.0])).all()
     np.testing.assert_allclose(env.log_energy([1.003]), [np.log10((1e-2 + 2e-4) / 3)], rtol=1e-5)
+
+
+def test_loud_share_is_the_share_of_a_span_above_the_rooms_quiet_by_15_db() -> None:
+    env = SoundEnvelope(keep_s=3.0, smooth_s=0.005)  # one 10 ms frame a time: no smoothing across them
+    t = np.arange(0.005, 3.0, 0.01)
+    power = np.full(t.size, 1e-6)  # the room's quiet
+    power[(t > 2.0) & (t < 2.2)] = 40e-6  # 16 dB over it
+    power[(t > 2.4) & (t < 2.6)] = 25e-6  # 14 dB: not loud
+    env.push(t, power)
+    assert env.loud_share(1.9, 2.3) == pytest.approx(0.5)  # 20 of the 40 frames
+    assert env.loud_share(2.3, 2.7) == 0.0
+    assert env.loud_share(2.0, 2.2) == 1.0
+    assert env.loud_share(2.0, 2.2, above_db=17.0) == 0.0
+    assert np.isnan(env.loud_share(3.5, 3.9)) and np.isnan(SoundEnvelope().loud_share(0.0, 1.0))
+
+
+def test_a_voice_that_no_lips_in_view_make_hides_the_lips_of_the_one_face_heard() -> None:
+    """The one face heard, a loud frame, no other lips moving: its still lips say nothing. Each condition alone
+    undone leaves every face's opinion (a face without one may be the talker)."""
+    heard = np.array([False, True, False])
+    still = np.array([0.004, 0.009, 0.011])
+    assert voice_without_lips(heard, still, 0.012, 0.35).tolist() == [False, True, False]
+    assert voice_without_lips(heard, still, 0.012, 1.0, share_above=0.9).tolist() == [False, True, False]
+    assert not voice_without_lips(heard, still, 0.012, 0.34).any()  # a clap: under a third of the frame
+    assert not voice_without_lips(heard, still, 0.012, float("nan")).any()  # nothing heard in the frame
+    assert not voice_without_lips(np.array([True, True, False]), still, 0.012, 1.0).any()  # two heard
+    assert not voice_without_lips(np.zeros(3, dtype=bool), still, 0.012, 1.0).any()
+    assert not voice_without_lips(heard, np.array([0.012, 0.009, 0.004]), 0.012, 1.0).any()  # lips that move
+    assert not voice_without_lips(heard, np.array([np.nan, 0.009, 0.004]), 0.012, 1.0).any()  # no opinion
+    # the heard face's own lips do not matter (moving ones are never vetoed); nor does a lone face's neighbourhood
+    assert voice_without_lips(heard, np.array([0.004, np.nan, 0.004]), 0.012, 0.5).tolist() == [False, True, False]
+    assert voice_without_lips(np.array([True]), np.array([0.009]), 0.012, 0.5).tolist() == [True]
 
 
 def test_synchrony_follows_the_sound_a_mouth_shapes_75_ms_later() -> None:
