@@ -208,6 +208,7 @@ class FaceGuided:
         if len(ones) < len(xyz):
             out = replace(out, speaking=out.speaking[owner], probability=out.probability[owner],
                           itd_means=out.itd_means[owner], itd_counts=out.itd_counts[owner],
+                          model=out.model.shared(owner),
                           pair_itd_means=None if out.pair_itd_means is None else out.pair_itd_means[owner])
             speaking, probability = choose_by_lips(out.speaking, out.probability, vision.lip_relative, groups,
                                                    self.config.lip_both_above)

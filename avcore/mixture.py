@@ -133,6 +133,17 @@ class Mixture1D:
         object.__setattr__(self, "variances", var)
         object.__setattr__(self, "support", _check_support(self.support))
 
+    def shared(self, owner: np.ndarray) -> Mixture1D:
+        """One component per member: member i takes component ``owner[i]``, whose weight its members share (the
+        density is unchanged). For objects heard as one (faces in one direction) shown one per face."""
+        own = np.asarray(owner, dtype=np.intp).reshape(-1)
+        members = np.bincount(own[(own >= 0) & (own < self.n_components)], minlength=self.n_components)
+        if members.sum() < own.size or np.any(members == 0):
+            raise ValueError(f"owner must name each of the {self.n_components} components at least once, "
+                             f"got {own.tolist()}")
+        return Mixture1D(np.append(self.weights[own] / members[own], self.weights[-1]), self.means[own],
+                         self.variances[own], self.support)
+
     @classmethod
     def unchecked(cls, weights: np.ndarray, means: np.ndarray, variances: np.ndarray,
                   support: tuple[float, float]) -> Mixture1D:

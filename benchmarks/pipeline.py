@@ -5,6 +5,7 @@
     python benchmarks/pipeline.py --duration 120 --part-s 0     # one .rrd file: Rerun's writer keeps growing
     python benchmarks/pipeline.py --duration 90 --sink none     # the same without Rerun: whose memory grows?
     python benchmarks/pipeline.py --duration 90 --tracemalloc   # where Python allocations grow (slower)
+    python benchmarks/pipeline.py --scenario S5 --read-lips     # three faces, the face mesh on each, moving mouths
 
 Prints, for a real-time run: results per second, latency from capture stamp to logged result (p50, p95) and the
 part of it beyond the wait that the method itself imposes (a frame's ITDs are complete only once the audio has
@@ -129,12 +130,14 @@ class MemoryMonitor:
 
 def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, sample_s: float = 2.0,
         progress_s: float = 30.0, trace: bool = False, part_s: float | None = 60.0,
-        frame_itds: bool = True, vote_frames: int = 9, mics: str = "pair") -> dict[str, Any]:
+        frame_itds: bool = True, vote_frames: int = 9, mics: str = "pair", read_lips: bool = False
+        ) -> dict[str, Any]:
     """One run of ``scenario``: the pipeline with the console logging to ``rrd`` (None: no Rerun at all), in parts
-    of ``part_s`` seconds as ``avhear run`` writes them (None: one file)."""
-    source = open_source(f"sim:{scenario}", realtime=realtime, duration_s=duration_s, mics=mics,
+    of ``part_s`` seconds as ``avhear run`` writes them (None: one file); ``read_lips``: the simulated mouths move
+    and the face mesh reads every face (``avhear run --lips --read-lips``)."""
+    source = open_source(f"sim:{scenario}", realtime=realtime, duration_s=duration_s, mics=mics, lips=read_lips,
                          progress=lambda m: _say(f"  {m}"))
-    config = PipelineConfig(frame_itds=frame_itds, vote_frames=vote_frames)
+    config = PipelineConfig(frame_itds=frame_itds, vote_frames=vote_frames, lips=read_lips)
     session = ViewerSession(ViewerTarget(save=rrd, part_s=part_s)) if rrd is not None else None
     console = (Console(source.rig, source.mics, recording=session.recording, array=source.array)
                if session is not None else None)
@@ -190,17 +193,21 @@ def main() -> None:
     parser.add_argument("--sample-s", type=float, default=2.0, help="seconds between RSS samples (default 2)")
     parser.add_argument("--progress-s", type=float, default=30.0, help="seconds between progress lines on stderr")
     parser.add_argument("--mics", default="pair", help="the simulated microphones (an array preset, e.g. nao, uma8)")
+    parser.add_argument("--read-lips", action="store_true",
+                        help="moving mouths and the face mesh on every face (avhear run --lips --read-lips)")
     parser.add_argument("--tracemalloc", action="store_true",
                         help="trace Python allocations: lines that grew from the first quarter to the end")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         sink = "console to an .rrd file" if args.sink == "file" else "no Rerun"
-        print(f"{args.scenario}, {args.duration:.0f} s in real time, {sink}, microphones {args.mics} ...", flush=True)
+        lips = ", the lips read" if args.read_lips else ""
+        print(f"{args.scenario}, {args.duration:.0f} s in real time, {sink}, microphones {args.mics}{lips} ...",
+              flush=True)
         rrd = Path(tmp) / "rt.rrd" if args.sink == "file" else None
         part_s = args.part_s or None
         r = run(args.scenario, args.duration, True, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
                 trace=args.tracemalloc, part_s=part_s, frame_itds=args.frame_itds,
-                vote_frames=args.vote_frames, mics=args.mics)
+                vote_frames=args.vote_frames, mics=args.mics, read_lips=args.read_lips)
         print(f"  results per second {r['fps']:.1f} (target >= 30; the paper 17), {r['results']} results in "
               f"{r['duration_s']:.0f} s, {r['late_frames']} late frames skipped by the source, drops {r['drops']}, "
               f"audio blocks {r['audio_blocks']} (gaps {r['audio_gaps']})")
@@ -220,7 +227,8 @@ def main() -> None:
         if not args.skip_fast:
             rrd = Path(tmp) / "fast.rrd" if args.sink == "file" else None
             f = run(args.scenario, args.duration, False, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
-                    part_s=part_s, frame_itds=args.frame_itds, vote_frames=args.vote_frames)
+                    part_s=part_s, frame_itds=args.frame_itds, vote_frames=args.vote_frames, mics=args.mics,
+                    read_lips=args.read_lips)
             print(f"as fast as possible: {f['fps']:.1f} results per second, {f['results']} results, drops "
                   f"{f['drops']}")
 

@@ -13,6 +13,7 @@ from app.cli import main
 from app.hearing import FaceGuided, Vision
 from app.pipeline import PipelineConfig
 from avcore.geometry import MicArray, MicPair
+from avcore.mixture import Mixture1D
 
 
 @dataclass(frozen=True)
@@ -113,6 +114,7 @@ class _GroupOutput:  # the fields of FaceGuidedOutput that follow each face
     itd_means: np.ndarray
     itd_counts: np.ndarray
     pair_itd_means: np.ndarray
+    model: Mixture1D
 
 
 class _EveryoneSpeaks:
@@ -124,8 +126,9 @@ class _EveryoneSpeaks:
     def step(self, xyz: np.ndarray, *args: object) -> _GroupOutput:
         self.heard.append(xyz)
         n = len(xyz)
+        model = Mixture1D(np.full(n + 1, 1 / (n + 1)), np.arange(n) * 1e-4, np.full(n, 1e-9), (-8e-4, 8e-4))
         return _GroupOutput(np.ones(n, bool), np.full(n, 0.9), np.arange(n) * 1e-4, np.full(n, 5.0),
-                            np.arange(n)[:, None] * 1e-4)
+                            np.arange(n)[:, None] * 1e-4, model)
 
 
 def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_lips(
@@ -143,6 +146,9 @@ def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_li
     assert out.speaking.tolist() == [False, True, True]  # the far face's lips move: the words are its
     assert out.probability.tolist() == [0.5, 0.9, 0.9]
     assert out.itd_means.tolist() == [0.0, 0.0, 1e-4] and out.pair_itd_means.shape == (3, 1)
+    # the model too, one component a face (what the console draws), the group's weight shared by its faces
+    assert out.model.means.tolist() == [0.0, 0.0, 1e-4]
+    np.testing.assert_allclose(out.model.weights, [1 / 6, 1 / 6, 1 / 3, 1 / 3])
     both = Vision(1.0, None, np.zeros((3, 4)), xyz, lips, np.array([0.7, 0.9, 0.5]))
     assert mode.step(hearing, both, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None)).speaking.all()
     # a still mouth in a group is not vetoed on its own: the sound says one of the group speaks
@@ -321,3 +327,19 @@ def test_the_pipeline_feeds_the_lips_the_sound_it_hears(monkeypatch: pytest.Monk
     assert np.all(np.diff(times) > 0) and times[0] < 0.1 and times[-1] > 1.9  # the whole run, in order
     np.testing.assert_allclose(np.diff(times)[:-1], 0.01, atol=1.5e-3)  # every 10 ms or so (the last block short)
     assert powers.min() >= 0 and powers.max() > 1e-6  # the room's speech is heard
+
+
+def test_the_console_draws_faces_heard_as_one(tmp_path: Path) -> None:
+    """S6: one face behind the other, heard as one object; the console still gets one Gaussian a face."""
+    pytest.importorskip("pyroomacoustics")
+    from app.errors import UserError
+    from app.models import facemesh_model
+
+    try:
+        facemesh_model()
+    except UserError as exc:
+        pytest.skip(str(exc))
+    rrd = tmp_path / "s6.rrd"
+    assert main(["run", "--source", "sim:S6", "--duration", "3", "--lips", "--read-lips", "--fast",
+                 "--save", str(rrd)]) == 0
+    assert rrd.stat().st_size > 0

@@ -137,6 +137,20 @@ def test_initialisation_from_previous_interval() -> None:
         assert m.weights.sum() == pytest.approx(1.0)
 
 
+def test_a_component_shared_by_its_members_leaves_the_density_as_it_was() -> None:
+    model = Mixture1D(np.array([0.5, 0.3, 0.2]), np.array([-1e-4, 2e-4]), np.array([1e-9, 4e-9]), (-8e-4, 8e-4))
+    shared = model.shared(np.array([0, 0, 1, 0]))  # three faces in one direction, one apart
+    np.testing.assert_allclose(shared.means, [-1e-4, -1e-4, 2e-4, -1e-4])
+    np.testing.assert_allclose(shared.variances, [1e-9, 1e-9, 4e-9, 1e-9])
+    np.testing.assert_allclose(shared.weights, [0.5 / 3, 0.5 / 3, 0.3, 0.5 / 3, 0.2])
+    x = np.linspace(-8e-4, 8e-4, 101)
+    np.testing.assert_allclose(shared.density(x), model.density(x))
+    assert model.shared(np.array([1, 0])).means.tolist() == [2e-4, -1e-4]  # any order
+    for bad in ([0, 0], [0, 2], [-1, 1]):  # a component with no member, one that does not exist
+        with pytest.raises(ValueError, match="owner must name each of the 2 components"):
+            model.shared(np.array(bad))
+
+
 def test_split_at_mean_preserves_moments() -> None:
     m = _model([0.6, 0.4], [10], [30])
     s = split_at_mean(m, 0)
