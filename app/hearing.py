@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from avcore.depth import locate_faces_depth, motion_points_depth
-from avcore.facemesh import mouth_opening
+from avcore.facemesh import eye_centres, mouth_opening
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing, MotionGuidedParams
@@ -86,6 +86,7 @@ class LipReader:
     hidden: HiddenLips = field(default_factory=HiddenLips, init=False, repr=False)
     envelope: SoundEnvelope = field(default_factory=SoundEnvelope, init=False, repr=False)
     _mesh: Any = field(default=None, init=False, repr=False)
+    _last: tuple = field(default=(None, None, None), init=False, repr=False)  # (image, boxes, landmarks) of eyes()
 
     def __post_init__(self) -> None:
         from app.models import facemesh_model
@@ -93,11 +94,28 @@ class LipReader:
 
         self._mesh = FaceMesh(facemesh_model(), runtime=self.runtime)
 
+    def eyes(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray) -> np.ndarray:
+        """The mesh's eye centres (n, 2, 2) on ``boxes``, its crops levelled by the detector's ``eyes``; the mesh is
+        kept for :meth:`read` of the same image (one run a frame)."""
+        landmarks = self._mesh.run(image, boxes, eyes).landmarks
+        self._last = (image, np.asarray(boxes, dtype=np.float64).copy(), landmarks)
+        return eye_centres(landmarks)
+
+    def _landmarks(self, image: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+        """The mesh on ``boxes``: the one :meth:`eyes` ran on this image when it covered every box, else a new run."""
+        seen_image, seen, landmarks = self._last
+        b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+        if seen_image is image:
+            rows = [np.flatnonzero((seen == box).all(axis=1)) for box in b]
+            if all(len(r) for r in rows):
+                return landmarks[[int(r[0]) for r in rows]]
+        return self._mesh.run(image, b).landmarks
+
     def read(self, stamp_s: float, image: np.ndarray, boxes: np.ndarray
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
         """Each face's lip activity (NaN: no opinion), its place in its own range, its track's id and its recent
         mouth openings."""
-        openings = mouth_opening(self._mesh.run(image, boxes).landmarks)
+        openings = mouth_opening(self._landmarks(image, boxes))
         activity = self.tracks.update(stamp_s, boxes, openings)
         return activity, self.tracks.relative, self.tracks.ids, self.tracks.series()
 
@@ -173,7 +191,7 @@ class FaceGuided:
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
         """The faces of this frame, from the stereo pair, an RGB-D camera's depth, or with one camera their size
         in the image (ValueError: a frame F3D cannot use)."""
-        faces = _faces(frame, rig, detector)
+        faces = _faces(frame, rig, detector, None if self._lips is None else self._lips.eyes)
         activity = relative = ids = series = None
         if self._lips is not None:
             activity, relative, ids, series = self._lips.read(frame.stamp_s, frame.left, faces.boxes)
@@ -356,13 +374,13 @@ class MotionGuided:
         return None
 
 
-def _faces(frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Any:
+def _faces(frame: StereoFrame, rig: StereoRig, detector: FaceDetector, eyes_from: Callable | None = None) -> Any:
     """The faces of a frame in 3D: from the stereo pair, an RGB-D camera's depth, or with one camera their size in
-    the image."""
+    the image (the eyes from ``eyes_from`` when given: the face mesh's)."""
     if frame.depth_m is not None:
         return locate_faces_depth(frame.left, frame.depth_m, rig, detector=detector)
     if frame.right is None:
-        return locate_faces_mono(frame.left, rig, detector=detector)
+        return locate_faces_mono(frame.left, rig, detector=detector, eyes_from=eyes_from)
     return locate_faces(frame.left, frame.right, rig, detector=detector)
 
 

@@ -9,7 +9,9 @@ it. A face whose presence (the logit through a sigmoid) is below ``min_presence`
 
 The lips (the mesh's indices): the inner lip's middle points 13 (upper) and 14 (lower), the mouth's corners 78 and
 308. :func:`mouth_opening` is the gap between 13 and 14 over the distance between the corners: it does not change
-with the face's size or distance, and it rises when the mouth opens to speak.
+with the face's size or distance, and it rises when the mouth opens to speak. The eyes: :func:`eye_centres`, each
+the middle of its two corners (33 and 133, the person's right eye; 362 and 263, the left), for one camera's depth
+(:func:`avcore.mono.locate_faces_mono`).
 """
 from __future__ import annotations
 
@@ -21,14 +23,15 @@ import numpy as np
 
 from avcore.tflite import TfliteNet
 
-__all__ = ["FaceMesh", "FaceMeshResult", "LIP_CORNERS", "LIP_INNER_LOWER", "LIP_INNER_UPPER", "N_LANDMARKS",
-           "mouth_opening"]
+__all__ = ["FaceMesh", "FaceMeshResult", "LEFT_EYE_CORNERS", "LIP_CORNERS", "LIP_INNER_LOWER", "LIP_INNER_UPPER",
+           "N_LANDMARKS", "RIGHT_EYE_CORNERS", "eye_centres", "mouth_opening"]
 
 N_LANDMARKS = 468
 INPUT_PX = 192
 ROI_SCALE = 1.5  # RectTransformationCalculator's scale_x, scale_y in MediaPipe's detection-to-ROI graph
 LIP_INNER_UPPER, LIP_INNER_LOWER = 13, 14
 LIP_CORNERS = (78, 308)
+RIGHT_EYE_CORNERS, LEFT_EYE_CORNERS = (33, 133), (362, 263)  # the person's right eye is on the image's left
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +50,14 @@ def mouth_opening(landmarks: np.ndarray) -> np.ndarray:
     width = np.linalg.norm(pts[..., LIP_CORNERS[1], :] - pts[..., LIP_CORNERS[0], :], axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(width > 0, gap / width, np.nan)
+
+
+def eye_centres(landmarks: np.ndarray) -> np.ndarray:
+    """landmarks (n, 468, 2 or 3)  ->  (n, 2, 2) pixels: each face's right eye then left eye (the order of BlazeFace's
+    keypoints), each the middle of its corners (NaN without a mesh)."""
+    pts = np.asarray(landmarks, dtype=np.float64)[..., :2]
+    return np.stack([pts[..., list(RIGHT_EYE_CORNERS), :].mean(axis=-2),
+                     pts[..., list(LEFT_EYE_CORNERS), :].mean(axis=-2)], axis=-2)
 
 
 def _crop_transforms(boxes: np.ndarray, eyes: np.ndarray | None) -> np.ndarray:

@@ -6,6 +6,8 @@ gives them (BlazeFace's keypoints): adults' interpupillary distance is about 63 
 3.5 mm (Dodgson 2004, "Variation and extrema of human interpupillary distance"). A detector with boxes alone (Haar)
 gives the box's width, which spans ``HAAR_BOX_PER_IPD`` interpupillary distances, a ratio measured on the labelled
 photographs of ``../shared/data/faces`` (BlazeFace's eyes inside OpenCV's boxes; docs/experiments.md, 2026-11-26).
+With the face mesh running (``--read-lips``) its eye centres replace BlazeFace's keypoints: on the simulated
+faces they place a face closer to its true distance (docs/experiments.md, 2026-11-27 (sixth)).
 
 The depth error model is in docs/method.md ("One camera"): the person's own size against the population's, the
 size's measurement in pixels (growing with the distance), and the head's turn (a face turned by a shows its eyes
@@ -13,6 +15,8 @@ closer by cos a). The direction of the face (its pixel) is exact to the detector
 line of sight: an ITD, which depends on the direction, is barely affected.
 """
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -42,11 +46,15 @@ def face_distances(boxes: np.ndarray, eyes_px: np.ndarray | None, focal_px: floa
 
 
 def locate_faces_mono(image: np.ndarray, rig: StereoRig, *, detector: FaceDetector | None = None,
-                      min_depth_m: float = 0.3, max_depth_m: float = 10.0) -> FaceLocations:
+                      min_depth_m: float = 0.3, max_depth_m: float = 10.0,
+                      eyes_from: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray] | None = None
+                      ) -> FaceLocations:
     """F3D (paper section 5.2) with one camera, the rig's left one: faces detected in ``image`` (its size), each at
     its box centre and at the distance its size gives (:func:`face_distances`; the eyes when the detector has
-    ``detect_faces`` with keypoints, as BlazeFace, else the box). Faces outside [min_depth_m, max_depth_m] are
-    ``unmatched``; ``ncc`` holds 1.0 (there is no correlation to report)."""
+    ``detect_faces`` with keypoints, as BlazeFace, else the box). ``eyes_from(image, boxes, eyes)`` -> (n, 2, 2)
+    pixels may give better eyes (the face mesh's: :func:`avcore.facemesh.eye_centres`); a face it gives NaN for
+    keeps the detector's. Faces outside [min_depth_m, max_depth_m] are ``unmatched``; ``ncc`` holds 1.0 (there is
+    no correlation to report)."""
     if image.shape[1::-1] != tuple(rig.image_size):
         raise ValueError(f"the image must be of the rig's size {rig.image_size} (width, height), got "
                          f"{image.shape[1::-1]}")
@@ -55,6 +63,9 @@ def locate_faces_mono(image: np.ndarray, rig: StereoRig, *, detector: FaceDetect
         found = detector.detect_faces(image)
         order = np.argsort(found.boxes[:, 0], kind="stable")  # left to right, as detect_faces sorts
         boxes, eyes = found.boxes[order], found.keypoints[order][:, :2]
+        if eyes_from is not None and len(boxes):
+            better = np.asarray(eyes_from(image, boxes, eyes), dtype=np.float64).reshape(-1, 2, 2)
+            eyes = np.where(np.isfinite(better).all(axis=(1, 2))[:, None, None], better, eyes)
     else:
         boxes = detect_faces(image, detector)
     uv = boxes[:, :2] + boxes[:, 2:] / 2.0 - 0.5

@@ -343,3 +343,45 @@ def test_the_console_draws_faces_heard_as_one(tmp_path: Path) -> None:
     assert main(["run", "--source", "sim:S6", "--duration", "3", "--lips", "--read-lips", "--fast",
                  "--save", str(rrd)]) == 0
     assert rrd.stat().st_size > 0
+
+
+def test_one_camera_reading_the_lips_places_faces_by_the_meshs_eyes_with_one_mesh_a_frame(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """With one camera and --read-lips the mesh runs once a frame: its eyes place the faces, its lips are read."""
+    from app.events import StereoFrame
+    from avcore.blazeface import FaceDetections
+    from avcore.facemesh import (LEFT_EYE_CORNERS, LIP_CORNERS, LIP_INNER_LOWER, LIP_INNER_UPPER, N_LANDMARKS,
+                                 RIGHT_EYE_CORNERS, FaceMeshResult)
+    from sim.render import default_scene
+
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    runs = []
+
+    def run(self: object, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> FaceMeshResult:
+        runs.append(len(boxes))
+        marks = np.zeros((len(boxes), N_LANDMARKS, 3))
+        for i, (x, y, w, _) in enumerate(boxes):  # eyes 0.5 of the box apart (the detector says 0.25)
+            marks[i, list(RIGHT_EYE_CORNERS), :2] = [x + 0.2 * w, y + 0.4 * w], [x + 0.3 * w, y + 0.4 * w]
+            marks[i, list(LEFT_EYE_CORNERS), :2] = [x + 0.7 * w, y + 0.4 * w], [x + 0.8 * w, y + 0.4 * w]
+            marks[i, [LIP_CORNERS[0], LIP_CORNERS[1]], :2] = [x + 0.3 * w, y + 0.8 * w], [x + 0.7 * w, y + 0.8 * w]
+            marks[i, [LIP_INNER_UPPER, LIP_INNER_LOWER], :2] = [x + 0.5 * w, y + 0.78 * w], [x + 0.5 * w, y + 0.82 * w]
+        return FaceMeshResult(marks, np.ones(len(boxes)))
+
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.run", run)
+    boxes = np.array([[100.0, 100.0, 40.0, 40.0], [400.0, 100.0, 40.0, 40.0]])
+    keypoints = np.zeros((2, 6, 2))
+    keypoints[:, 0], keypoints[:, 1] = boxes[:, :2] + [15.0, 16.0], boxes[:, :2] + [25.0, 16.0]
+
+    class _Finder:
+        def detect_faces(self, image: np.ndarray) -> FaceDetections:
+            return FaceDetections(boxes.copy(), keypoints.copy(), np.ones(2))
+
+    scene = default_scene()
+    image = scene.render(0.0).left
+    frame = StereoFrame(0, 0.0, image, None, 0.0)
+    with_lips = FaceGuided(PipelineConfig(lips=True)).vision(frame, scene.rig, _Finder())  # type: ignore[arg-type]
+    plain = FaceGuided(PipelineConfig()).vision(frame, scene.rig, _Finder())  # type: ignore[arg-type]
+    assert runs == [2]  # one mesh for the eyes and the lips
+    np.testing.assert_allclose(with_lips.xyz[:, 2], plain.xyz[:, 2] / 2)  # eyes twice as far apart: half as far
+    assert with_lips.lip_activity is not None and len(with_lips.lip_activity) == 2

@@ -8,11 +8,10 @@ import cv2
 import numpy as np
 import pytest
 
-from avcore.facemesh import (INPUT_PX, LIP_CORNERS, LIP_INNER_LOWER, LIP_INNER_UPPER, N_LANDMARKS, FaceMesh,
-                             _crop_transforms, mouth_opening)
+from avcore.facemesh import (INPUT_PX, LEFT_EYE_CORNERS, LIP_CORNERS, LIP_INNER_LOWER, LIP_INNER_UPPER, N_LANDMARKS,
+                             RIGHT_EYE_CORNERS, FaceMesh, _crop_transforms, eye_centres, mouth_opening)
 
 SHARED_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"  # as tests/conftest.py finds it
-RIGHT_EYE, LEFT_EYE = (33, 133), (362, 263)  # each eye's corners in the mesh (the person's right, left)
 
 
 def test_the_crop_is_a_level_square_one_and_a_half_faces_wide() -> None:
@@ -36,6 +35,16 @@ def test_mouth_opening_is_the_lips_gap_over_the_mouths_width() -> None:
     marks[1, LIP_INNER_UPPER, :2] = marks[1, LIP_INNER_LOWER, :2] = [30.0, 50.0]
     np.testing.assert_allclose(mouth_opening(marks), [12.0 / 40.0, 0.0])
     assert np.isnan(mouth_opening(np.full((N_LANDMARKS, 3), np.nan)))
+
+
+def test_each_eyes_centre_is_the_middle_of_its_corners() -> None:
+    marks = np.full((2, N_LANDMARKS, 3), np.nan)
+    marks[0, RIGHT_EYE_CORNERS[0], :2], marks[0, RIGHT_EYE_CORNERS[1], :2] = [10.0, 40.0], [20.0, 42.0]
+    marks[0, LEFT_EYE_CORNERS[0], :2], marks[0, LEFT_EYE_CORNERS[1], :2] = [40.0, 42.0], [50.0, 40.0]
+    eyes = eye_centres(marks)
+    assert eyes.shape == (2, 2, 2)
+    np.testing.assert_allclose(eyes[0], [[15.0, 41.0], [45.0, 41.0]])  # the person's right eye first
+    assert np.isnan(eyes[1]).all()  # no mesh, no eyes
 
 
 @pytest.fixture(scope="module")
@@ -78,8 +87,9 @@ def test_the_mesh_lands_on_real_faces_where_blazeface_puts_their_eyes_and_mouth(
         assert (result.presence > 0.5).all()
         for marks, box, keys in zip(result.landmarks, found.boxes, found.keypoints, strict=True):
             width = box[2]
-            assert np.linalg.norm(marks[list(RIGHT_EYE), :2].mean(0) - keys[0]) < 0.12 * width
-            assert np.linalg.norm(marks[list(LEFT_EYE), :2].mean(0) - keys[1]) < 0.12 * width
+            right, left = eye_centres(marks[None])[0]
+            assert np.linalg.norm(right - keys[0]) < 0.12 * width
+            assert np.linalg.norm(left - keys[1]) < 0.12 * width
             lips = marks[[LIP_INNER_UPPER, LIP_INNER_LOWER], :2].mean(0)
             assert np.linalg.norm(lips - keys[3]) < 0.15 * width
             centre, half = box[:2] + box[2:] / 2, 0.75 * box[2:].max() * np.sqrt(2)

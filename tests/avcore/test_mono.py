@@ -25,13 +25,14 @@ def test_the_pinhole_distance_of_eyes_and_boxes() -> None:
         face_distances(boxes, eyes[:1], 700.0)
 
 
-def _depth_errors(detector: object) -> np.ndarray:
+def _depth_errors(detector: object, eyes_from: object = None) -> np.ndarray:
     """Relative depth errors of the faces of the rendered scene (three people 1.3-2.9 m away), left image alone."""
     scene = default_scene()
     errors = []
     for t in (0.0, 0.5, 1.0):
         frame = scene.render(t)
-        found = locate_faces_mono(frame.left, scene.rig, detector=detector)
+        found = locate_faces_mono(frame.left, scene.rig, detector=detector,  # type: ignore[arg-type]
+                                  eyes_from=eyes_from)  # type: ignore[arg-type]
         assert len(found) == len(frame.faces) and found.unmatched.shape == (0, 4)
         for true in frame.faces:
             near = found.points[np.argmin(np.linalg.norm(found.points[:, :2] - true[:2], axis=1))]
@@ -74,6 +75,52 @@ def test_one_camera_places_the_rendered_faces_by_their_eyes() -> None:
     except UserError as exc:
         pytest.skip(str(exc))
     errors = _depth_errors(BlazeFaceDetector(model, tiles=2))
+    assert np.median(errors) < 0.10 and errors.max() < 0.20
+
+
+def test_better_eyes_replace_the_detectors_where_they_are_given() -> None:
+    """``eyes_from`` gets the image, the boxes and the detector's eyes; its eyes twice as far apart halve a face's
+    distance, and a face it has none for (NaN) keeps the detector's."""
+    from avcore.blazeface import FaceDetections
+
+    scene = default_scene()
+    frame = scene.render(0.0)
+    boxes = np.array([[100.0, 100.0, 40.0, 40.0], [400.0, 100.0, 40.0, 40.0]])
+    keypoints = np.zeros((2, 6, 2))
+    keypoints[:, 0], keypoints[:, 1] = boxes[:, :2] + [10.0, 15.0], boxes[:, :2] + [30.0, 15.0]
+
+    class _Finder:
+        def detect_faces(self, image: np.ndarray) -> FaceDetections:
+            return FaceDetections(boxes.copy(), keypoints.copy(), np.ones(2))
+
+    seen = []
+
+    def wider(image: np.ndarray, b: np.ndarray, eyes: np.ndarray) -> np.ndarray:
+        seen.append((image, b.copy(), eyes.copy()))
+        out = np.full((2, 2, 2), np.nan)
+        out[0] = [eyes[0, 0] - [10.0, 0.0], eyes[0, 1] + [10.0, 0.0]]  # 40 px apart instead of 20
+        return out
+
+    plain = locate_faces_mono(frame.left, scene.rig, detector=_Finder())
+    better = locate_faces_mono(frame.left, scene.rig, detector=_Finder(), eyes_from=wider)
+    assert seen[0][0] is frame.left and np.array_equal(seen[0][1], boxes)
+    np.testing.assert_array_equal(seen[0][2], keypoints[:, :2])
+    assert better.points[0, 2] == pytest.approx(plain.points[0, 2] / 2)
+    assert better.points[1, 2] == pytest.approx(plain.points[1, 2])
+
+
+def test_the_face_meshs_eyes_place_the_rendered_faces_too() -> None:
+    """The mesh's eye centres (``--read-lips``) in place of BlazeFace's keypoints: within 10 % in median."""
+    from app.errors import UserError
+    from app.models import blazeface_model, facemesh_model
+    from avcore.blazeface import BlazeFaceDetector
+    from avcore.facemesh import FaceMesh, eye_centres
+
+    try:
+        detector, mesh = BlazeFaceDetector(blazeface_model(), tiles=2), FaceMesh(facemesh_model())
+    except UserError as exc:
+        pytest.skip(str(exc))
+    errors = _depth_errors(detector, lambda image, b, eyes: eye_centres(mesh.run(image, b, eyes).landmarks))
     assert np.median(errors) < 0.10 and errors.max() < 0.20
 
 
