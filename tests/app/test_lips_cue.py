@@ -16,6 +16,17 @@ from avcore.geometry import MicArray, MicPair
 from avcore.mixture import Mixture1D
 
 
+def _needs_the_face_mesh() -> None:
+    """Skip, saying how to install it, when the face mesh's model is not installed."""
+    from app.errors import UserError
+    from app.models import facemesh_model
+
+    try:
+        facemesh_model()
+    except UserError as exc:
+        pytest.skip(str(exc))
+
+
 @dataclass(frozen=True)
 class _Output:  # the fields of FaceGuidedOutput the veto reads and replaces
     speaking: np.ndarray
@@ -162,13 +173,7 @@ def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_li
 
 def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path) -> None:
     pytest.importorskip("pyroomacoustics")
-    from app.errors import UserError
-    from app.models import facemesh_model
-
-    try:
-        facemesh_model()
-    except UserError as exc:
-        pytest.skip(str(exc))
+    _needs_the_face_mesh()
     out = tmp_path / "r.jsonl"
     assert main(["demo", "--duration", "2", "--fast", "--headless", "--read-lips", "--results-jsonl", str(out)]) == 0
     rows = [json.loads(line) for line in out.read_text().splitlines()]
@@ -235,13 +240,7 @@ def test_algorithm_1_silences_a_person_whose_face_s_lips_are_still(monkeypatch: 
 
 
 def test_read_lips_with_motion_gives_each_person_their_face_s_lips(tmp_path: Path) -> None:
-    from app.errors import UserError
-    from app.models import facemesh_model
-
-    try:
-        facemesh_model()
-    except UserError as exc:
-        pytest.skip(str(exc))
+    _needs_the_face_mesh()
     out = tmp_path / "r.jsonl"
     assert main(["demo", "--duration", "3", "--fast", "--headless", "--motion", "--read-lips",
                  "--results-jsonl", str(out)]) == 0
@@ -310,14 +309,9 @@ def test_a_face_whose_lips_move_with_the_sound_speaks_beside_the_one_heard(monke
 
 def test_the_pipeline_feeds_the_lips_the_sound_it_hears(monkeypatch: pytest.MonkeyPatch) -> None:
     pytest.importorskip("pyroomacoustics")
-    from app.errors import UserError
-    from app.models import facemesh_model
     from avcore.lips import SoundEnvelope
 
-    try:
-        facemesh_model()
-    except UserError as exc:
-        pytest.skip(str(exc))
+    _needs_the_face_mesh()
     heard: list[tuple[np.ndarray, np.ndarray]] = []
     push = SoundEnvelope.push
     monkeypatch.setattr(SoundEnvelope, "push", lambda self, t, p: (heard.append((t, p)), push(self, t, p))[1])
@@ -332,13 +326,7 @@ def test_the_pipeline_feeds_the_lips_the_sound_it_hears(monkeypatch: pytest.Monk
 def test_the_console_draws_faces_heard_as_one(tmp_path: Path) -> None:
     """S6: one face behind the other, heard as one object; the console still gets one Gaussian a face."""
     pytest.importorskip("pyroomacoustics")
-    from app.errors import UserError
-    from app.models import facemesh_model
-
-    try:
-        facemesh_model()
-    except UserError as exc:
-        pytest.skip(str(exc))
+    _needs_the_face_mesh()
     rrd = tmp_path / "s6.rrd"
     assert main(["run", "--source", "sim:S6", "--duration", "3", "--lips", "--read-lips", "--fast",
                  "--save", str(rrd)]) == 0
