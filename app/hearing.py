@@ -237,9 +237,9 @@ class FaceGuided:
         lips = np.asarray(vision.lip_activity, dtype=np.float64)
         ids = np.arange(len(lips)) if vision.lip_ids is None else vision.lip_ids
         assert self._lips is not None
-        frame = self.time_frame()
+        before, after = _frame_span(self.config, self.config.frame_window_s)
         out = self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone, vision.lip_relative,
-                              (vision.stamp_s - frame.window_s, vision.stamp_s + frame.after_s))
+                              (vision.stamp_s - before, vision.stamp_s + after))
         if vision.lip_relative is None or vision.lip_series is None:
             return out
         return self._lips.join(out, lips, vision.lip_relative, vision.lip_series)
@@ -518,10 +518,14 @@ def face_detector(config: PipelineConfig) -> FaceDetector:
         raise UserError(f"--tflite-runtime litert: {exc}") from None
 
 
+def _frame_span(config: PipelineConfig, half_s: float) -> tuple[float, float]:
+    """How far a result's time frame reaches (before, after) its stamp: the past only with ``latency="low"``."""
+    return (2 * half_s, 0.0) if config.latency == "low" else (half_s, half_s)
+
+
 def _time_frame(config: PipelineConfig, half_s: float) -> TimeFrame:
-    if config.latency == "low":
-        return TimeFrame(2 * half_s, after_s=0.0)
-    return TimeFrame(half_s)
+    before, after = _frame_span(config, half_s)
+    return TimeFrame(before, after_s=after)
 
 
 def hearing_mode(config: PipelineConfig) -> FaceGuided | MotionGuided:
