@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from avcore.depth import locate_faces_depth, motion_points_depth
-from avcore.facemesh import eye_centres, mouth_opening
+from avcore.facemesh import N_LANDMARKS, eye_centres, mouth_opening
 from avcore.faces import TrackingFaceDetector, locate_faces
 from avcore.geometry import MicArray
 from avcore.inference import FaceGuidedHearing, FaceGuidedParams, MotionGuidedHearing, MotionGuidedParams
@@ -60,7 +60,8 @@ class Vision:
     motion-guided), the 3D points (the faces, or the HM3D points) and, with the lips' cue, each face's lip
     activity, its place in the face's own range, the face's track and its recent mouth openings
     (:class:`avcore.lips.LipTracks`); motion-guided with the lips' cue, ``face_xyz`` the faces of the interval's
-    last frame in 3D (None otherwise)."""
+    last frame in 3D (None otherwise); ``landmarks`` the face mesh's on the boxes when vision has run it already
+    (one camera, whose faces the mesh's eyes place), for the lips' stage."""
 
     stamp_s: float
     frame: StereoFrame
@@ -71,6 +72,7 @@ class Vision:
     lip_ids: np.ndarray | None = None
     face_xyz: np.ndarray | None = None
     lip_series: list[np.ndarray] | None = None
+    landmarks: np.ndarray | None = None
 
 
 @dataclass(eq=False)
@@ -86,7 +88,6 @@ class LipReader:
     hidden: HiddenLips = field(default_factory=HiddenLips, init=False, repr=False)
     envelope: SoundEnvelope = field(default_factory=SoundEnvelope, init=False, repr=False)
     _mesh: Any = field(default=None, init=False, repr=False)
-    _last: tuple = field(default=(None, None, None), init=False, repr=False)  # (image, boxes, landmarks) of eyes()
 
     def __post_init__(self) -> None:
         from app.models import facemesh_model
@@ -94,29 +95,17 @@ class LipReader:
 
         self._mesh = FaceMesh(facemesh_model(), runtime=self.runtime)
 
-    def eyes(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray) -> np.ndarray:
-        """The mesh's eye centres (n, 2, 2) on ``boxes``, its crops levelled by the detector's ``eyes``; the mesh is
-        kept for :meth:`read` of the same image (one run a frame)."""
-        landmarks = self._mesh.run(image, boxes, eyes).landmarks
-        self._last = (image, np.asarray(boxes, dtype=np.float64).copy(), landmarks)
-        return eye_centres(landmarks)
+    def landmarks(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> np.ndarray:
+        """The mesh's landmarks (n, 468, 3) on ``boxes``, its crops levelled by ``eyes`` (the detector's) when given."""
+        return self._mesh.run(image, np.asarray(boxes, dtype=np.float64).reshape(-1, 4), eyes).landmarks
 
-    def _landmarks(self, image: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-        """The mesh on ``boxes``: the one :meth:`eyes` ran on this image when it covered every box, else a new run."""
-        seen_image, seen, landmarks = self._last
-        b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
-        if seen_image is image:
-            rows = [np.flatnonzero((seen == box).all(axis=1)) for box in b]
-            if all(len(r) for r in rows):
-                return landmarks[[int(r[0]) for r in rows]]
-        return self._mesh.run(image, b).landmarks
-
-    def read(self, stamp_s: float, image: np.ndarray, boxes: np.ndarray
+    def read(self, stamp_s: float, image: np.ndarray, boxes: np.ndarray, landmarks: np.ndarray | None = None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
         """Each face's lip activity (NaN: no opinion), its place in its own range, its track's id and its recent
-        mouth openings."""
-        openings = mouth_opening(self._landmarks(image, boxes))
-        activity = self.tracks.update(stamp_s, boxes, openings)
+        mouth openings; the mesh runs on ``boxes`` unless their ``landmarks`` are given."""
+        if landmarks is None:
+            landmarks = self.landmarks(image, boxes)
+        activity = self.tracks.update(stamp_s, boxes, mouth_opening(landmarks))
         return activity, self.tracks.relative, self.tracks.ids, self.tracks.series()
 
     def veto(self, stamp_s: float, ids: np.ndarray, output: Any, activity: np.ndarray, still_below: float,
@@ -188,14 +177,36 @@ class FaceGuided:
         hearing = FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
         return SelfCalibrating(hearing) if self.config.self_calibrate else hearing
 
+    @property
+    def reads_lips(self) -> bool:
+        """Whether :meth:`read_lips` has work to do (the pipeline gives it a thread of its own)."""
+        return self._lips is not None
+
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector) -> Vision | None:
         """The faces of this frame, from the stereo pair, an RGB-D camera's depth, or with one camera their size
-        in the image (ValueError: a frame F3D cannot use)."""
-        faces = _faces(frame, rig, detector, None if self._lips is None else self._lips.eyes)
-        activity = relative = ids = series = None
-        if self._lips is not None:
-            activity, relative, ids, series = self._lips.read(frame.stamp_s, frame.left, faces.boxes)
-        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, activity, relative, ids, lip_series=series)
+        in the image (ValueError: a frame F3D cannot use); with the lips' cue and one camera, the face mesh's eyes
+        place the faces and its landmarks go with them (:meth:`read_lips` reads the lips from them)."""
+        lips, seen = self._lips, []
+        if lips is None or frame.right is not None or frame.depth_m is not None:
+            faces = _faces(frame, rig, detector)
+            return Vision(frame.stamp_s, frame, faces.boxes, faces.points)
+
+        def eyes_from(image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray) -> np.ndarray:
+            seen.append((np.asarray(boxes, dtype=np.float64).copy(), lips.landmarks(image, boxes, eyes)))
+            return eye_centres(seen[-1][1])
+
+        faces = _faces(frame, rig, detector, eyes_from)
+        return Vision(frame.stamp_s, frame, faces.boxes, faces.points, landmarks=_landmarks_of(faces.boxes, seen))
+
+    def read_lips(self, vision: Vision) -> Vision:
+        """``vision`` with each face's lips read (:meth:`LipReader.read`; the mesh runs unless vision ran it);
+        unchanged without the lips' cue. One thread at a time: the lips' tracks follow the frames in order."""
+        if self._lips is None:
+            return vision
+        activity, relative, ids, series = self._lips.read(vision.stamp_s, vision.frame.left, vision.boxes,
+                                                          vision.landmarks)
+        return replace(vision, lip_activity=activity, lip_relative=relative, lip_ids=ids, lip_series=series,
+                       landmarks=None)
 
     def step(self, hearing: Any, vision: Vision, itds: np.ndarray, times_s: np.ndarray,
              near: Callable[[], tuple]) -> Any:
@@ -323,6 +334,15 @@ class MotionGuided:
         paper = self.config.motion_variant == "paper"
         return MotionGuidedHearing(mics, MotionGuidedParams.paper() if paper else MotionGuidedParams())
 
+    @property
+    def reads_lips(self) -> bool:
+        """False: the lips are read in :meth:`vision`, frame by frame through the interval."""
+        return False
+
+    def read_lips(self, vision: Vision) -> Vision:
+        """``vision`` as it is (its lips were read with its frames)."""
+        return vision
+
     def vision(self, frame: StereoFrame, rig: StereoRig, detector: FaceDetector | None) -> Vision | None:
         """The HM3D points once an interval is gathered (stamped at its centre, shown on its middle frame); with
         the lips' cue the faces of every frame are read, and the last frame's go with the interval."""
@@ -382,6 +402,17 @@ def _faces(frame: StereoFrame, rig: StereoRig, detector: FaceDetector, eyes_from
     if frame.right is None:
         return locate_faces_mono(frame.left, rig, detector=detector, eyes_from=eyes_from)
     return locate_faces(frame.left, frame.right, rig, detector=detector)
+
+
+def _landmarks_of(boxes: np.ndarray, seen: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray | None:
+    """The landmarks of the mesh's run ``seen`` (boxes, landmarks) for each of ``boxes`` (some of the boxes it ran on,
+    the faces placed), or None when a box is not among them (the lips' stage then runs the mesh)."""
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    if not seen:
+        return None if len(b) else np.zeros((0, N_LANDMARKS, 3))
+    ran_on, landmarks = seen[-1]
+    rows = [np.flatnonzero((ran_on == box).all(axis=1)) for box in b]
+    return landmarks[[int(r[0]) for r in rows]] if all(len(r) for r in rows) else None
 
 
 def faces_of_people(people_xyz: np.ndarray, faces_xyz: np.ndarray, within_m: float) -> np.ndarray:

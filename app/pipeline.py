@@ -2,10 +2,14 @@
 6).
 
 ```
-source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] --+
-                                                                         +--q--> [fusion: TimeFrame -> inference]
-source.audio()  --> [audio]   --q--> [ITD worker: PairsItdStream] -------+            --> on_result (Rerun, ...)
+source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] (--q--> [lips]) --+
+                                                                                         +--q--> [fusion: TimeFrame
+source.audio()  --> [audio]   --q--> [ITD worker: PairsItdStream] -----------------------+   -> inference]
+                                                                                                --> on_result
 ```
+
+With the lips' cue (face-guided), the face mesh reads the lips in a thread of its own after vision's, so that the
+mesh of one frame runs while the next frame's faces are found (OpenCV's DNN lets go of the GIL).
 
 Every queue is a :class:`~app.queues.DropOldestQueue`: producers never block (a slow consumer loses the oldest
 items, counted in the stats). The fusion thread alone owns the TimeFrame synchroniser (RSB's strategy, section 6:
@@ -299,7 +303,11 @@ class Pipeline:
         self._q_frames: DropOldestQueue[StereoFrame] = DropOldestQueue(self.mode.frame_capacity, "frames")
         self._q_audio: DropOldestQueue[AudioBlock] = DropOldestQueue(c.audio_queue, "audio")
         self._q_fusion: DropOldestQueue[FusionMessage] = DropOldestQueue(c.fusion_queue, "fusion")
-        self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "itd", "fusion")}
+        # with the lips read in a thread of their own, vision's results go through it to the fusion
+        self._q_lips: DropOldestQueue[Vision] | None = (
+            DropOldestQueue(c.frame_queue, "lips") if self.mode.reads_lips else None)
+        self._seen = "vision" if self._q_lips is None else "lips"  # the stage whose results the fusion takes
+        self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "lips", "itd", "fusion")}
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
         self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
         self._vote = self.mode.vote()
@@ -315,7 +323,10 @@ class Pipeline:
 
     def queue_depths(self) -> dict[str, int]:
         """Items waiting in each queue now (for the diagnostics pane)."""
-        return {q.name: len(q) for q in (self._q_frames, self._q_audio, self._q_fusion)}
+        return {q.name: len(q) for q in self._queues()}
+
+    def _queues(self) -> list[DropOldestQueue]:
+        return [q for q in (self._q_frames, self._q_lips, self._q_audio, self._q_fusion) if q is not None]
 
     def self_calibration_state(self) -> list[dict[str, Any]] | None:
         """Where the self-calibration stands, per pair (:meth:`app.hearing.SelfCalibrating.state`); None without
@@ -333,9 +344,11 @@ class Pipeline:
         Re-raises the first exception of a worker thread after all threads have been joined.
         """
         workers = [
-            ("fusion", self._fusion_loop), ("itd", self._itd_loop), ("vision", self._vision_loop),
-            ("audio", self._audio_loop), ("grabber", self._grab_loop),
+            ("fusion", self._fusion_loop), ("itd", self._itd_loop), ("lips", self._lips_loop),
+            ("vision", self._vision_loop), ("audio", self._audio_loop), ("grabber", self._grab_loop),
         ]
+        if self._q_lips is None:
+            workers.remove(("lips", self._lips_loop))
         threads = [threading.Thread(target=self._guard, args=(name, fn), name=f"avhear-{name}", daemon=True)
                    for name, fn in workers]
         self.stats.started_s = time.perf_counter()
@@ -355,7 +368,7 @@ class Pipeline:
                 if t.is_alive():
                     log.warning("thread %s did not stop within %.1f s", t.name, self.config.join_timeout_s)
             self.stats.ended_s = time.perf_counter()
-            self.stats.drops = {q.name: q.dropped for q in (self._q_frames, self._q_audio, self._q_fusion)}
+            self.stats.drops = {q.name: q.dropped for q in self._queues()}
             sync = self._sync
             self.stats.drops.update({
                 "itds_unmatched": sync.dropped_secondaries if sync is not None else 0,  # TimeFrame's cap
@@ -438,10 +451,22 @@ class Pipeline:
                 continue
             if vision is None:  # motion-guided: the interval is not complete yet
                 continue
-            self._offer(self._q_fusion, vision)
+            self._offer(self._q_fusion if self._q_lips is None else self._q_lips, vision)
             n += 1
             self.stats.vision_results = n
             self._timed("vision", t0, n)
+
+    def _lips_loop(self) -> None:
+        """Vision's results with each face's lips read (:meth:`app.hearing.FaceGuided.read_lips`), in order."""
+        assert self._q_lips is not None
+        n = 0
+        while True:
+            vision = self._take(self._q_lips, "vision")
+            t0 = time.perf_counter()
+            vision = self.mode.read_lips(vision)
+            self._offer(self._q_fusion, vision)
+            n += 1
+            self._timed("lips", t0, n)
 
     def _itd_loop(self) -> None:
         c = self.config
@@ -520,13 +545,13 @@ class Pipeline:
         while True:
             if self._stop.is_set():
                 if not self._errors:  # stopped by the user: what the workers have done still goes out
-                    for name in ("vision", "itd"):
+                    for name in (self._seen, "itd"):
                         self._done[name].wait(self.config.join_timeout_s / 2)
                     self._finish(sync, hearing, tracker)
                 raise _Stop
             message = self._q_fusion.get(timeout=0.05)
             if message is None:
-                if self._done["vision"].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
+                if self._done[self._seen].is_set() and self._done["itd"].is_set() and len(self._q_fusion) == 0:
                     self._finish(sync, hearing, tracker)
                     return
                 continue

@@ -368,7 +368,8 @@ def test_one_camera_reading_the_lips_places_faces_by_the_meshs_eyes_with_one_mes
     scene = default_scene()
     image = scene.render(0.0).left
     frame = StereoFrame(0, 0.0, image, None, 0.0)
-    with_lips = FaceGuided(PipelineConfig(lips=True)).vision(frame, scene.rig, _Finder())  # type: ignore[arg-type]
+    mode = FaceGuided(PipelineConfig(lips=True))
+    with_lips = mode.read_lips(mode.vision(frame, scene.rig, _Finder()))  # type: ignore[arg-type]
     plain = FaceGuided(PipelineConfig()).vision(frame, scene.rig, _Finder())  # type: ignore[arg-type]
     assert runs == [2]  # one mesh for the eyes and the lips
     np.testing.assert_allclose(with_lips.xyz[:, 2], plain.xyz[:, 2] / 2)  # eyes twice as far apart: half as far

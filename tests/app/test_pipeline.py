@@ -454,3 +454,29 @@ def test_a_self_calibrating_array_learns_its_turn(tmp_path) -> None:  # noqa: AN
     assert 0.7 <= stats.self_calibration[0]["c1"] <= 1.1
     heard = pipeline._hearing.array  # the hearing the fusion thread ended with
     assert np.max(np.abs(np.asarray(heard.positions) - np.asarray(real.positions))) < 0.01
+
+
+def test_the_lips_are_read_in_a_thread_of_their_own(monkeypatch: pytest.MonkeyPatch) -> None:
+    """With the lips' cue the face mesh runs after vision, on a thread of its own, once a frame; every frame is
+    fused with its faces' lips; without it there is no such thread."""
+    from pathlib import Path
+
+    from avcore.facemesh import N_LANDMARKS, FaceMeshResult
+
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    threads: list[str] = []
+
+    def run(self: object, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> FaceMeshResult:
+        threads.append(threading.current_thread().name)
+        return FaceMeshResult(np.zeros((len(boxes), N_LANDMARKS, 3)), np.ones(len(boxes)))
+
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.run", run)
+    source = FakeSource()
+    results, pipe = _run(source, lips=True)
+    assert len(results) == int(source.duration_s * source.fps)  # every frame fused, none lost
+    assert threads == ["avhear-lips"] * len(results)
+    assert all(r.lip_activity is not None and len(r.lip_activity) == len(r.xyz) for r in results)
+    assert "lips" in pipe.stats.as_dict()["stage_ms_per_item"] and "lips" in pipe.queue_depths()
+    _, plain = _run(FakeSource())
+    assert "lips" not in plain.stats.as_dict()["stage_ms_per_item"] and "lips" not in plain.queue_depths()
