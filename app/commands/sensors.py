@@ -11,8 +11,8 @@ import time
 from app.bus.sensors import RosDriverPublisher, SensorPublisher
 from app.bus.session import open_session
 from app.errors import UserError
-from app.commands.options import (add_bus_arguments, add_device_arguments, add_mics_argument, bus_options, count,
-                                  duration, live_config)
+from app.commands.options import (add_bus_arguments, add_device_arguments, add_lips_argument, add_mics_argument,
+                                  bus_options, count, duration, live_config, wants_lips)
 from app.signals import stop_on_signals
 from app.sources.open import open_source
 
@@ -34,6 +34,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         "realsense2_camera's colour, aligned depth and camera_info topics, the microphones as "
                         "audio_common's audio_stamped and audio_info (read them with avhear run --source ros)")
     add_mics_argument(p)
+    add_lips_argument(p)
     add_device_arguments(p)
     add_bus_arguments(p)
     p.set_defaults(func=run)
@@ -48,6 +49,9 @@ def run(args: argparse.Namespace) -> int:
     if args.mics != "pair" and not args.source.startswith("sim:"):
         raise UserError(f"--mics {args.mics} chooses the simulated room's microphones; {args.source} brings its own "
                         "(the rig file's array or pair, or the recording's)")
+    if args.lips is not None and not args.source.startswith("sim:"):
+        flag = "--lips" if args.lips else "--no-lips"
+        raise UserError(f"{flag} chooses how the simulated room's people are drawn; {args.source} has real ones")
     if args.ros and not args.source.startswith("sim:"):
         raise UserError(f"--ros publishes the simulated room's RGB-D camera as a driver does; {args.source} has "
                         "none (a real robot's drivers publish their own topics)")
@@ -57,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         source = open_source(args.source, realtime=True, duration_s=args.duration if live is None else None,
                              seed=args.seed, rig_path=args.rig, live=live, mics=args.mics,
-                             camera="rgbd" if args.ros else "stereo",
+                             camera="rgbd" if args.ros else "stereo", lips=wants_lips(args),
                              progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         if getattr(getattr(source, "stream", None), "camera", "stereo") == "mono":
             raise UserError(f"{args.source} has one camera; avhear sensors publishes a stereo pair: replay it with "

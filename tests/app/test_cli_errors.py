@@ -157,6 +157,29 @@ def test_sensors_refuse_simulated_microphones_on_a_real_source(tmp_path: Path,
     assert "--mics nao chooses the simulated room's microphones" in err and "Traceback" not in err
 
 
+def test_sensors_move_the_simulated_mouths_only_of_a_simulated_room(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """`avhear sensors --lips` opens the simulated room with moving mouths (a robot made of the simulator for
+    `avhear run --source bus --read-lips`); a real source has real mouths: one line, exit 2."""
+    from app.errors import UserError
+
+    opened: list[dict] = []
+
+    def open_source(spec: str, **kwargs: object) -> None:
+        opened.append(kwargs)
+        raise UserError("opened")
+
+    monkeypatch.setattr("app.commands.sensors.open_source", open_source)
+    monkeypatch.setattr("app.commands.sensors.open_session", lambda options: type("S", (), {"close": lambda s: None})())
+    assert main(["sensors", "--source", "sim:S2", "--lips"]) == 2
+    assert main(["sensors", "--source", "sim:S2"]) == 2
+    assert [o["lips"] for o in opened] == [True, False]
+    capsys.readouterr()
+    assert main(["sensors", "--source", f"replay:{tmp_path}", "--lips"]) == 2
+    err = capsys.readouterr().err
+    assert "--lips chooses how the simulated room's people are drawn" in err and "Traceback" not in err
+
+
 def test_a_simulated_run_longer_than_the_simulator_allows(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["run", "--source", "sim:S2", "--duration", "5000", "--headless"]) == 2
     assert "between 1 and 1800 s" in capsys.readouterr().err
