@@ -58,11 +58,15 @@ def _cpu_s(pid: int) -> float:
 
 
 def _wait_for(proc: subprocess.Popen, word: str) -> None:
-    """Read the child's standard error until a line with ``word`` (or its end)."""
+    """Read the child's standard error until a line with ``word``; a child that ends first is a failure."""
     assert proc.stderr is not None
+    seen = []
     for line in proc.stderr:
         if word in line:
             return
+        seen.append(line)
+    proc.wait()
+    raise SystemExit(f"{proc.args} ended before it said {word!r}: {''.join(seen[-5:])}")
 
 
 def main() -> int:
