@@ -142,11 +142,12 @@ def run_synthetic(args: argparse.Namespace) -> int:
 START_YAW_ERROR_DEG = 10.0  # an array's self-calibration starts this far turned from where the room has it
 
 
-def _gap_us(state: dict, loudspeaker: MicPair) -> float:
-    """The largest difference, microseconds, between the self-calibrated and the loudspeaker's mappings over the
-    cameras' view (faces within 30 degrees of straight ahead: raw ITDs up to half the pair's maximum)."""
-    x = np.linspace(-0.5, 0.5, 21) * loudspeaker.max_itd_s
-    return float(np.max(np.abs(state["c1"] * x + state["c0_s"] - (loudspeaker.c1 * x + loudspeaker.c0))) * 1e6)
+def _gap_us(line: dict, mics: MicPair) -> float:
+    """The largest difference, microseconds, between a line (``c1``, ``c0_s``: the self-calibrated one, or the
+    speech's own) and the mapping of ``mics`` over the cameras' view (faces within 30 degrees of straight ahead: raw
+    ITDs up to half the pair's maximum)."""
+    x = np.linspace(-0.5, 0.5, 21) * mics.max_itd_s
+    return float(np.max(np.abs(line["c1"] * x + line["c0_s"] - (mics.c1 * x + mics.c0))) * 1e6)
 
 
 def run_scenarios(args: argparse.Namespace) -> int:
@@ -201,12 +202,20 @@ def run_scenarios(args: argparse.Namespace) -> int:
             _progress(f"{name} seed {seed}: per spoken number TP {u.tp}, FN {u.fn}, FP {u.fp} "
                       f"({time.perf_counter() - t0:.0f} s)")
             for state in score.self_calibration:
+                line = state.get("speech_line")
                 if calibration is not None:
                     state["gap_to_loudspeaker_us"] = _gap_us(state, calibration.mics)
+                    if line is not None:  # the truth of speech: how far it lies from the loudspeaker, and we from it
+                        state["speech_line_gap_to_loudspeaker_us"] = _gap_us(line, calibration.mics)
+                        state["gap_to_speech_line_us"] = _gap_us(
+                            state, calibration.mics.with_correction(line["c1"], line["c0_s"]))
                 _progress(f"{name} seed {seed}: self-calibrated c1 = {state['c1']:.4f}, c0 = "
                           f"{signed_us(state['c0_s'] * 1e6)} us ({state['inliers']} of {state['observations']} "
                           "one-source time frames)" + (f", {state['gap_to_loudspeaker_us']:.1f} us from the "
                                                       "loudspeaker's fit" if calibration is not None else "")
+                          + (f" and {state['gap_to_speech_line_us']:.1f} us from the speech's own line (itself "
+                             f"{state['speech_line_gap_to_loudspeaker_us']:.1f} us from the loudspeaker's)"
+                             if "gap_to_speech_line_us" in state else "")
                           + (f"; the array's turn learned within {abs(state['array_yaw_error_deg']):.1f} degrees"
                              if state.get("array_yaw_error_deg") is not None else ""))
             if args.timeline is not None and score.timeline is not None:

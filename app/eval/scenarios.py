@@ -50,6 +50,7 @@ __all__ = [
     "calibrate_on_preset",
     "evaluate_scenario",
     "score_run",
+    "speech_line",
 ]
 
 SCENARIOS: tuple[str, ...] = ("S1", "S2", "S3", "S4", "S5")
@@ -584,12 +585,47 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     score.voices = voice_counts(scenario, fused)
     if stats.self_calibration:
         state = dict(stats.self_calibration[0], seed=seed)
+        if source.array is None or source.array.n_pairs == 1:  # what speech itself says of the first pair's line
+            line = speech_line(scenario, fused, source.mics, reach_s=cfg.frame_window_s + cfg.window_s)
+            state["speech_line"] = None if line is None else {"c1": line.c1, "c0_s": line.c0}
         if state.get("array_yaw_deg") is not None:  # the learned turn undoes the wrong one: what is left
             state["array_yaw_error_deg"] = array_yaw_deg + state["array_yaw_deg"]
         score.self_calibration = [state]
     meta = getattr(stream, "meta", {})
     score.speech, score.faces = str(meta.get("speech", "")), str(meta.get("faces", ""))
     return score
+
+
+def speech_line(scenario: Scenario, fused: Sequence[Result], mics: MicPair, *, reach_s: float,
+                match_m: float = 0.3, least: int = 200) -> MicPair | None:
+    """The correction c1, c0 of eq. (itd_up) that the scenario's own speech gives on the first pair: the ITDs of
+    every result where one person talks alone (no other sound within ``reach_s`` of its stamp, the reach of its
+    time frame's windows), each paired with that talker's face as found (within ``match_m`` of the truth), fitted
+    as section 5.3 fits the loudspeaker's minute (:func:`fit_av_calibration_report`). None with fewer than
+    ``least`` ITDs.
+
+    This is the line a self-calibration that learns from people talking can reach at best, given the truth of who
+    talks: the loudspeaker's differs from it (a voice leaves from the mouth, the loudspeaker from a hand in front
+    of the face; speech and white noise meet the room's reflections differently), so the gap between the two says
+    how much of a self-calibration's distance to the loudspeaker is the speech's own.
+    """
+    faces: list[np.ndarray] = []
+    itds: list[float] = []
+    for r in fused:
+        t = r.stamp_s
+        near = [e for e in scenario.events if e.start_s < t + reach_s and e.end_s > t - reach_s]
+        if len(near) != 1 or near[0].kind != "speech" or not r.xyz.shape[0] or not r.itds_s.shape[0]:
+            continue
+        d = np.linalg.norm(r.xyz - scenario.positions(t)[near[0].actor], axis=1)
+        if d.min() > match_m:
+            continue
+        x = r.itds_s[:, 0]
+        x = x[np.isfinite(x)]
+        faces += [r.xyz[int(np.argmin(d))]] * x.size
+        itds += x.tolist()
+    if len(itds) < least:
+        return None
+    return fit_av_calibration_report(np.asarray(faces), np.asarray(itds), mics).mics
 
 
 # ---------------------------------------------------------------------------------------------------------------

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import math
 from collections.abc import Callable
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,6 +17,7 @@ from app.cli import main
 from app.pipeline import PipelineConfig
 from app.result import Result
 from app.eval.scenarios import (
+    speech_line,
     INTERVAL_S,
     PAPER_SCENARIOS,
     ScenarioScore,
@@ -488,3 +490,30 @@ def test_reading_the_lips_reports_the_lips_alone(capsys: pytest.CaptureFixture[s
     assert "The lips alone (no sound)" in capsys.readouterr().out
     assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips"]) == 0
     assert "The lips alone" not in capsys.readouterr().out  # without reading them, no such table
+
+
+def test_the_speechs_own_line_is_fitted_on_people_talking_alone(people_result: Callable[..., Result]) -> None:
+    """speech_line: the ITDs of results where one person talks alone, paired with that talker's face, give the
+    line they were drawn on; results with two sounds near them (their ITDs drawn on another line), or silence, or
+    a talker whose face was not found, are left out; too few ITDs give None."""
+    scenario = _scenario("S5", duration_s=12.0)  # S5: people talk over each other and clap
+    mics = scenario.mics
+    rng = np.random.default_rng(0)
+    fused, alone = [], 0
+    for t in np.arange(int(scenario.duration_s * FPS)) / FPS:
+        tr = scenario.truth(float(t))
+        near = [e for e in scenario.events if e.start_s < t + 0.35 and e.end_s > t - 0.35]
+        r = people_result(float(t), tr.positions_m[tr.visible], tr.speaking[tr.visible])
+        if len(near) == 1 and near[0].kind == "speech":
+            raw = float(mics.raw_itd(tr.positions_m[near[0].actor]))
+            itds = 0.85 * raw + 3e-6 + rng.normal(0.0, 2e-6, 12)
+            alone += tr.visible[near[0].actor]
+        else:  # two sounds, a clap, or silence: ITDs on a line far from the speech's
+            itds = 0.6 * rng.uniform(-1, 1, 12) * mics.max_itd_s - 40e-6
+        fused.append(replace(r, itds_s=itds.reshape(-1, 1)))
+    assert alone > 30  # the check below is not vacuous: people do talk alone in view
+    line = speech_line(scenario, fused, mics, reach_s=0.35)
+    assert line is not None
+    assert line.c1 == pytest.approx(0.85, abs=0.01) and line.c0 == pytest.approx(3e-6, abs=1e-6)
+    hidden = [replace(r, xyz=r.xyz + 1.0) for r in fused]  # every face found 1.7 m from its person
+    assert speech_line(scenario, hidden, mics, reach_s=0.35) is None
