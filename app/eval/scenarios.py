@@ -602,7 +602,8 @@ def speech_line(scenario: Scenario, fused: Sequence[Result], mics: MicPair, *, r
     every result where one person talks alone (no other sound within ``reach_s`` of its stamp, the reach of its
     time frame's windows), each paired with that talker's face as found (within ``match_m`` of the truth), fitted
     as section 5.3 fits the loudspeaker's minute (:func:`fit_av_calibration_report`). None with fewer than
-    ``least`` ITDs.
+    ``least`` ITDs, or when the talkers' faces span too few directions to fix a scale (one person who stays
+    still: the fit refuses it as it refuses such a loudspeaker minute).
 
     This is the line a self-calibration that learns from people talking can reach at best, given the truth of who
     talks: the loudspeaker's differs from it (a voice leaves from the mouth, the loudspeaker from a hand in front
@@ -625,7 +626,10 @@ def speech_line(scenario: Scenario, fused: Sequence[Result], mics: MicPair, *, r
         itds += x.tolist()
     if len(itds) < least:
         return None
-    return fit_av_calibration_report(np.asarray(faces), np.asarray(itds), mics).mics
+    try:
+        return fit_av_calibration_report(np.asarray(faces), np.asarray(itds), mics).mics
+    except ValueError:  # the faces' span is too small for c1 (calibration._check_span)
+        return None
 
 
 # ---------------------------------------------------------------------------------------------------------------

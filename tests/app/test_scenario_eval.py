@@ -517,3 +517,8 @@ def test_the_speechs_own_line_is_fitted_on_people_talking_alone(people_result: C
     assert line.c1 == pytest.approx(0.85, abs=0.01) and line.c0 == pytest.approx(3e-6, abs=1e-6)
     hidden = [replace(r, xyz=r.xyz + 1.0) for r in fused]  # every face found 1.7 m from its person
     assert speech_line(scenario, hidden, mics, reach_s=0.35) is None
+    # one still person talking (S1): every face in one direction gives no scale, so no line (not an error)
+    still = make_scenario("S1", clip_durations_s=[[0.5] * 10] * 3, duration_s=12.0, seed=3)
+    one = [replace(people_result(float(t), still.truth(float(t)).positions_m, np.ones(1, bool)),
+                   itds_s=np.full((12, 1), 100e-6)) for t in np.arange(int(12.0 * FPS)) / FPS]
+    assert speech_line(still, one, mics, reach_s=0.35) is None
