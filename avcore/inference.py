@@ -42,7 +42,7 @@ from avcore.refine3d import (
     merge_within_width,
 )
 from avcore.itd.pairs import FrameBins
-from avcore.speaking import SpeakingTest, bin_fill, bin_shares, speaking_threshold
+from avcore.speaking import SpeakingTest, bin_shares, speaking_threshold
 
 __all__ = [
     "FaceGuidedHearing",
@@ -614,14 +614,13 @@ class FaceGuidedHearing:
         beta = fit.beta if n else np.zeros((x.shape[0], 1))
         frames = None if frame_itds_s is None else _itd_vectors(frame_itds_s, n_pairs, "frame_itds_s")
         bands = None if band_itds_s is None else _itd_vectors(band_itds_s, n_pairs, "band_itds_s")
-        share, fill = None, 1.0
+        share = None
         if frame_bins is not None and len(frame_bins) and n:
             if frame_bins.bins.shape[1] != n_pairs:
                 raise ValueError(f"frame_bins must hold the array's {n_pairs} pairs, got {frame_bins.bins.shape[1]}")
             share = bin_shares(frame_bins.bins, frame_bins.freqs_hz, means, p.speaking.bin_agreement)
-            fill = bin_fill(frame_bins.bins, p.speaking.bin_claim_floor)
         speaking, prob, tau = p.speaking.decide(beta[:, :-1], x, fit.means, fit.variances, self._supports, present,
-                                                frames, bands, share, fill)
+                                                frames, bands, share)
         model = Mixture1D.unchecked(fit.weights, fit.means[:, 0].copy(), fit.variances[:, 0].copy(), self.support)
         return FaceGuidedOutput(speaking, prob, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model, tau,
                                 fit.n_iter, fit.means.copy())

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["COUNT_BY", "SpeakingTest", "SpeakingVote", "bin_fill", "bin_shares", "speaking_threshold", "vote_speaking"]
+__all__ = ["COUNT_BY", "SpeakingTest", "SpeakingVote", "bin_shares", "speaking_threshold", "vote_speaking"]
 
 
 def speaking_threshold(n_itds: int, n_objects: int) -> float:
@@ -54,20 +54,6 @@ def bin_shares(bins: np.ndarray, freqs_hz: np.ndarray, means_s: np.ndarray, agre
     agree = np.einsum("mpb,npb->nmb", x, steer.astype(np.complex64)).real / np.maximum(weight, 1e-30)[None]
     votes = agree.max(axis=0) >= agreement
     return np.bincount(agree.argmax(axis=0)[votes], weights=weight[votes], minlength=n) / total
-
-
-def bin_fill(bins: np.ndarray, floor: float) -> float:
-    """How much sound the bins hold against a floor: their total weight ``sum |X_p(t, f)|`` (each bin's weight lies
-    in [0, 1]: the product of its SNR, onset, coherence and direct-sound cues) over ``floor`` times their number
-    (frames x pairs x bins), at most 1. A share of the bins (:func:`bin_shares`) is a ratio: in a span that holds
-    little but a reverberant tail, an onset's first frames or the fan, a handful of bins makes a large share, and
-    what the floor measures is whether there is sound enough for a share to mean anything."""
-    x = np.asarray(bins)
-    if not floor > 0:
-        return 1.0
-    if x.size == 0:
-        return 0.0
-    return float(min(1.0, np.abs(x).sum() / (floor * x.size)))
 
 
 _LOG_FACT = np.concatenate([[0.0], np.cumsum(np.log(np.arange(1, 401)))])  # log k!, k = 0..400
@@ -131,8 +117,6 @@ class SpeakingTest:
     bin_agreement: float = 0.9
     bin_confirm_share: float = 0.03
     bin_claim_share: float = 0.1
-    bin_claim_floor: float = 0.008
-    bin_claim_gap_s: float = 40e-6
 
     def __post_init__(self) -> None:
         if not -1 <= self.bin_agreement <= 1:
@@ -142,9 +126,6 @@ class SpeakingTest:
                              f"and {self.bin_claim_share!r}")
         if self.count_by not in COUNT_BY:
             raise ValueError(f"count_by must be one of {', '.join(COUNT_BY)}, got {self.count_by!r}")
-        if not (self.bin_claim_floor >= 0 and self.bin_claim_gap_s >= 0):
-            raise ValueError(f"bin_claim_floor and bin_claim_gap_s must be >= 0, got {self.bin_claim_floor!r} and "
-                             f"{self.bin_claim_gap_s!r}")
         for name in ("frame_within_s", "frame_spread_s", "band_spread_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
@@ -159,7 +140,7 @@ class SpeakingTest:
 
     def decide(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray, variances: np.ndarray,
                supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
-               band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None, bin_fill: float = 1.0
+               band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, float]:
         """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
 
@@ -174,8 +155,7 @@ class SpeakingTest:
             are not matched across pairs, so a band row has one pair), a third look with the same test and a spread
             of ``band_spread_s``; None: not used.
         bin_share : (N,) each person's :func:`bin_shares` over the same time, the fourth look (confirm and claim,
-            see the class); None: not used. bin_fill : the same bins' :func:`bin_fill` against
-            ``bin_claim_floor``: a claim needs its share times this.
+            see the class); None: not used.
 
         With several pairs a person's window is the box of +-``window_sd`` sigma on every pair a vector has, and a
         vector counts for the person it lies nearest to (summed squares over its pairs). Chance is the same
@@ -232,23 +212,14 @@ class SpeakingTest:
             speaking = np.where(between, speaking, found)
             prob = np.where(between, prob, found_prob)
         if bin_share is not None:
-            speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n),
-                                        float(bin_fill), means)
+            speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n))
         return speaking, prob, tau
 
-    def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray, fill: float, means: np.ndarray
-              ) -> tuple[np.ndarray, np.ndarray]:
-        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share`` of bins that hold
-        sound (the share times ``fill``), and not for a person within ``bin_claim_gap_s`` on every pair of one the
-        other looks call speaking (the bins of one source vote for both about equally: a small array tells two
-        people ten degrees apart poorly). Where it changes a state, the probability is the share against the
-        threshold that decided (above 0.5 exactly when speaking)."""
+    def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share``. Where it changes a
+        state, the probability is the share against the threshold that decided (above 0.5 exactly when speaking)."""
         kept = speaking & (share > self.bin_confirm_share)
-        claimed = share * min(max(fill, 0.0), 1.0) > self.bin_claim_share
-        if self.bin_claim_gap_s > 0 and len(share) > 1:
-            close = np.abs(means[:, None, :] - means[None, :, :]).max(axis=2) < self.bin_claim_gap_s
-            np.fill_diagonal(close, False)
-            claimed &= ~(close & speaking[None, :]).any(axis=1)
+        claimed = share > self.bin_claim_share
         out = kept | claimed
         with np.errstate(invalid="ignore", divide="ignore"):
             thr = np.where(speaking, self.bin_confirm_share, self.bin_claim_share)

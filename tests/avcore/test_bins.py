@@ -9,7 +9,7 @@ import pytest
 
 from avcore.geometry import MicArray
 from avcore.itd import FrameBins, PairsItdStream
-from avcore.speaking import SpeakingTest, bin_fill, bin_shares
+from avcore.speaking import SpeakingTest, bin_shares
 
 FS = 16000
 NAO = MicArray.preset("nao")
@@ -94,7 +94,7 @@ def test_bin_shares_without_bins_or_people() -> None:
 
 
 @pytest.mark.parametrize("bad", [{"bin_agreement": 1.5}, {"bin_confirm_share": 0.2, "bin_claim_share": 0.1},
-                                 {"bin_confirm_share": -0.1}, {"bin_claim_floor": -0.01}, {"bin_claim_gap_s": -1e-6}])
+                                 {"bin_confirm_share": -0.1}])
 def test_bad_bin_settings_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError, match="bin_"):
         SpeakingTest(**bad)
@@ -120,8 +120,7 @@ def test_the_bins_look_keeps_drops_and_claims_with_its_probability() -> None:
     speaking = np.array([True, True, False, False, True, False])
     prob = np.array([0.9, 0.8, 0.3, 0.2, 0.7, 0.4])
     share = np.array([0.2, 0.01, 0.25, 0.05, 0.03, 0.1])  # the last two exactly at the thresholds
-    apart = np.arange(6.0)[:, None] * 100e-6  # (N, P): everyone 100 us from the next, beyond the claim's gap
-    out, p = test._bins(speaking, prob, share, 1.0, apart)
+    out, p = test._bins(speaking, prob, share)
     assert out.tolist() == [True, False, True, False, False, False]
     # unchanged states keep the probability that decided them; a changed one gets its share against the threshold
     # that decided it (a dropped talker against the confirmation, a claimed person against the claim)
@@ -129,34 +128,8 @@ def test_the_bins_look_keeps_drops_and_claims_with_its_probability() -> None:
     # with a confirmation of 0, a talker with no bins at all is dropped with probability 0: no 0/0, no warning
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        out, p = SpeakingTest(bin_confirm_share=0.0)._bins(np.array([True]), np.array([0.9]), np.array([0.0]), 1.0,
-                                                           np.zeros((1, 1)))
+        out, p = SpeakingTest(bin_confirm_share=0.0)._bins(np.array([True]), np.array([0.9]), np.array([0.0]))
     assert out.tolist() == [False] and p.tolist() == [0.0]
-
-
-def test_the_bins_claim_needs_sound_and_a_person_the_bins_can_tell_from_the_talker() -> None:
-    test = SpeakingTest()  # claims above 0.1 of bins that hold sound, not within 40 us of someone speaking
-    speaking, prob = np.array([True, False, False]), np.array([0.9, 0.2, 0.2])
-    share = np.array([0.5, 0.2, 0.2])
-    # persons 1 and 2: 150 and 35 us from the talker on the one pair; 35 us on one pair of two but 60 on the other
-    one_pair = np.array([[0.0], [150e-6], [35e-6]])
-    out, p = test._bins(speaking, prob, share, 1.0, one_pair)
-    assert out.tolist() == [True, True, False] and p[2] == 0.2  # within the gap: unclaimed, its probability kept
-    two_pairs = np.array([[0.0, 0.0], [150e-6, 150e-6], [35e-6, 60e-6]])
-    assert test._bins(speaking, prob, share, 1.0, two_pairs)[0].tolist() == [True, True, True]
-    # half the floor's sound: a share of 0.2 counts as 0.1, not above the claim; the confirmation is not weakened
-    assert test._bins(speaking, prob, share, 0.5, two_pairs)[0].tolist() == [True, False, False]
-    # nobody speaking yet (an onset): the gap holds nobody back
-    assert test._bins(np.zeros(3, bool), prob, share, 1.0, one_pair)[0].tolist() == [True, True, True]
-    # no gap: the close person is claimed (no floor: bin_fill gives 1 whatever the bins hold, below)
-    assert SpeakingTest(bin_claim_gap_s=0.0)._bins(speaking, prob, share, 1.0, one_pair)[0].tolist() == [True] * 3
-
-
-def test_bin_fill_is_the_bins_weight_against_the_floor() -> None:
-    bins = np.full((4, 2, 5), 0.01 * np.exp(0.3j), np.complex64)  # every bin at 1 % of a full weight
-    assert bin_fill(bins, 0.02) == pytest.approx(0.5)
-    assert bin_fill(bins, 0.005) == 1.0  # at most 1
-    assert bin_fill(bins, 0.0) == 1.0 and bin_fill(np.zeros((0, 2, 5), np.complex64), 0.02) == 0.0
 
 
 def test_decide_passes_its_probabilities_through_the_bins_look() -> None:
