@@ -174,7 +174,8 @@ class FaceGuided:
         return face_detector(self.config)
 
     def hearing(self, mics: MicPair | MicArray) -> FaceGuidedHearing | SelfCalibrating:
-        hearing = FaceGuidedHearing(mics, FaceGuidedParams(decision_window_s=self.config.decision_window_s))
+        params = FaceGuidedParams.paper() if self.config.face_variant == "paper" else FaceGuidedParams()
+        hearing = FaceGuidedHearing(mics, replace(params, decision_window_s=self.config.decision_window_s))
         return SelfCalibrating(hearing) if self.config.self_calibrate else hearing
 
     @property

@@ -77,6 +77,8 @@ class PipelineConfig:
         thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7). motion_variant :
         "avhear" (the default) or "paper" (Algorithm 1 as written, :meth:`MotionGuidedParams.paper`).
+    face_variant : face-guided: "avhear" (the default) or "paper" (Algorithm 2's EM and eq. audio_act as written,
+        :meth:`FaceGuidedParams.paper`; the ITDs, the looks and the vote are the other settings').
     *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
         possible waits for room instead). Motion-guided, the frames' queue holds at least one interval at 60 FPS:
         HM3D runs once per interval, all at once, and the next interval's frames arrive meanwhile.
@@ -120,6 +122,7 @@ class PipelineConfig:
     lip_face_within_m: float = 0.35
     interval_s: float = 0.4
     motion_variant: Literal["avhear", "paper"] = "avhear"
+    face_variant: Literal["avhear", "paper"] = "avhear"
     frame_queue: int = 4
     audio_queue: int = 256
     fusion_queue: int = 1024
@@ -135,8 +138,9 @@ class PipelineConfig:
             raise ValueError(f"tflite_runtime must be 'opencv' or 'litert', got {self.tflite_runtime!r}")
         if self.inference not in ("face", "motion"):
             raise ValueError(f"inference must be 'face' or 'motion', got {self.inference!r}")
-        if self.motion_variant not in ("avhear", "paper"):
-            raise ValueError(f"motion_variant must be 'avhear' or 'paper', got {self.motion_variant!r}")
+        for name in ("motion_variant", "face_variant"):
+            if getattr(self, name) not in ("avhear", "paper"):
+                raise ValueError(f"{name} must be 'avhear' or 'paper', got {getattr(self, name)!r}")
         for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")

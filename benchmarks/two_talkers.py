@@ -174,10 +174,10 @@ def main() -> None:
     utterances = load_speech(FS, "arctic")
     if not utterances:
         sys.exit("needs ../shared/data/speech/arctic (CMU ARCTIC sentences); set AVHEAR_DATA")
-    from sim.roomsim import _read_wav, resolve_data_dir
+    from sim.roomsim import read_wav, resolve_data_dir
 
     noise_file = resolve_data_dir() / "noise" / "doing_the_dishes.wav"
-    noise = _read_wav(noise_file, FS) if noise_file.is_file() else None
+    noise = read_wav(noise_file, FS) if noise_file.is_file() else None
     print(f"{args.rooms} rooms of {args.duration:.0f} s, two of three people talking on their own timelines, "
           f"microphones {args.mics} ({array.n_pairs} pairs); per 0.4 s interval and person")
     totals = {True: np.zeros(4), False: np.zeros(4)}  # found, speaking, false alarms, silent

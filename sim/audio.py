@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import fftconvolve
 
-from sim.roomsim import AcousticRoom, fan_noise, load_speech, resolve_data_dir
+from sim.roomsim import AcousticRoom, read_wav, fan_noise, load_speech, pink_noise, resolve_data_dir, synthetic_speech
 from sim.scenario import (
     SOURCE_OFFSETS_M,
     ClipBank,
@@ -21,7 +21,7 @@ from sim.scenario import (
     trim_quiet_ends,
 )
 
-__all__ = ["SimAudio", "load_clip_bank", "render_audio"]
+__all__ = ["Background", "SimAudio", "load_background", "load_clip_bank", "load_sentence_bank", "render_audio"]
 
 log = logging.getLogger(__name__)
 
@@ -51,6 +51,54 @@ def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = Non
             return ClipBank(samplerate_hz, voices, "digits", tuple(complete))
     log.info("no spoken digits under %s: synthetic voiced clips instead", folder)
     return synthetic_clip_bank(samplerate_hz, n_voices=n_voices, seed=seed)
+
+
+def load_sentence_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = None, seed: int = 0) -> ClipBank:
+    """Read sentences for the rooms (:mod:`sim.rooms`): the CMU ARCTIC excerpts of ``data_dir/speech/arctic``, one
+    voice per speaker (``cmu_arctic_us_<speaker>_<id>.wav``; a file without a speaker is a voice of its own), each
+    cut to its audible part and scaled to unit RMS; three synthetic voices of six 1.5-3.5 s utterances when the
+    folder is absent (``ClipBank.source`` says which: "arctic" or "synthetic")."""
+    root = resolve_data_dir(data_dir)
+    folder = root / "speech" / "arctic"
+    names = sorted(p.name for p in folder.glob("*.wav")) if folder.is_dir() else []
+    clips = load_speech(samplerate_hz, "arctic", root) if names else None
+    if clips is not None and len(clips) == len(names):
+        by_speaker: dict[str, list[np.ndarray]] = {}
+        for name, clip in zip(names, clips):
+            parts = name[:-4].split("_")
+            speaker = parts[3] if len(parts) >= 5 and parts[0] == "cmu" else name[:-4]
+            by_speaker.setdefault(speaker, []).append(normalise_clip(trim_quiet_ends(clip, samplerate_hz)))
+        speakers = tuple(sorted(by_speaker))
+        return ClipBank(samplerate_hz, tuple(tuple(by_speaker[s]) for s in speakers), "arctic", speakers)
+    log.info("no read sentences under %s: synthetic voiced utterances instead", folder)
+    voices = []
+    for v in range(3):
+        rng = np.random.default_rng([seed, v, 17])
+        voices.append(tuple(normalise_clip(synthetic_speech(float(rng.uniform(1.5, 3.5)), samplerate_hz, rng))
+                            for _ in range(6)))
+    return ClipBank(samplerate_hz, tuple(voices), "synthetic", tuple(f"synthetic{v}" for v in range(3)))
+
+
+@dataclass(frozen=True, eq=False)
+class Background:
+    """A noise in the room besides the robot's fan: ``signal`` (any length, looped) played from ``position_m``
+    (scene frame) at ``snr_db`` under the speech's RMS at the first microphone (over the times someone speaks);
+    ``source`` names it ("kitchen" or "pink")."""
+
+    signal: np.ndarray
+    position_m: tuple[float, float, float]
+    snr_db: float
+    source: str = "pink"
+
+
+def load_background(position_m: tuple[float, float, float], snr_db: float, samplerate_hz: int = 16000,
+                    data_dir: str | Path | None = None, seed: int = 0) -> Background:
+    """The kitchen noise of ``data_dir/noise/doing_the_dishes.wav`` (Speech Commands' background noise), or pink
+    noise without it, at ``position_m`` and ``snr_db``."""
+    path = resolve_data_dir(data_dir) / "noise" / "doing_the_dishes.wav"
+    if path.is_file():
+        return Background(read_wav(path, samplerate_hz), position_m, snr_db, "kitchen")
+    return Background(pink_noise(60 * samplerate_hz, np.random.default_rng([seed, 29])), position_m, snr_db, "pink")
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -140,7 +188,7 @@ def _source_pieces(scenario: Scenario, bank: ClipBank, n: int, fs: int, max_step
 
 
 def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float = 0.1, fan_snr_db: float = 25.0,
-                 sensor_noise_rms: float = 1e-4, max_step_m: float = 0.08,
+                 sensor_noise_rms: float = 1e-4, max_step_m: float = 0.08, background: Background | None = None,
                  progress: Callable[[str], None] | None = None) -> SimAudio:
     """The microphones' signals of ``scenario`` (paper section 7.3's room: reverberation, the robot's fan), one
     channel per microphone of ``scenario.room`` (two for the default pair).
@@ -151,7 +199,8 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
 
     speech_level_rms : RMS of active speech at the microphones from a talker 1 m away (direct sound; farther talkers
         are quieter, 1/r); fan_snr_db : the fan this far below that level at the left microphone;
-    sensor_noise_rms : white noise of the converter.
+    sensor_noise_rms : white noise of the converter; background : a noise from a point in the room, at its SNR
+    under the speech (:class:`Background`).
     """
     room = scenario.room
     fs = room.samplerate_hz
@@ -165,7 +214,8 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
     keys: dict[tuple[int, int, int], int] = {}
     for pos, _, _ in pieces:
         keys.setdefault(tuple(int(v) for v in np.round(pos * 1000)), len(keys))
-    positions = np.array([np.array(k) / 1000.0 for k in keys] + [FAN_POSITION_M], dtype=np.float64)
+    extra = [] if background is None else [background.position_m]
+    positions = np.array([np.array(k) / 1000.0 for k in keys] + extra + [FAN_POSITION_M], dtype=np.float64)
     if progress:
         progress(f"room impulse responses for {positions.shape[0]} source positions ...")
     rirs, rt60 = _impulse_responses(room, positions)
@@ -190,6 +240,17 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
             y = fftconvolve(track, rirs[src, m])
             out[m, lo:lo + y.size] += gain * y
     out = out[:, :n]
+    if background is not None:  # scaled against the speech's RMS at the first microphone where someone speaks
+        talking = np.zeros(n, dtype=bool)
+        for e in scenario.events:
+            if e.kind == "speech":
+                talking[round(e.start_s * fs):round(e.end_s * fs)] = True
+        speech_rms = float(np.sqrt(np.mean(out[0, talking] ** 2))) if talking.any() else speech_level_rms
+        sig = np.resize(np.asarray(background.signal, dtype=np.float64), n)
+        noise = np.stack([fftconvolve(sig, rirs[-2, m])[:n] for m in range(n_mics)])
+        noise_rms = float(np.sqrt(np.mean(noise[0] ** 2)))
+        if noise_rms > 0:
+            out += noise * (speech_rms * 10 ** (-background.snr_db / 20) / noise_rms)
 
     fan = np.stack([fftconvolve(fan_noise(n, fs, rng), rirs[-1, m])[:n] for m in range(n_mics)])
     fan_rms = float(np.sqrt(np.mean(fan[0] ** 2)))

@@ -75,7 +75,7 @@ def _pyroomacoustics():
 # signals
 
 
-def _read_wav(path: Path, samplerate_hz: int) -> np.ndarray:
+def read_wav(path: Path, samplerate_hz: int) -> np.ndarray:
     with warnings.catch_warnings():
         # the kitchen-noise file carries a LIST chunk that scipy skips with a warning; the audio is intact
         warnings.filterwarnings("ignore", message="Chunk .* not understood")
@@ -104,7 +104,7 @@ def load_speech(samplerate_hz: int, kind: Literal["digits", "arctic"] = "digits"
         return None
     out = []
     for f in files:
-        x = _read_wav(f, samplerate_hz)
+        x = read_wav(f, samplerate_hz)
         x = lfilter([1.0, -1.0], [1.0, -(1.0 - 2 * np.pi * 60.0 / samplerate_hz)], x)
         loud = np.flatnonzero(np.abs(x) > 0.01 * np.max(np.abs(x)))
         if loud.size:
@@ -423,7 +423,7 @@ def simulate(room: AcousticRoom, talkers_scene: object, duration_s: float = 10.0
     dry = speech_turns(talkers.shape[0], duration_s, fs, rng, utterances)
 
     noise_file = resolve_data_dir(data_dir) / "noise" / "doing_the_dishes.wav"
-    full = _read_wav(noise_file, fs) if used != "synthetic" and noise_file.is_file() else None
+    full = read_wav(noise_file, fs) if used != "synthetic" and noise_file.is_file() else None
     noise_kind = "doing_the_dishes.wav" if full is not None else "pink"
     n_talk = talkers.shape[0]
 

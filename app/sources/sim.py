@@ -39,7 +39,7 @@ from sim.render import (
     Person,
     StereoSceneRenderer,
 )
-from sim.audio import SimAudio, load_clip_bank, render_audio
+from sim.audio import SimAudio, load_background, load_clip_bank, load_sentence_bank, render_audio
 from sim.body_truth import interval_times, labelled_point_means, visible_moving_centres
 from sim.depth import DepthRenderer
 from sim.mouths import MouthTracks
@@ -195,6 +195,26 @@ class SimSource(ReplayStream):
                                  rt60_s=rt60_s, mics=mics)
         return cls(scenario, bank, data_dir=data_dir, fps=fps, block_size=block_size, bodies=bodies,
                    camera=camera, lips=lips, progress=progress)
+
+    @classmethod
+    def from_room(cls, seed: int, *, duration_s: float | None = None, fps: float = 30.0,
+                  data_dir: str | Path | None = None, block_size: int = 512, mics: str = "pair",
+                  bodies: bool = False, camera: str = "stereo", lips: bool = False,
+                  progress: Callable[[str], None] | None = None) -> SimSource:
+        """A room of :mod:`sim.rooms` drawn from ``seed``, read sentences (the ARCTIC excerpts of ``data_dir``,
+        synthetic utterances without them), its background noise (the kitchen, or pink noise), the faces' mouths
+        moving with their speech with ``lips``; ``meta["room"]`` says what was drawn."""
+        from sim.rooms import ROOM_DURATION_S, make_room
+
+        bank = load_sentence_bank(16000, data_dir, seed=seed)
+        scenario, draw = make_room(seed, clip_durations_s=bank.durations_s, mics=mics,
+                                   duration_s=ROOM_DURATION_S if duration_s is None else duration_s)
+        background = load_background(draw.noise_position_m, draw.noise_snr_db, 16000, data_dir, seed=seed)
+        audio = render_audio(scenario, bank, background=background, progress=progress)
+        source = cls(scenario, bank, data_dir=data_dir, fps=fps, block_size=block_size, bodies=bodies,
+                     camera=camera, lips=lips, audio=audio, progress=progress)
+        source.meta.update(room=draw.as_dict(), noise=background.source)
+        return source
 
     # -------------------------------------------------------------- ReplayStream
     def people(self, t: float) -> list[Person]:
