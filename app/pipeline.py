@@ -239,6 +239,7 @@ class PipelineStats:
     drops: dict[str, int] = field(default_factory=dict)
     overflows: int = 0
     late_frames: int = 0
+    out_of_order: int = 0  # frames and ITDs stamped before what the fusion already took: counted and dropped
     interrupted: bool = False
     self_calibration: list[dict[str, Any]] | None = None  # per pair, at the end of a self-calibrating run
 
@@ -265,6 +266,7 @@ class PipelineStats:
             "drops": dict(self.drops),
             "overflows": self.overflows,
             "late_frames": self.late_frames,
+            "out_of_order": self.out_of_order,
             "interrupted": self.interrupted,
             "self_calibration": self.self_calibration,
         }
@@ -276,7 +278,7 @@ class PipelineStats:
         return (f"{d['results']} results in {d['duration_s']} s ({d['fps']} per s), {latency}, "
                 f"{d['itds']} ITDs, drops {sum(d['drops'].values())}, "
                 f"audio overflows {d['overflows']}, late frames skipped {d['late_frames']}, bad frames "
-                f"{d['bad_frames']}")
+                f"{d['bad_frames']}" + (f", out of order {d['out_of_order']}" if d["out_of_order"] else ""))
 
 
 class _Stop(Exception):
@@ -563,11 +565,18 @@ class Pipeline:
                 self._fuse(hearing, tracker, vision, itds)
 
     def _handle(self, message: FusionMessage, sync: TimeFrame) -> list:
-        """One message of the fusion queue into the synchroniser; returns the vision frames it completes."""
-        if isinstance(message, Vision):
-            return sync.push_primary(message.stamp_s, message)
-        if isinstance(message, ItdMessage):
-            return sync.push_secondary(message.stamp_s, (message.stamp_s, message.itd_s))
+        """One message of the fusion queue into the synchroniser; returns the vision frames it completes. A frame
+        or an ITD stamped before what the synchroniser has already taken (a clock that stepped back, a late or
+        repeated message) is counted in ``stats.out_of_order`` and dropped: it never ends a run."""
+        try:
+            if isinstance(message, Vision):
+                return sync.push_primary(message.stamp_s, message)
+            if isinstance(message, ItdMessage):
+                return sync.push_secondary(message.stamp_s, (message.stamp_s, message.itd_s))
+        except ValueError as exc:
+            self.stats.out_of_order += 1
+            log.debug("dropped: %s", exc)
+            return []
         if isinstance(message, EnvelopeMessage):
             if self.mode.envelope is not None:
                 self.mode.envelope.push(message.stamp_s + message.times_s, message.powers)

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import threading
+from dataclasses import replace
 import time
 from collections.abc import Iterator
 
@@ -480,3 +481,34 @@ def test_the_lips_are_read_in_a_thread_of_their_own(monkeypatch: pytest.MonkeyPa
     assert "lips" in pipe.stats.as_dict()["stage_ms_per_item"] and "lips" in pipe.queue_depths()
     _, plain = _run(FakeSource())
     assert "lips" not in plain.stats.as_dict()["stage_ms_per_item"] and "lips" not in plain.queue_depths()
+
+
+class DisorderedSource(FakeSource):
+    """Frames and audio blocks whose stamps go backwards, repeat, jump ahead and arrive late, as a robot's
+    topics do under load."""
+
+    def frames(self, stop: threading.Event) -> Iterator[StereoFrame]:
+        frames = list(super().frames(stop))
+        k = len(frames) // 2
+        late = frames[3]
+        frames = frames[:k] + [frames[k - 1]] + frames[k:]  # a repeated frame
+        frames.insert(k + 3, replace(late, index=999))  # a frame from the past, arriving late
+        frames[-2] = replace(frames[-2], stamp_s=frames[-2].stamp_s + 0.5, right_stamp_s=frames[-2].stamp_s + 0.5)
+        yield from frames  # and one that jumps ahead of the next, which is then behind it
+
+    def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
+        blocks = list(super().audio(stop))
+        k = len(blocks) // 2
+        back = replace(blocks[k], stamp_s=blocks[k].stamp_s - 0.3)  # the clock stepped back
+        yield from blocks[:k] + [back] + blocks[k:]
+
+
+def test_out_of_order_stamps_are_counted_and_dropped_never_fatal() -> None:
+    """A frame or ITD stamped before what the fusion has taken used to end the run with the synchroniser's
+    ValueError ("secondary stamp ... is earlier than ..."): now it is counted and the run goes on to the end."""
+    results: list[Result] = []
+    pipe = Pipeline(DisorderedSource(duration_s=2.0), PipelineConfig(), results.append)
+    stats = pipe.run()
+    assert stats.out_of_order >= 2  # the late frame and the frame after the jump at least
+    assert len(results) >= 15  # the run reached its end
+    assert stats.as_dict()["out_of_order"] == stats.out_of_order and "out of order" in stats.summary()
