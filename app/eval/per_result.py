@@ -12,7 +12,7 @@ Edges forgiven (``forgive_s``, 0.3 s: the team's decision)
     ``forgive_s`` of the person's own speech is no false alarm, and a silence within ``forgive_s`` of either edge of
     it is no miss. Precision (forgiven) is the share of speaking calls that lie within the person's speech
     +- ``forgive_s``; recall (forgiven) the share of the results at least ``forgive_s`` inside the person's speech
-    that are called speaking.
+    that are called speaking (inside an utterance shorter than 4 ``forgive_s``, a spoken digit, its middle half).
 False stretches
     A run of consecutive results calling a found person speaking that lies wholly outside that person's speech
     +- ``forgive_s`` (each result standing for +- ``half_span_s``); reported per utterance of visible people.
@@ -117,7 +117,10 @@ def result_counts(stamps_s: np.ndarray, states: np.ndarray, visible: np.ndarray,
         called = states[:, i] == 1
         truth = _within(stamps, spans, 0.0, 0.0)
         near = _within(stamps, spans, forgive_s, forgive_s)
-        inner = _within(stamps, spans, -forgive_s, -forgive_s)
+        inner = np.zeros(stamps.shape, dtype=bool)
+        for s, e in spans:  # a short utterance keeps its middle half
+            cut = min(forgive_s, 0.25 * (e - s))
+            inner |= (stamps >= s + cut) & (stamps < e - cut)
         c.tp += int(np.sum(vis & called & truth))
         c.fp += int(np.sum(vis & called & ~truth))
         c.fn += int(np.sum(vis & ~called & truth))

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from app.eval.per_result import ResultCounts, result_counts
 from app.pipeline import Pipeline, PipelineConfig
 from app.result import Result
 from app.sources.open import StreamAdapter, open_source
@@ -250,6 +251,7 @@ class ScenarioScore:
     duration_s: float
     counts: SpeakingCounts = field(default_factory=SpeakingCounts)
     utterances: UtteranceCounts = field(default_factory=UtteranceCounts)
+    per_result: ResultCounts = field(default_factory=ResultCounts)  # per result x visible person (per_result.py)
     timing_reference: SpeakingCounts = field(default_factory=SpeakingCounts)
     n_intervals: int = 0
     n_frames: int = 0
@@ -326,6 +328,7 @@ class ScenarioScore:
         self.duration_s += other.duration_s
         self.counts.add(other.counts)
         self.utterances.add(other.utterances)
+        self.per_result.add(other.per_result)
         self.timing_reference.add(other.timing_reference)
         for name in ("n_intervals", "n_frames", "frames_all_found", "visible_faces", "faces_found", "n_itds"):
             setattr(self, name, getattr(self, name) + getattr(other, name))
@@ -352,6 +355,7 @@ class ScenarioScore:
             "n_intervals": self.n_intervals,
             "speaking": self.counts.as_dict(),
             "speaking_per_utterance": self.utterances.as_dict(),
+            "speaking_per_result": self.per_result.as_dict(),
             "speaking_timing_reference": self.timing_reference.as_dict(),
             "n_frames": self.n_frames,
             "frames_all_faces_found": _clean(self.all_found_share),
@@ -780,6 +784,10 @@ def score_run(scenario: Scenario, fused: Sequence[Result], audio: np.ndarray, sa
     half_span = INTERVAL_S / 2 if motion else frame_period_s / 2  # the time one result stands for
     score.utterances, missed, false_stretches = _utterance_counts(speech, table, j.stamps, j.states, half_span)
     score.timeline = Timeline(scenario, j.stamps, j.states, half_span, tuple(missed), tuple(false_stretches))
+    if not motion:  # what a robot acts on: each result and visible person, the edges of the speech forgiven
+        visible = np.array([table.at(float(t)).visible for t in j.stamps], dtype=bool).reshape(-1, n_people)
+        own = [[(e.start_s, e.end_s) for e in speech if e.actor == i] for i in range(n_people)]
+        score.per_result = result_counts(j.stamps, j.states, visible, own, half_span_s=half_span)
     # the ITD accuracy: eq. (itd) at the talker's mouth, with the pair's correction
     score.itd_true_s = [mics.c1 * float(table.at(float(track.times_s[i])).itds_s[actor]) + mics.c0
                         for i, actor in one_talker]

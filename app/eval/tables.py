@@ -317,10 +317,25 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
              else f"avhear {config.inference}-guided")
     reference = f"truth held +-{TIMING_REFERENCE_S * 1e3:.0f} ms"
     sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration),
-                _per_number_lines(scores, label), _per_interval_lines(scores, label, reference),
+                _per_number_lines(scores, label), _per_result_lines(scores),
+                _per_interval_lines(scores, label, reference),
                 _front_end_lines(scores), _identity_lines(scores), _voice_lines(scores), _lip_lines(scores),
                 _target_lines(scores, reference)]
     return "\n\n".join("\n".join(section) for section in sections if section)
+
+
+def _per_result_lines(scores: list[ScenarioScore]) -> list[str]:
+    """Per result x visible person (face-guided; :mod:`app.eval.per_result`): what a robot acts on."""
+    rows = [s for s in scores if s.per_result.calls or s.per_result.inner]
+    if not rows:
+        return []
+    lines = ["Per result and visible person (edges of each person's speech forgiven by 0.3 s):",
+             f"{'':<10}{'precision':>10}{'recall':>8}{'prec. (forg.)':>15}{'rec. (forg.)':>14}{'false str./utt.':>17}"]
+    for s in rows:
+        c = s.per_result
+        lines.append(f"{s.scenario:<10}{_f(c.precision):>10}{_f(c.recall):>8}{_f(c.precision_forgiven):>15}"
+                     f"{_f(c.recall_forgiven):>14}{_f(c.false_stretches_per_utterance, 2):>17}")
+    return lines
 
 
 def _pct1(x: float) -> str:

@@ -79,6 +79,10 @@ def test_perfect_detections_score_every_speaking_count_as_tp(people_result: Call
     assert score.all_found_share == 1.0
     assert score.f3d_median_m == pytest.approx(0.01 * np.sqrt(3))
     assert score.itd_errors_s == [] and score.n_itds == 0  # silence: no ITD passes the energy gate
+    r = score.per_result  # the same truth per result and person: every count right, nothing forgiven to need
+    assert r.precision == r.recall == r.precision_forgiven == r.recall_forgiven == 1.0
+    assert r.utterances == len(numbers) and r.heard == len(numbers) and r.false_stretches == 0
+    assert r.tp + r.fp + r.fn + r.tn == sum(int(scenario.truth(float(t)).visible.sum()) for t in stamps)
 
 
 def test_wrong_states_and_missed_faces_are_counted(people_result: Callable[..., Result]) -> None:
@@ -90,6 +94,9 @@ def test_wrong_states_and_missed_faces_are_counted(people_result: Callable[..., 
     assert c.fn_missed_face == 0 and c.fp_false_face == 0
     u = _score(scenario, fused, stamps).utterances
     assert u.tp == 0 and u.fn == sum(e.kind == "speech" for e in scenario.events) and u.fp > 0
+    r = _score(scenario, fused, stamps).per_result
+    assert r.tp == 0 and r.recall == 0.0 and r.heard == 0 and r.recall_forgiven == 0.0
+    assert r.precision_forgiven < 0.3  # the calls that touch the own numbers (+-0.3 s) are forgiven, no more
     # nobody detected at all: every speaking count is a missed face, and there is nothing to call a false positive
     empty = [people_result(f.stamp_s, np.zeros((0, 3)), np.zeros(0, bool)) for f in fused]
     c = _score(scenario, empty, stamps).counts

@@ -1,0 +1,42 @@
+"""`avhear eval rooms`: a drawn room through the real pipeline, scored per result x person, beside the paper's."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from app.cli import main
+from app.eval.rooms import evaluate_room, method_config
+from app.pipeline import PipelineConfig
+
+
+def test_a_short_room_runs_through_the_pipeline_and_is_scored() -> None:
+    score = evaluate_room(0, duration_s=6.0)
+    c = score.counts
+    assert score.rooms[0]["seed"] == 0 and score.rooms[0]["people"] == 2
+    assert c.utterances >= 1 and c.tp + c.fn > 0 and c.tp + c.fp + c.fn + c.tn > 100
+    assert score.face_recall > 0.9  # both faces found in nearly every result
+    assert score.median_error_m < 0.05
+
+
+def test_the_papers_method_is_algorithm_2_as_written() -> None:
+    cfg = method_config(PipelineConfig(lips=True), "paper")
+    assert (cfg.face_variant, cfg.itd_method, cfg.frame_itds, cfg.vote_frames, cfg.lips) == \
+        ("paper", "correlogram", False, 1, False)
+    assert method_config(PipelineConfig(), "avhear") == PipelineConfig()
+    with pytest.raises(ValueError, match="method must be one of"):
+        method_config(PipelineConfig(), "mine")
+
+
+def test_eval_rooms_refuses_motion_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "rooms", "--motion"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "leave out --motion" in err[0]
+
+
+def test_eval_rooms_json(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "rooms", "--seed", "3", "--duration", "6", "--method", "paper", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    (row,) = out["results"]
+    assert row["method"] == "paper" and row["seeds"] == [3] and out["protocol"]["forgive_s"] == 0.3
+    assert 0.0 <= row["speaking"]["precision_forgiven"] <= 1.0
