@@ -121,9 +121,19 @@ def evaluate_room(seed: int, *, method: str = "avhear", config: PipelineConfig |
               for i in range(n)]
     period = float(np.median(np.diff(sim.frame_stamps_s))) if len(sim.frame_stamps_s) > 1 else 1 / 30
     score.counts = result_counts(stamps, states, visible, speech, half_span_s=period / 2)
-    score.rooms = [dict(sim.meta["room"], overlap_share=round(_overlap(scenario), 3))]
+    c = score.counts
+    score.rooms = [dict(sim.meta["room"], overlap_share=round(_overlap(scenario), 3),
+                        face_recall=round(score.face_recall, 4), precision_forgiven=_rounded(c.precision_forgiven),
+                        recall_forgiven=_rounded(c.recall_forgiven), utterances=c.utterances, heard=c.heard,
+                        false_stretches=c.false_stretches,
+                        faces_found_each=[round(float(np.mean(states[visible[:, i], i] >= 0)), 3)
+                                          if visible[:, i].any() else None for i in range(n)])]
     score.speech, score.faces, score.noise = str(sim.meta["speech"]), str(sim.meta["faces"]), str(sim.meta["noise"])
     return score
+
+
+def _rounded(x: float) -> float | None:
+    return None if math.isnan(x) else round(x, 4)
 
 
 def _overlap(scenario: Any) -> float:

@@ -127,8 +127,8 @@ def _target_row(tp: int, fn: int, fp: int, scenario: str) -> dict[str, object]:
 
 
 def scenario_targets(scores: list[ScenarioScore]) -> dict[str, object]:
-    """Issue 5's targets: TP >= 95 % and FP at most half the paper's (per speaking count) on every scenario, per
-    interval and per spoken number; in S4 the unseen talker turns silent visible people into speakers no more often
+    """The scenarios' accuracy targets: TP >= 95 % and FP at most half the paper's (per speaking count) on every
+    scenario, per interval and per spoken number; in S4 the unseen talker turns silent visible people into speakers no more often
     than S2's silent people are turned (per interval)."""
     out: dict[str, object] = {
         "per_interval": {s.scenario: _target_row(s.counts.tp, s.counts.fn, s.counts.fp, s.scenario) for s in scores},

@@ -396,3 +396,14 @@ def test_an_array_turned_the_evaluation_cannot_make_is_one_line(argv: list[str],
     assert main(["eval", "scenarios", *argv]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_version_names_the_installed_release(capsys: pytest.CaptureFixture[str]) -> None:
+    from importlib.metadata import version
+
+    from app.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["--version"])
+    assert stop.value.code == 0
+    assert capsys.readouterr().out.strip() == f"avhear {version('avhear')}"

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from sim.rooms import HELD_OUT_SEEDS, MIN_APART_DEG, MIN_APART_M, draw_room, make_room, overlap_share
+from sim.rooms import HELD_OUT_SEEDS, MAX_DISTANCE_M, MIN_APART_DEG, MIN_APART_M, draw_room, make_room, overlap_share
 from sim.scenario import SoundEvent
 
 SENTENCES = ((3.5, 3.6, 3.3), (3.0,), (2.5, 1.3, 3.2))  # the ARCTIC excerpts' durations, seconds
@@ -24,7 +24,7 @@ def test_every_draw_is_inside_the_ranges(seed: int) -> None:
     assert 0.2 <= d.rt60_s <= 0.7 and 10.0 <= d.noise_snr_db <= 30.0 and 0.15 <= d.overlap_target <= 0.40
     assert 2 <= len(d.faces_m) <= 4 and len(d.postures) == len(d.faces_m)
     for i, p in enumerate(d.faces_m):
-        assert 1.0 <= math.hypot(p[0], p[2]) <= 3.5
+        assert 1.0 <= math.hypot(p[0], p[2]) <= MAX_DISTANCE_M
         for q in d.faces_m[i + 1:]:
             assert math.dist(p, q) >= MIN_APART_M
             assert abs(_azimuth(p) - _azimuth(q)) >= MIN_APART_DEG
