@@ -130,6 +130,14 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     rooms.set_defaults(func=run_rooms)
 
 
+def _merged(runs: list):  # noqa: ANN202 - ScenarioScore or RoomScore
+    """The first run with every other run's figures added (each score type's own ``merge``)."""
+    first, *rest = runs
+    for other in rest:
+        first.merge(other)
+    return first
+
+
 def _progress(message: str) -> None:
     print(f"  {message}", file=sys.stderr, flush=True)
 
@@ -217,7 +225,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
                   + (" (the self-calibration's start)" if config.self_calibrate else ""))
     scores: list[ScenarioScore] = []
     for name in args.scenario:
-        merged: ScenarioScore | None = None
+        runs: list[ScenarioScore] = []
         for seed in args.seed:
             _progress(f"{name} seed {seed}: simulating and running the {config.inference}-guided pipeline ...")
             t0 = time.perf_counter()
@@ -251,12 +259,8 @@ def run_scenarios(args: argparse.Namespace) -> int:
                 save_timeline(score.timeline, path, f"{name} seed {seed}, {config.inference}-guided, per spoken "
                               f"number: TP {u.tp}, FN {u.fn}, FP {u.fp}")
                 _progress(f"{name} seed {seed}: timeline saved to {path}")
-            if merged is None:
-                merged = score
-            else:
-                merged.merge(score)
-        assert merged is not None
-        scores.append(merged)
+            runs.append(score)
+        scores.append(_merged(runs))
     if args.json:
         from app.hearing import detector_name
 
@@ -292,7 +296,7 @@ def run_rooms(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     scores: list[RoomScore] = []
     for method in args.method:
-        merged: RoomScore | None = None
+        runs: list[RoomScore] = []
         for seed in args.seed:
             _progress(f"room {seed}, {method}: simulating and running the pipeline ...")
             t0 = time.perf_counter()
@@ -303,12 +307,8 @@ def run_rooms(args: argparse.Namespace) -> int:
                       f"(forgiven {c.precision_forgiven:.3f}), recall {c.recall:.3f} (forgiven "
                       f"{c.recall_forgiven:.3f}), {c.false_stretches} false stretches over {c.utterances} "
                       f"utterances ({time.perf_counter() - t0:.0f} s)")
-            if merged is None:
-                merged = score
-            else:
-                merged.merge(score)
-        assert merged is not None
-        scores.append(merged)
+            runs.append(score)
+        scores.append(_merged(runs))
     if args.json:
         print(json.dumps({"protocol": {"unit": "one visible person in one result", "forgive_s": 0.3,
                                        "tau_loc_m": 0.35},
