@@ -75,10 +75,8 @@ class PipelineConfig:
     vote_frames : face-guided: each person's speaking state is the majority of their states over this many
         consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
         thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
-    interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7). motion_variant :
-        "avhear" (the default) or "paper" (Algorithm 1 as written, :meth:`MotionGuidedParams.paper`).
-    face_variant : face-guided: "avhear" (the default) or "paper" (Algorithm 2's EM and eq. audio_act as written,
-        :meth:`FaceGuidedParams.paper`; the ITDs, the looks and the vote are the other settings').
+    interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7). motion_variant,
+        face_variant : "avhear" (the default) or "paper" (Algorithm 1, or 2's EM and eq. audio_act, as written).
     *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
         possible waits for room instead). Motion-guided, the frames' queue holds at least one interval at 60 FPS:
         HM3D runs once per interval, all at once, and the next interval's frames arrive meanwhile.
