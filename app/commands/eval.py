@@ -123,7 +123,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                             "correlogram's ITDs, no vote); default both")
     add_method_arguments(rooms)
     add_mics_argument(rooms)
-    add_bodies_argument(rooms)
     add_lips_argument(rooms)
     add_camera_argument(rooms)
     rooms.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
