@@ -35,9 +35,9 @@ ROOM_DURATION_S = 30.0
 HELD_OUT_SEEDS: tuple[int, ...] = tuple(range(100, 120))
 """Seeds kept untouched while defaults are chosen (on seeds below 100), and reported at the end."""
 MAX_DISTANCE_M = 2.8
-"""The farthest face: at 3.0-3.2 m a face is 28-30 px wide in the simulated 640 x 480 camera (60 degrees across),
-and BlazeFace finds none of them (rooms 4 and 6 of a first draw to 3.5 m: those faces found in 0 % of the frames,
-their voices then heard from the nearest face found). This family checks who speaks, not how small a face is found."""
+"""The farthest face: at 3 m a face is under 30 px wide in the simulated 640 x 480 camera (60 degrees across), where
+BlazeFace finds none, and a face not found hands its voice to the nearest face found. This family checks who speaks,
+not how small a face is found (docs/experiments.md, "2026-11-28 (wave 4)")."""
 MIN_APART_M = 0.5
 MIN_APART_DEG = 10.0
 HEAD_HEIGHT_M = 1.0

@@ -12,7 +12,6 @@ read beside the paper's method.
 """
 from __future__ import annotations
 
-import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -26,8 +25,7 @@ from app.result import Result
 from app.sources.open import StreamAdapter
 from app.sources.sim import SimSource
 from avcore.evaluation import TAU_LOC_M, match_clusters
-
-log = logging.getLogger(__name__)
+from sim.rooms import overlap_share
 
 __all__ = ["METHODS", "RoomScore", "evaluate_room", "method_config"]
 
@@ -122,7 +120,7 @@ def evaluate_room(seed: int, *, method: str = "avhear", config: PipelineConfig |
     period = float(np.median(np.diff(sim.frame_stamps_s))) if len(sim.frame_stamps_s) > 1 else 1 / 30
     score.counts = result_counts(stamps, states, visible, speech, half_span_s=period / 2)
     c = score.counts
-    score.rooms = [dict(sim.meta["room"], overlap_share=round(_overlap(scenario), 3),
+    score.rooms = [dict(sim.meta["room"], overlap_share=round(overlap_share(scenario.events), 3),
                         face_recall=round(score.face_recall, 4), precision_forgiven=_rounded(c.precision_forgiven),
                         recall_forgiven=_rounded(c.recall_forgiven), utterances=c.utterances, heard=c.heard,
                         false_stretches=c.false_stretches,
@@ -134,9 +132,3 @@ def evaluate_room(seed: int, *, method: str = "avhear", config: PipelineConfig |
 
 def _rounded(x: float) -> float | None:
     return None if math.isnan(x) else round(x, 4)
-
-
-def _overlap(scenario: Any) -> float:
-    from sim.rooms import overlap_share
-
-    return overlap_share(scenario.events)

@@ -333,8 +333,9 @@ def _per_result_lines(scores: list[ScenarioScore]) -> list[str]:
              f"{'':<10}{'precision':>10}{'recall':>8}{'prec. (forg.)':>15}{'rec. (forg.)':>14}{'false str./utt.':>17}"]
     for s in rows:
         c = s.per_result
-        lines.append(f"{s.scenario:<10}{_f(c.precision):>10}{_f(c.recall):>8}{_f(c.precision_forgiven):>15}"
-                     f"{_f(c.recall_forgiven):>14}{_f(c.false_stretches_per_utterance, 2):>17}")
+        lines.append(f"{s.scenario:<10}{_num(c.precision, '.3f'):>10}{_num(c.recall, '.3f'):>8}"
+                     f"{_num(c.precision_forgiven, '.3f'):>15}{_num(c.recall_forgiven, '.3f'):>14}"
+                     f"{_num(c.false_stretches_per_utterance, '.2f'):>17}")
     return lines
 
 
@@ -344,10 +345,6 @@ def _pct1(x: float) -> str:
 
 def _num(x: float, fmt: str) -> str:
     return "-" if math.isnan(x) else format(x, fmt)
-
-
-def _f(x: float, digits: int = 3) -> str:
-    return "  -  " if not math.isfinite(x) else f"{x:.{digits}f}"
 
 
 def format_room_table(scores: list[RoomScore]) -> str:
@@ -364,10 +361,11 @@ def format_room_table(scores: list[RoomScore]) -> str:
              f"{'heard':>12}{'false str./utt.':>17}{'faces found':>13}{'error':>9}"]
     for s in scores:
         c = s.counts
-        lines.append(f"{VARIANT_LABELS.get(s.method, s.method):<16}{_f(c.precision):>10}{_f(c.recall):>8}"
-                     f"{_f(c.precision_forgiven):>15}{_f(c.recall_forgiven):>14}"
-                     f"{f'{c.heard}/{c.utterances}':>12}{_f(c.false_stretches_per_utterance, 2):>17}"
-                     f"{_f(s.face_recall):>13}{_f(100 * s.median_error_m, 1) + ' cm':>9}")
+        lines.append(f"{VARIANT_LABELS.get(s.method, s.method):<16}{_num(c.precision, '.3f'):>10}"
+                     f"{_num(c.recall, '.3f'):>8}{_num(c.precision_forgiven, '.3f'):>15}"
+                     f"{_num(c.recall_forgiven, '.3f'):>14}{f'{c.heard}/{c.utterances}':>12}"
+                     f"{_num(c.false_stretches_per_utterance, '.2f'):>17}{_num(s.face_recall, '.3f'):>13}"
+                     f"{_num(100 * s.median_error_m, '.1f') + ' cm':>9}")
     lines += ["", "Targets (issue 55, held-out seeds 100-119, still faces): precision and recall (forgiven) >= 0.95, "
                   "false stretches <= 0.1 per utterance."]
     return "\n".join(lines)

@@ -43,6 +43,7 @@ from sim.audio import SimAudio, load_background, load_clip_bank, load_sentence_b
 from sim.body_truth import interval_times, labelled_point_means, visible_moving_centres
 from sim.depth import DepthRenderer
 from sim.mouths import MouthTracks
+from sim.rooms import ROOM_DURATION_S, make_room
 from sim.render import load_textures
 from sim.scenario import (
     ClipBank,
@@ -204,8 +205,6 @@ class SimSource(ReplayStream):
         """A room of :mod:`sim.rooms` drawn from ``seed``, read sentences (the ARCTIC excerpts of ``data_dir``,
         synthetic utterances without them), its background noise (the kitchen, or pink noise), the faces' mouths
         moving with their speech with ``lips``; ``meta["room"]`` says what was drawn."""
-        from sim.rooms import ROOM_DURATION_S, make_room
-
         bank = load_sentence_bank(16000, data_dir, seed=seed)
         scenario, draw = make_room(seed, clip_durations_s=bank.durations_s, mics=mics,
                                    duration_s=ROOM_DURATION_S if duration_s is None else duration_s)
