@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 
 if TYPE_CHECKING:
     from app.events import StereoFrame
-    from app.pipeline import PipelineConfig
+    from app.pipeline_config import PipelineConfig
     from avcore.faces import FaceDetector
     from avcore.geometry import MicPair
     from avcore.stereo import StereoRig

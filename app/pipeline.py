@@ -26,10 +26,11 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
+from app.pipeline_config import DEFAULT_ITD_METHOD, PipelineConfig
 from app.sources.contract import Source
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
@@ -38,7 +39,6 @@ from app.queues import DropOldestQueue
 from app.result import Result
 from avcore.faces import FaceDetector
 from avcore.geometry import MicArray
-from avcore.inference import FaceGuidedParams
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.lips import frame_powers
 from avcore.stereo import StereoRig
@@ -48,120 +48,6 @@ from avcore.tracking import NearestTracker
 log = logging.getLogger(__name__)
 
 __all__ = ["DEFAULT_ITD_METHOD", "Pipeline", "PipelineConfig", "PipelineStats", "Source"]
-
-
-DEFAULT_ITD_METHOD = "gcc-phat-robust"
-"""The application's ITD extractor (the most accurate in reverberant rooms, ``benchmarks/itd_accuracy.py``); the
-paper's is ``"correlogram"``, the default of :func:`avcore.itd.extract_itds`."""
-
-
-@dataclass(frozen=True)
-class PipelineConfig:
-    """Settings of the process; defaults are the paper's implementation details (section 6).
-
-    inference : "face" (Algorithm 2, the default, as on NAO) or "motion" (Algorithm 1 on HM3D points).
-    itd_method, window_s, hop_s, energy_threshold : the ITD extraction (W = 150 ms, f = 20 ms, E_A = 0.001);
-        "gcc-phat-robust" by default (the most accurate in reverberant rooms, benchmarks/itd_accuracy.py), the
-        paper's "correlogram" selectable. Lags are searched within 1.2 times the pair's free-field maximum.
-    frame_window_s : face-guided: each vision result collects the ITDs within +- this of its stamp.
-    decision_window_s : face-guided: decide on the ITDs within +- this of the stamp only (EM still fits on the
-        whole time frame; :class:`avcore.inference.FaceGuidedParams`); None: on all of them, as the paper.
-    frame_itds : face-guided with "gcc-phat-robust": the ITD worker also passes the single 32 ms frames' ITDs,
-        and the speaking test takes a second look at those of the time frame (:class:`avcore.speaking.SpeakingTest`
-        ``frame_rescue``: a talker that a louder one masks in every 150 ms window still wins some frames), and
-        the peaks of the frames' frequency bands (``band_itds``: where two talk at once, some bands are the
-        quieter one's); with a microphone array also the frames' bins on every pair, the fourth look
-        (:func:`avcore.speaking.bin_shares`).
-    vote_frames : face-guided: each person's speaking state is the majority of their states over this many
-        consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
-        thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
-    interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7). motion_variant,
-        face_variant : "avhear" (the default) or "paper" (Algorithm 1, or 2's EM and eq. audio_act, as written).
-    *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
-        possible waits for room instead). Motion-guided, the frames' queue holds at least one interval at 60 FPS:
-        HM3D runs once per interval, all at once, and the next interval's frames arrive meanwhile.
-    max_audio_lead_s : a replay as fast as possible: the ITD worker waits while the audio it extracts is more than
-        this far ahead of the last frame vision took, so that no buffer downstream has to drop what vision has not
-        used yet (ITDs run far faster than vision). Must exceed the time frame, a window and the vote's wait.
-    latency : "default" (each result collects the ITDs of +- its time frame and its vote is centred on it: the
-        method's own wait, about 0.43 s) or "low" (the past only: the time frame ends at the stamp and the vote
-        trails, so a result leaves once its last ITD is extracted).
-    face_detector : "auto" (the default: BlazeFace when its model is installed, else Haar's cascade with a notice),
-        "blazeface" (MediaPipe's BlazeFace, :mod:`avcore.blazeface`) or "haar" (OpenCV's cascade, tracked; OpenCV 4
-        only); face_model : the BlazeFace model file (default: the installed package's); tflite_runtime : what runs
-        the face models, "opencv" (OpenCV's DNN) or "litert" (:mod:`avcore.tflite`).
-    self_calibrate : face-guided: learn the correction c1, c0 of every pair while running, from people talking
-        alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
-    lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): a face whose lips
-        are still (under ``lip_still_below``) is not speaking; faces within ``lip_same_direction_s`` on every pair
-        are heard as one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its
-        own range). Motion-guided, a person's face is the one within ``lip_face_within_m`` of them horizontally
-        (:func:`app.hearing.faces_of_people`), and the veto applies to the person.
-    """
-
-    inference: Literal["face", "motion"] = "face"
-    itd_method: str = DEFAULT_ITD_METHOD
-    window_s: float = 0.15
-    hop_s: float = 0.02
-    energy_threshold: float = 1e-3
-    frame_window_s: float = 0.2
-    decision_window_s: float | None = None
-    frame_itds: bool = True
-    vote_frames: int = 9
-    face_detector: Literal["auto", "haar", "blazeface"] = "auto"
-    latency: Literal["default", "low"] = "default"
-    self_calibrate: bool = False
-    face_model: str | None = None
-    tflite_runtime: Literal["opencv", "litert"] = "opencv"
-    lips: bool = False
-    lip_still_below: float = 0.012
-    lip_same_direction_s: float = 40e-6
-    lip_both_above: float = 0.5
-    lip_face_within_m: float = 0.35
-    interval_s: float = 0.4
-    motion_variant: Literal["avhear", "paper"] = "avhear"
-    face_variant: Literal["avhear", "paper"] = "avhear"
-    frame_queue: int = 4
-    audio_queue: int = 256
-    fusion_queue: int = 1024
-    max_audio_lead_s: float = 2.0
-    join_timeout_s: float = 2.0
-
-    def __post_init__(self) -> None:
-        if self.latency not in ("default", "low"):
-            raise ValueError(f"latency must be 'default' or 'low', got {self.latency!r}")
-        if self.face_detector not in ("auto", "haar", "blazeface"):
-            raise ValueError(f"face_detector must be 'auto', 'haar' or 'blazeface', got {self.face_detector!r}")
-        if self.tflite_runtime not in ("opencv", "litert"):
-            raise ValueError(f"tflite_runtime must be 'opencv' or 'litert', got {self.tflite_runtime!r}")
-        if self.inference not in ("face", "motion"):
-            raise ValueError(f"inference must be 'face' or 'motion', got {self.inference!r}")
-        for name in ("motion_variant", "face_variant"):
-            if getattr(self, name) not in ("avhear", "paper"):
-                raise ValueError(f"{name} must be 'avhear' or 'paper', got {getattr(self, name)!r}")
-        for name in ("window_s", "hop_s", "frame_window_s", "interval_s", "max_audio_lead_s"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
-        if not 0 < self.lip_still_below < 1:
-            raise ValueError(f"lip_still_below must be a spread of the mouth's opening in (0, 1), got "
-                             f"{self.lip_still_below!r}")
-        if not 0 <= self.lip_same_direction_s < 1e-3:
-            raise ValueError(f"lip_same_direction_s must be an ITD in [0, 1 ms) seconds, got "
-                             f"{self.lip_same_direction_s!r}")
-        if not 0 < self.lip_face_within_m < 2:
-            raise ValueError(f"lip_face_within_m must be a horizontal distance in (0, 2) metres, got "
-                             f"{self.lip_face_within_m!r}")
-        if not 0 < self.lip_both_above <= 1:
-            raise ValueError(f"lip_both_above must be a share of a face's own lip range in (0, 1], got "
-                             f"{self.lip_both_above!r}")
-        FaceGuidedParams(decision_window_s=self.decision_window_s)  # the hearing's own check, here at once
-        least = max(self.frame_window_s, self.interval_s) + self.window_s + self.hop_s
-        if self.max_audio_lead_s <= least:
-            raise ValueError(f"max_audio_lead_s must exceed the time frame plus a window ({least:g} s), got "
-                             f"{self.max_audio_lead_s!r}")
-        if not (isinstance(self.vote_frames, int) and self.vote_frames >= 1 and self.vote_frames % 2 == 1):
-            raise ValueError(f"vote_frames must be an odd number of results >= 1 (1: no vote), got "
-                             f"{self.vote_frames!r}")
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,7 @@ ITD pane. The data flow: sources -> pipeline -> Result -> sinks (docs/architectu
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any
@@ -114,7 +115,52 @@ class Result:
         return replace(self, image=_NO_IMAGE, depth_m=None)
 
     def as_dict(self) -> dict[str, Any]:
-        """The result as one line of the results file (schema: :mod:`app.sinks.results_file`)."""
-        from app.sinks.results_file import result_record
+        """The result as one line of the results file (schema: :mod:`app.sinks.results_file`), what every sink
+        that writes or sends results takes."""
+        return _record(self)
 
-        return result_record(self)
+
+def _num(x: Any) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _probability(p: Any, speaking: bool) -> float:
+    """``p`` to 4 decimals, still above 0.5 exactly when ``speaking`` (0.50003 would round to 0.5)."""
+    q = round(float(p), 4)
+    if speaking and q <= 0.5:
+        return 0.5001
+    if not speaking and q > 0.5:
+        return 0.5
+    return q
+
+
+def _record(result: Result) -> dict[str, Any]:
+    """``result`` as the JSON-ready dict of the results file's schema (:mod:`app.sinks.results_file`)."""
+    people = []
+    for p in result.people:
+        person: dict[str, Any] = {
+            "id": p.id,
+            "position_m": [round(float(v), 4) for v in p.position_m],
+            "speaking": p.speaking,
+            "probability": _probability(p.probability, p.speaking),
+            "itd_mean_s": _num(p.itd_s[0]),  # the first pair's
+        }
+        if p.box_px is not None:
+            person["box_px"] = list(p.box_px)
+        if p.lip_activity is not None:
+            person["lip_activity"] = None if p.lip_activity != p.lip_activity else round(float(p.lip_activity), 4)
+        people.append(person)
+    for v in result.voices or ():  # a voice out of view: a person without a face or position
+        people.append({"id": v.id, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
+                       "azimuth_deg": round(math.degrees(v.azimuth_rad), 1),
+                       "elevation_deg": None if v.elevation_rad is None else round(math.degrees(v.elevation_rad), 1)})
+    record = {
+        "stamp_s": round(float(result.stamp_s), 6),
+        "index": int(result.index),
+        "mode": result.mode,
+        "n_itds": result.n_itds,
+        "latency_s": _num(result.latency_s),
+        "people": people,
+    }
+    return record

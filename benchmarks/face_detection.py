@@ -145,9 +145,10 @@ def turning_row(sets: dict, model: Path, yaws: list[float], step_deg: float = 5.
 
 
 def head_views(data: Path, yaw_deg: float, distance_m: float) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Each simulated face (``sim.render.load_textures``) on a head turned by ``yaw_deg`` (with its relief,
+    """Each simulated face (``sim.face_textures.load_textures``) on a head turned by ``yaw_deg`` (with its relief,
     :mod:`sim.relief`) ``distance_m`` in front of the simulated rig's left camera: (left image, the face's box)."""
-    from sim.render import Person, load_textures
+    from sim.face_textures import load_textures
+    from sim.render import Person
 
     textures, _ = load_textures(data.parent)
     scene = _scene()

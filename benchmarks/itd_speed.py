@@ -1,7 +1,7 @@
 """Real-time factor of each ITD method (issue 3, section 4): processing time / audio duration, on one core.
 
 Every window passes the energy gate (the worst case: someone speaks all the time). Both the batch form
-(``extract_itds``) and the streaming form (``ItdStream`` fed 10 ms blocks, as the audio callback does) are timed.
+(``extract_itds``) and the streaming form (``PairStream`` fed 10 ms blocks, as the audio callback does) are timed.
 
     python benchmarks/itd_speed.py           # 16 and 48 kHz, 20 s of audio, best and median of 5
     python benchmarks/itd_speed.py --quick   # 5 s of audio, best and median of 3
@@ -15,7 +15,7 @@ figure to compare with the targets, and the median shows how much the others dis
 Targets (issue 3): real-time factor <= 0.05 for the correlogram and <= 0.01 for GCC-PHAT at 16 kHz.
 
 ``--arrays nao uma8`` also times the streaming extraction on every pair of those microphone arrays (one
-``ItdStream`` per pair, ``avcore.itd.PairsItdStream``) and prints the cost per pair: it grows linearly.
+``PairStream`` per pair, ``avcore.itd.PairsItdStream``) and prints the cost per pair: it grows linearly.
 """
 from __future__ import annotations
 
@@ -33,7 +33,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from avcore.itd import ItdStream, extract_itds
+from avcore.itd import extract_itds
+from avcore.itd._extract import PairStream
 from benchmarks.itd_accuracy import parse_spec
 
 METHODS = ["correlogram", "gcc-phat", "correlogram-robust", "gcc-phat-robust"]
@@ -89,7 +90,7 @@ def main() -> None:
                 extract_itds(left, right, fs, method=method, **options)
 
             def stream(left=left, right=right, fs=fs, method=method, options=options, block=block) -> None:
-                s = ItdStream(fs, method=method, **options)
+                s = PairStream(fs, method=method, **options)
                 for i in range(0, len(left), block):
                     s.push(left[i:i + block], right[i:i + block])
 

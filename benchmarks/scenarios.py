@@ -20,14 +20,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.commands.options import add_method_arguments, pipeline_config
-from app.eval.scenarios import (
-    PAPER_PERCENT,
-    SCENARIO_CHOICES,
-    SCENARIOS,
-    ScenarioScore,
-    calibrate_on_preset,
-    evaluate_scenario,
-)
+from app.eval.scenarios import PAPER_PERCENT, SCENARIOS, SCENARIO_CHOICES, calibrate_on_preset, evaluate_scenario
+from app.eval.scoring import ScenarioScore
 
 
 def _pct(x: float) -> str:

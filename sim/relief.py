@@ -23,7 +23,7 @@ import cv2
 import numpy as np
 
 if TYPE_CHECKING:
-    from sim.render import FaceTexture
+    from sim.face_textures import FaceTexture
 
 __all__ = ["relief", "turned_view", "turned_span"]
 

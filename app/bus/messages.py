@@ -166,7 +166,7 @@ class Topics:
                 rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
 
     def messages(self, record: dict[str, Any]) -> list[tuple[str, str | None, bytes]]:
-        """Every message of one result, given as its :func:`app.sinks.results_file.result_record`."""
+        """Every message of one result, given as its :meth:`app.result.Result.as_dict`."""
         t = self._t
         header = make_header(record["stamp_s"])
         people = [p for p in record["people"] if p["position_m"] is not None]

@@ -22,16 +22,14 @@ from app.eval.tables import (format_face_table, format_room_table, format_scenar
                              synthetic_json)
 from app.commands.paths import output_dir
 from app.eval.scenarios import (
-    INTERVAL_S,
-    ITD_TOLERANCE_S,
     PAPER_SCENARIOS,
-    SCENARIO_CHOICES,
     SCENARIOS,
+    SCENARIO_CHOICES,
     CalibrationFit,
-    ScenarioScore,
     calibrate_on_preset,
     evaluate_scenario,
 )
+from app.eval.scoring import INTERVAL_S, ITD_TOLERANCE_S, ScenarioScore
 from app.eval.rooms import METHODS as ROOM_METHODS, RoomScore, evaluate_room
 from avcore.geometry import MicArray, MicPair
 from sim.synthetic import SEQUENCES

@@ -18,7 +18,8 @@ import numpy as np
 
 from app.errors import UserError
 from app.plotting import BLACK, BLUE, FONT, GREEN, GREY, LIGHT, RED, nice_ticks
-from app.eval.scenarios import INTERVAL_S, Timeline
+from app.eval.counts import Timeline
+from app.eval.scoring import INTERVAL_S
 
 __all__ = ["draw_timeline", "save_timeline"]
 

@@ -4,15 +4,8 @@ from __future__ import annotations
 import math
 
 from app.pipeline import PipelineConfig
-from app.eval.scenarios import (
-    INTERVAL_S,
-    ITD_TOLERANCE_S,
-    PAPER_PERCENT,
-    PAPER_SCENARIOS,
-    TIMING_REFERENCE_S,
-    CalibrationFit,
-    ScenarioScore,
-)
+from app.eval.scenarios import PAPER_PERCENT, PAPER_SCENARIOS, CalibrationFit
+from app.eval.scoring import INTERVAL_S, ITD_TOLERANCE_S, TIMING_REFERENCE_S, ScenarioScore
 from app.eval.rooms import RoomScore
 from app.eval.synthetic import PAPER_AUDIO, PAPER_VISUAL, SequenceScore
 

@@ -14,7 +14,6 @@ from typing import Any
 from app.bus.messages import Topics
 from app.bus.ros2 import Convention, Endpoint, RosNode
 from app.queues import DropOldestQueue
-from app.sinks.results_file import result_record
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +43,7 @@ class ResultPublisher:
         """Hand one :class:`app.result.Result` over; never blocks."""
         if self._error is not None:
             raise RuntimeError(f"the bus publisher failed: {self._error}") from self._error
-        self._queue.put(result_record(result))
+        self._queue.put(result.as_dict())
 
     def _run(self) -> None:
         try:

@@ -33,59 +33,12 @@ Readers that want the people in view only keep those whose ``position_m`` is not
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import IO, Any
 
 from app.errors import UserError
 
-__all__ = ["ResultsWriter", "result_record"]
-
-
-def _num(x: Any) -> float | None:
-    x = float(x)
-    return x if math.isfinite(x) else None
-
-
-def _probability(p: Any, speaking: bool) -> float:
-    """``p`` to 4 decimals, still above 0.5 exactly when ``speaking`` (0.50003 would round to 0.5)."""
-    q = round(float(p), 4)
-    if speaking and q <= 0.5:
-        return 0.5001
-    if not speaking and q > 0.5:
-        return 0.5
-    return q
-
-
-def result_record(result: Any) -> dict[str, Any]:
-    """One :class:`app.result.Result` as the JSON-ready dict of the module's schema."""
-    people = []
-    for p in result.people:
-        person: dict[str, Any] = {
-            "id": p.id,
-            "position_m": [round(float(v), 4) for v in p.position_m],
-            "speaking": p.speaking,
-            "probability": _probability(p.probability, p.speaking),
-            "itd_mean_s": _num(p.itd_s[0]),  # the first pair's
-        }
-        if p.box_px is not None:
-            person["box_px"] = list(p.box_px)
-        if p.lip_activity is not None:
-            person["lip_activity"] = None if p.lip_activity != p.lip_activity else round(float(p.lip_activity), 4)
-        people.append(person)
-    for v in result.voices or ():  # a voice out of view: a person without a face or position
-        people.append({"id": v.id, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
-                       "azimuth_deg": round(math.degrees(v.azimuth_rad), 1),
-                       "elevation_deg": None if v.elevation_rad is None else round(math.degrees(v.elevation_rad), 1)})
-    record = {
-        "stamp_s": round(float(result.stamp_s), 6),
-        "index": int(result.index),
-        "mode": result.mode,
-        "n_itds": result.n_itds,
-        "latency_s": _num(result.latency_s),
-        "people": people,
-    }
-    return record
+__all__ = ["ResultsWriter"]
 
 
 class ResultsWriter:
@@ -108,7 +61,7 @@ class ResultsWriter:
     def write(self, result: Any) -> None:
         if self._file is None:
             raise ValueError(f"the results file {self.path} is closed")
-        self._file.write(json.dumps(result_record(result), separators=(",", ":")) + "\n")
+        self._file.write(json.dumps(result.as_dict(), separators=(",", ":")) + "\n")
         self._file.flush()
         self.written += 1
 

@@ -34,17 +34,13 @@ import numpy as np
 
 from app.errors import UserError
 from app.sources.replay import ReplayStream
-from sim.render import (
-    FaceTexture,
-    Person,
-    StereoSceneRenderer,
-)
+from sim.face_textures import FaceTexture, load_textures
+from sim.render import Person, StereoSceneRenderer
 from sim.audio import SimAudio, load_background, load_clip_bank, load_sentence_bank, render_audio
 from sim.body_truth import interval_times, labelled_point_means, visible_moving_centres
 from sim.depth import DepthRenderer
 from sim.mouths import MouthTracks
 from sim.rooms import ROOM_DURATION_S, make_room
-from sim.render import load_textures
 from sim.scenario import (
     ClipBank,
     FrameTruth,
@@ -86,7 +82,7 @@ class _FrameCache:
 
 def _with_mouths_located(textures: list[FaceTexture]) -> list[FaceTexture]:
     """Each face's mouth drawn (``drawn_mouth``) where the face mesh finds it in its texture (the median place of
-    :data:`sim.render.MOUTH_IN_FACE_BOX` without the mesh's model, or where the mesh finds no face), so that drawn
+    :data:`sim.face_textures.MOUTH_IN_FACE_BOX` without the mesh's model, or where the mesh finds no face), so that drawn
     lips replace the photographed ones in their place."""
     from app.models import facemesh_model  # the simulator itself knows no model files
     from avcore.facemesh import LIP_CORNERS, LIP_INNER_LOWER, LIP_INNER_UPPER, FaceMesh

@@ -1,4 +1,5 @@
-"""Interaural time differences (paper section 5.1): ``extract_itds`` (batch) and ``ItdStream`` (streaming).
+"""Interaural time differences (paper section 5.1): ``extract_itds`` (batch) and ``PairsItdStream`` (streaming, on
+every pair of a microphone array; one pair is an array of one pair, ``MicArray.from_pair``).
 
 Methods, one module each, registered by name in ``METHODS``:
 
@@ -16,7 +17,7 @@ Sign (docs/architecture.md): ITD = t_left - t_right, positive for a source on th
 from __future__ import annotations
 
 from ._base import ItdMethod
-from ._extract import METHODS, ItdStream, ItdTrack, extract_itds, geometry_options, gives_frame_itds, make_method
+from ._extract import METHODS, ItdTrack, extract_itds, geometry_options, gives_frame_itds, make_method
 from .correlogram import Correlogram
 from .gcc_phat import GccPhat
 from .pairs import FrameBins, PairsItdStream, join_pairs
@@ -28,7 +29,6 @@ __all__ = [
            "FrameBins",
            "GccPhat",
            "ItdMethod",
-           "ItdStream",
            "ItdTrack",
            "PairsItdStream",
            "RobustCorrelogram",

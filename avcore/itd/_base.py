@@ -56,7 +56,7 @@ class ItdMethod(ABC):
     """
 
     name: ClassVar[str] = ""
-    frame_based: ClassVar[bool] = False  # True: stateful, frame by frame, run through ItdStream
+    frame_based: ClassVar[bool] = False  # True: stateful, frame by frame, run through PairStream
 
     def __init__(self, samplerate_hz: float, window_len: int, max_itd_s: float) -> None:
         self.samplerate_hz = float(samplerate_hz)

@@ -1,4 +1,4 @@
-"""Windowing, the energy gate, the batch form ``extract_itds`` and the streaming form ``ItdStream``."""
+"""Windowing, the energy gate, the batch form ``extract_itds`` and the streaming form ``PairStream``."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -12,7 +12,7 @@ from .correlogram import Correlogram
 from .gcc_phat import GccPhat
 from .robust import FrameState, RobustCorrelogram, RobustGccPhat
 
-__all__ = ["METHODS", "ItdStream", "ItdTrack", "extract_itds", "geometry_options", "gives_frame_itds", "make_method"]
+__all__ = ["METHODS", "PairStream", "ItdTrack", "extract_itds", "geometry_options", "gives_frame_itds", "make_method"]
 
 METHODS: dict[str, type[ItdMethod]] = {
     cls.name: cls for cls in (Correlogram, GccPhat, RobustCorrelogram, RobustGccPhat)
@@ -33,7 +33,7 @@ def geometry_options(method: str, mic_distance_m: float, speed_of_sound: float) 
 
 
 def gives_frame_itds(method: str) -> bool:
-    """Whether ``ItdStream(method, frame_itds=True)`` can pass the single frames' ITDs and their bands' peaks."""
+    """Whether ``PairStream(method, frame_itds=True)`` can pass the single frames' ITDs and their bands' peaks."""
     return bool(getattr(METHODS.get(method), "frame_itds_capable", False))
 
 
@@ -237,7 +237,7 @@ def extract_itds(left: Any, right: Any, samplerate: float, method: str = "correl
                          f"window_s={window_s} s); give more audio or a shorter window")
     if impl.frame_based:
         # Stateful methods (noise floor): one pass through the streaming form, which bounds memory too.
-        stream = ItdStream(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s, min_confidence,
+        stream = PairStream(samplerate, method, window_s, hop_s, energy_threshold, max_itd_s, min_confidence,
                            **options)
         return stream.push(left_arr, right_arr)
     n_windows = 1 + (n - framing.window_len) // framing.hop_len
@@ -252,9 +252,10 @@ def extract_itds(left: Any, right: Any, samplerate: float, method: str = "correl
     return ItdTrack.concatenate(tracks)
 
 
-class ItdStream:
-    """Streaming form of :func:`extract_itds` for the ITD worker: feed blocks of any size, get ITDs as windows
-    complete.
+class PairStream:
+    """One pair's streaming form of :func:`extract_itds`: feed blocks of any size, get ITDs as windows complete. The
+    engine under :class:`avcore.itd.PairsItdStream` (the one stream the application uses, one of these per pair)
+    and under the batch form.
 
     The parameters are those of :func:`extract_itds`. Windows start at sample ``k * hop`` of the stream, as in the
     batch form. The plain methods process each window on its own (the gammatone filterbank acts on the window's
@@ -366,7 +367,7 @@ class ItdStream:
         """The ITDs of the single frames (32 ms every 10 ms for gcc-phat-robust) analysed since the last call, of
         the frames that pass the energy gate; ``times_s`` are frame centres. Needs ``frame_itds=True``."""
         if self._frame_itds is None:
-            raise RuntimeError("this ItdStream keeps no frame ITDs: create it with frame_itds=True")
+            raise RuntimeError("this PairStream keeps no frame ITDs: create it with frame_itds=True")
         out = ItdTrack.concatenate(self._frame_itds)
         self._frame_itds.clear()
         return out
@@ -376,7 +377,7 @@ class ItdStream:
         frames that pass the energy gate: one ITD per frame and band that has weight, ``times_s`` the frame's centre,
         ``confidence`` nan (a band's peak height is not kept). Needs ``frame_itds=True``."""
         if self._band_itds is None:
-            raise RuntimeError("this ItdStream keeps no frame ITDs: create it with frame_itds=True")
+            raise RuntimeError("this PairStream keeps no frame ITDs: create it with frame_itds=True")
         out = ItdTrack.concatenate(self._band_itds)
         self._band_itds.clear()
         return out
@@ -392,7 +393,7 @@ class ItdStream:
         cues, so a silent or diffuse bin weighs little). No energy gate: a bin's weight says how much it counts.
         Needs ``frame_bins=True``."""
         if self._frame_bins is None:
-            raise RuntimeError("this ItdStream keeps no frame bins: create it with frame_bins=True")
+            raise RuntimeError("this PairStream keeps no frame bins: create it with frame_bins=True")
         if not self._frame_bins:
             return np.zeros(0), np.zeros((0, self._impl.n_used), dtype=np.complex64)
         times = np.concatenate([t for t, _ in self._frame_bins])

@@ -1,4 +1,4 @@
-"""ITDs on every pair of a microphone array, streamed: one :class:`ItdStream` per pair, their windows joined into
+"""ITDs on every pair of a microphone array, streamed: one :class:`PairStream` per pair, their windows joined into
 vectors. A single microphone pair is an array of one pair (``MicArray.from_pair``).
 
 Every pair's stream cuts the same windows (sample ``k * hop`` of the stream) and frames, so a window's ITDs on the
@@ -16,7 +16,7 @@ import numpy as np
 
 from avcore.geometry import MicArray
 
-from ._extract import ItdStream, ItdTrack, geometry_options
+from ._extract import ItdTrack, PairStream, geometry_options
 
 __all__ = ["FrameBins", "PairsItdStream", "join_pairs"]
 
@@ -24,7 +24,7 @@ __all__ = ["FrameBins", "PairsItdStream", "join_pairs"]
 @dataclass(frozen=True)
 class FrameBins:
     """Frames' time-frequency bins on every pair of an array: ``times_s`` (m,) the frame centres, ``bins``
-    (m, P, B) complex64 the weighted phase transforms (:meth:`ItdStream.pop_frame_bins`), ``freqs_hz`` (B,)."""
+    (m, P, B) complex64 the weighted phase transforms (:meth:`PairStream.pop_frame_bins`), ``freqs_hz`` (B,)."""
 
     times_s: np.ndarray
     bins: np.ndarray
@@ -66,11 +66,11 @@ def _one_pair_rows(tracks: list[ItdTrack]) -> tuple[np.ndarray, np.ndarray]:
 
 
 class PairsItdStream:
-    """:class:`ItdStream` on every pair of ``array``: ``push(block)`` takes ``(n, C)`` samples of all channels
+    """:class:`PairStream` on every pair of ``array``: ``push(block)`` takes ``(n, C)`` samples of all channels
     (``array.channels`` name each microphone's) and returns the completed windows as ``(times (K,), itds (K, P))``;
     ``pop_frame_itds`` and ``pop_band_itds`` likewise for the single frames and their bands (with
     ``frame_itds=True``; the bands of the first pair only, unless ``all_bands``), ``pop_frame_bins`` the frames'
-    bins on every pair (with ``frame_bins=True``). Options are :class:`ItdStream`'s;
+    bins on every pair (with ``frame_bins=True``). Options are :class:`PairStream`'s;
     each pair gets its own geometry (its distance for the robust methods' diffuse-field model, its ``max_itd_s``
     scaled by ``max_itd_scale``)."""
 
@@ -84,7 +84,7 @@ class PairsItdStream:
         for p in range(array.n_pairs):
             pair = array.pair(p)
             extra = geometry_options(method, pair.distance_m, pair.speed_of_sound)
-            self._streams.append(ItdStream(samplerate, method=method, max_itd_s=max_itd_scale * pair.max_itd_s,
+            self._streams.append(PairStream(samplerate, method=method, max_itd_s=max_itd_scale * pair.max_itd_s,
                                            frame_itds=frame_itds, frame_bins=frame_bins, **options, **extra))
 
     @property
@@ -111,7 +111,7 @@ class PairsItdStream:
 
     def pop_frame_bins(self) -> FrameBins:
         """The frames analysed since the last call, every pair's bins at once (with ``frame_bins=True``;
-        :meth:`ItdStream.pop_frame_bins`). One frame's bins on every pair are one moment of sound, the input of
+        :meth:`PairStream.pop_frame_bins`). One frame's bins on every pair are one moment of sound, the input of
         :func:`avcore.speaking.bin_shares`."""
         popped = [s.pop_frame_bins() for s in self._streams]
         return FrameBins(popped[0][0], np.stack([b for _, b in popped], axis=1), self.bin_freqs_hz)

@@ -10,7 +10,7 @@ options that set it: docs/method.md ("ITD extraction"); how each was chosen: doc
 extractors").
 
 The noise floor, the previous frame, the coherence averages and the dereverberation's past frames and filters are
-state carried from frame to frame: these methods run in streaming form (``ItdStream``), and ``extract_itds`` feeds
+state carried from frame to frame: these methods run in streaming form (``PairStream``), and ``extract_itds`` feeds
 the whole signal through a stream, so both forms agree by construction.
 """
 from __future__ import annotations
@@ -168,10 +168,10 @@ class FrameMethod(ItdMethod):
         return 2 * self.frame_len
 
     def weighted_cross_spectrum(self, spec_left, spec_right):
-        raise NotImplementedError("frame methods run through ItdStream; use frame_terms and finish_window")
+        raise NotImplementedError("frame methods run through PairStream; use frame_terms and finish_window")
 
     def estimate(self, left, right):
-        raise NotImplementedError("frame methods run through ItdStream (extract_itds does that for you)")
+        raise NotImplementedError("frame methods run through PairStream (extract_itds does that for you)")
 
     # -- per frame ---------------------------------------------------------------------------------------------
     def frame_terms(self, frames_left: np.ndarray, frames_right: np.ndarray, state: FrameState
@@ -323,11 +323,11 @@ class RobustGccPhat(FrameMethod):
 
     Extra parameter ``band_edges_hz`` ((800, 1600, 2600)): with ``frame_corr_power`` > 0 each frame's correlation is
     the sum of the correlations of the bands these edges cut the spectrum into, and each band's own peak is also
-    kept (``frame_band_itds``, on the lag grid) when ``keep_band_peaks`` is set (by ``ItdStream(frame_itds=True)``):
+    kept (``frame_band_itds``, on the lag grid) when ``keep_band_peaks`` is set (by ``PairStream(frame_itds=True)``):
     where two people talk at once, a band may belong to the quieter one (:class:`avcore.speaking.SpeakingTest`,
     ``band_itds``). The sum is the same product cut in pieces: no extra cost but the bands' peaks.
 
-    ``keep_bins`` (set by ``ItdStream(frame_bins=True)``): each frame's weighted phase transform itself, one phasor
+    ``keep_bins`` (set by ``PairStream(frame_bins=True)``): each frame's weighted phase transform itself, one phasor
     ``w(f) exp(i phi(f))`` per bin (``frame_bins``, complex64), for the speaking test's look at the bins of every
     pair at once (:func:`avcore.speaking.bin_shares`).
     """

@@ -210,7 +210,7 @@ def test_person_colours_are_stable_per_id() -> None:
 
 def test_arrow_fast_paths_equal_rerun_conversions() -> None:
     """The console hands strips and bar counts to Rerun as ready Arrow arrays: the same arrays Rerun would build."""
-    from app.console import _CountsTensor, _strips_2d
+    from app.console.console import _CountsTensor, _strips_2d
 
     rng = np.random.default_rng(5)
     strips = [rng.normal(size=(64, 2)), np.zeros((0, 2)), rng.normal(size=(3, 2))]
@@ -612,14 +612,14 @@ def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict
     assert labels[0] == f"mics {array.pairs[0][0]}-{array.pairs[0][1]}: 20 ITDs" and labels[3].endswith(": 15 ITDs")
     # each row on the ITD pane's scale: its bars rise from the row's line, at most a row high (clipped as there),
     # and the talker's peak fills most of it; the labels sit at the rows' left ends, half a row up
-    from app.console import _PAIR_ROW
+    from app.console.entities import PAIR_ROW
 
     for k, strip in enumerate(strips[-1]):
         ys = np.array(strip)[:, 1]
-        assert ys.max() == pytest.approx(k * _PAIR_ROW) and ys.min() >= k * _PAIR_ROW - _PAIR_ROW - 1e-6
-    assert np.array(strips[-1][0])[:, 1].min() < -0.5 * _PAIR_ROW
+        assert ys.max() == pytest.approx(k * PAIR_ROW) and ys.min() >= k * PAIR_ROW - PAIR_ROW - 1e-6
+    assert np.array(strips[-1][0])[:, 1].min() < -0.5 * PAIR_ROW
     corners = np.array(rrd.values("/itd_pairs/labels", "Points2D:positions")[-1])
-    np.testing.assert_allclose(corners[:, 1], np.arange(array.n_pairs) * _PAIR_ROW - 0.5 * _PAIR_ROW)
+    np.testing.assert_allclose(corners[:, 1], np.arange(array.n_pairs) * PAIR_ROW - 0.5 * PAIR_ROW)
     dots = np.array(rrd.values("/itd_pairs/people", "Points2D:positions")[-1])
     mapped = array.itd(recorded_pairs["xyz"]) * 1e6  # (N, P): one dot per person and pair, at its ITD
     np.testing.assert_allclose(np.sort(dots[:, 0]), np.sort(mapped.T.reshape(-1)), atol=1e-6)
@@ -732,7 +732,7 @@ def test_the_itd_pane_keeps_its_scale(recorded: dict, scene: dict, tmp_path: Pat
     """A bin holding a fifth of the ITDs reaches the top of the scale; what rises higher (one ITD in the interval:
     a whole bin) is drawn at 1.25 times the top, so one full bin cannot squash the pane; the axis is labelled every
     200 us so that its labels do not overlap."""
-    from app.console import ITD_CLIP, ITD_TOP
+    from app.console.entities import ITD_CLIP, ITD_TOP
 
     path = tmp_path / "one_itd.rrd"
     rec = rr.RecordingStream("avhear-test")
@@ -752,7 +752,7 @@ def test_the_itd_pane_keeps_its_scale(recorded: dict, scene: dict, tmp_path: Pat
 def test_an_rgbd_cameras_depth_goes_to_the_3d_view(scene: dict, tmp_path: Path) -> None:
     """An RGB-D frame's depth is logged (millimetres, meter = 1000) under the left camera every DEPTH_EVERY frames,
     where the 3D view draws it as a point cloud; the left image's 2D view leaves it out."""
-    from app.console import DEPTH, DEPTH_EVERY
+    from app.console.entities import DEPTH, DEPTH_EVERY
 
     path = tmp_path / "rgbd.rrd"
     rec = rr.RecordingStream(APPLICATION_ID)

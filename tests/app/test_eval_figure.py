@@ -13,7 +13,7 @@ from app.errors import UserError
 from app.eval.figure import draw_timeline, save_timeline
 from app.pipeline import PipelineConfig
 from app.plotting import GREEN, RED
-from app.eval.scenarios import score_run
+from app.eval.scoring import score_run
 from sim.scenario import make_scenario
 
 FPS = 30.0

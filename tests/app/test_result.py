@@ -46,7 +46,7 @@ def test_one_results_line_holds_the_results_values(tmp_path) -> None:  # noqa: A
     0.1 mm, probabilities to 1e-4), written compactly, counted, and refused once the file is closed."""
     import json
 
-    from app.sinks.results_file import ResultsWriter, result_record
+    from app.sinks.results_file import ResultsWriter
 
     out = SimpleNamespace(speaking=np.array([True, False]), probability=np.array([0.83337, 0.2]),
                           itd_means=np.array([-1.2e-4, 2.5e-4]), pair_itd_means=None)
@@ -54,7 +54,7 @@ def test_one_results_line_holds_the_results_values(tmp_path) -> None:  # noqa: A
                     boxes=np.array([[10.4, 20.0, 30.0, 30.0], [50, 60, 20, 20]]),
                     xyz=np.array([[-0.51234, 0.0, 2.0], [0.6, -0.1, 2.4]]), itds_s=np.zeros(7), output=out,
                     latency_s=float("nan"), person_ids=np.array([7, 3]))
-    record = result_record(result)
+    record = result.as_dict()
     assert record["stamp_s"] == 12.345679 and record["index"] == 370 and record["mode"] == "face"
     assert record["n_itds"] == 7 and record["latency_s"] is None
     first = record["people"][0]
@@ -79,7 +79,6 @@ def test_one_results_line_holds_the_results_values(tmp_path) -> None:  # noqa: A
 def test_the_lips_activity_on_the_line_to_1e_4_and_null_without_an_opinion() -> None:
     from dataclasses import replace
 
-    from app.sinks.results_file import result_record
 
     out = SimpleNamespace(speaking=np.array([True, False]), probability=np.array([0.9, 0.2]),
                           itd_means=np.array([-1.2e-4, 2.5e-4]), pair_itd_means=None)
@@ -87,16 +86,15 @@ def test_the_lips_activity_on_the_line_to_1e_4_and_null_without_an_opinion() -> 
                     boxes=np.array([[10, 20, 30, 30], [50, 60, 20, 20]]), xyz=np.array([[-0.5, 0, 2], [0.6, 0, 2.4]]),
                     itds_s=np.zeros(4), output=out, latency_s=0.1, person_ids=np.array([7, 3]),
                     lip_activity=np.array([0.0123456, np.nan]))
-    first, second = result_record(result)["people"]
+    first, second = result.as_dict()["people"]
     assert first["lip_activity"] == 0.0123 and second["lip_activity"] is None and "lip_activity" in second
-    assert "lip_activity" not in result_record(replace(result, lip_activity=None))["people"][0]  # lips not read
+    assert "lip_activity" not in replace(result, lip_activity=None).as_dict()["people"][0]  # lips not read
 
 
 def test_a_voice_out_of_view_is_a_person_of_the_line_without_a_face_or_position() -> None:
     """A voice out of view follows the people in view on the results line: its id, speaking, its direction in
     degrees to 0.1, and null where it has nothing (position, probability, mean ITD; elevation with a flat array)."""
     from app.hearing import Voice
-    from app.sinks.results_file import result_record
 
     out = SimpleNamespace(speaking=np.array([True, False]), probability=np.array([0.9, 0.2]),
                           itd_means=np.array([-1.2e-4, 2.5e-4]), pair_itd_means=None)
@@ -104,7 +102,7 @@ def test_a_voice_out_of_view_is_a_person_of_the_line_without_a_face_or_position(
                     boxes=np.array([[10, 20, 30, 30], [50, 60, 20, 20]]), xyz=np.array([[-0.5, 0, 2], [0.6, 0, 2.4]]),
                     itds_s=np.zeros((4, 6)), output=out, latency_s=0.1, person_ids=np.array([7, 3]),
                     voices=(Voice(9, np.radians(-53.04), None), Voice(11, np.radians(80.26), np.radians(12.26))))
-    people = result_record(result)["people"]
+    people = result.as_dict()["people"]
     assert [p["id"] for p in people] == [7, 3, 9, 11] and len(result.people) == 2  # the API's people are in view
     assert people[2] == {"id": 9, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
                          "azimuth_deg": -53.0, "elevation_deg": None}

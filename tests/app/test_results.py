@@ -10,7 +10,6 @@ import pytest
 
 from app.cli import main
 from app.result import Result
-from app.sinks.results_file import result_record
 
 
 def _result(*, probability: list[float], speaking: list[bool], xyz: list[list[float]] | None = None,
@@ -98,7 +97,7 @@ def test_a_recording_gives_the_same_results_in_real_time_and_as_fast_as_possible
 def test_the_written_probability_is_above_one_half_exactly_when_speaking(probability: float, speaking: bool) -> None:
     """Rounding to 4 decimals must not break the schema's promise (0.50003 would be written as 0.5)."""
     result = _result(probability=[probability], speaking=[speaking])
-    person = result_record(result)["people"][0]
+    person = result.as_dict()["people"][0]
     assert person["speaking"] is speaking
     assert (person["probability"] > 0.5) == speaking
     assert person["probability"] == pytest.approx(probability, abs=2e-4)

@@ -16,14 +16,8 @@ import pytest
 from app.cli import main
 from app.pipeline import PipelineConfig
 from app.result import Result
-from app.eval.scenarios import (
-    speech_line,
-    INTERVAL_S,
-    PAPER_SCENARIOS,
-    ScenarioScore,
-    calibrate_on_preset,
-    score_run,
-)
+from app.eval.scenarios import PAPER_SCENARIOS, calibrate_on_preset
+from app.eval.scoring import INTERVAL_S, ScenarioScore, score_run, speech_line
 from app.sources.sim import load_clip_bank
 from sim.scenario import FrameTruth, Scenario, make_scenario
 
@@ -397,7 +391,7 @@ def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.M
 def test_identity_scores_as_the_mot_literature_defines_them() -> None:
     """Person 0 is tracked as id 7 then as id 8 (one switch); person 1 as id 9, missed in the last result, where a
     false person appears. The best map (0 -> 7 or 8, 1 -> 9) agrees in 5 matches: IDF1 = 10 / (10 + 4 + 3)."""
-    from app.eval.scenarios import identity_counts
+    from app.eval.counts import identity_counts
 
     matches = [[(0, 7), (1, 9)], [(0, 7), (1, 9)], [(0, 8), (1, 9)], [(0, 8)]]
     got = identity_counts(matches, n_true=[2, 2, 2, 2], n_found=[2, 2, 2, 3])
@@ -414,7 +408,7 @@ def test_voices_out_of_view_are_scored_against_the_unseen_talkers_azimuth() -> N
     import math
     from types import SimpleNamespace
 
-    from app.eval.scenarios import voice_counts
+    from app.eval.scoring import voice_counts
 
     scenario = make_scenario("S4", clip_durations_s=[[0.6] * 10] * 3, seed=0)
     first = next(e for e in scenario.events if e.kind == "speech" and e.actor == 0)
@@ -443,7 +437,8 @@ def test_voices_out_of_view_are_scored_against_the_unseen_talkers_azimuth() -> N
     counts = voice_counts(scenario, runs)
     assert (counts.quiet, counts.false, counts.false_stretches) == (5, 4, 3)
     assert counts.add(counts).false_stretches == 6
-    from app.eval.scenarios import ScenarioScore, UtteranceCounts
+    from app.eval.counts import UtteranceCounts
+    from app.eval.scoring import ScenarioScore
 
     score = ScenarioScore("S4", "face", [0], 20.0, utterances=UtteranceCounts(tp=50, fn=10), voices=counts)
     assert score.as_dict()["voices_out_of_view"]["false_voice_stretches_per_spoken_number"] == pytest.approx(3 / 60)
@@ -475,7 +470,7 @@ def test_one_person_moving_at_both_sides_of_the_body_is_one_person_with_one_id()
 def test_the_lips_alone_are_scored_as_a_speaking_detector() -> None:
     """AUC by hand: talker 0.02 is above two of the three opinions of the others and level with one (2.5), 0.03 above
     all three (3): 5.5 of 6; a NaN is no opinion; moving = at or above the veto's threshold."""
-    from app.eval.scenarios import LipCue
+    from app.eval.counts import LipCue
 
     cue = LipCue(0.012, [0.02, 0.03, math.nan], [0.001, 0.02, math.nan, 0.005])
     v = cue.as_dict()

@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 
 from avcore.gammatone import erb_space_hz, gammatone_power_response
 from avcore.geometry import MicPair
-from avcore.itd import METHODS, ItdStream, ItdTrack, extract_itds, make_method
+from avcore.itd import METHODS, ItdTrack, extract_itds, make_method
+from avcore.itd._extract import PairStream
 
 ALL_METHODS = ["correlogram", "gcc-phat", "correlogram-robust", "gcc-phat-robust"]
 
@@ -46,7 +47,7 @@ def test_public_signature_and_paper_defaults():
 def test_every_form_has_the_same_defaults() -> None:
     whole = inspect.signature(extract_itds).parameters
     shared = ["method", "window_s", "hop_s", "energy_threshold", "max_itd_s", "min_confidence"]
-    for form in (make_method, ItdStream.__init__):
+    for form in (make_method, PairStream.__init__):
         params = inspect.signature(form).parameters
         assert [params[name].default for name in shared] == [whole[name].default for name in shared], form
 
@@ -164,7 +165,7 @@ def test_streaming_equals_batch(method):
     left, right = delayed_pair(-4.2, fs, seconds=1.5, seed=5)
     left[: fs // 3] *= 0.05  # a quiet stretch: the energy gate skips windows in both forms
     batch = extract_itds(left, right, fs, method=method)
-    stream = ItdStream(fs, method=method)
+    stream = PairStream(fs, method=method)
     rng = np.random.default_rng(1)
     parts, i = [], 0
     while i < len(left):
@@ -181,7 +182,7 @@ def test_streaming_equals_batch(method):
 def test_stream_push_stereo_block():
     fs = 16000
     left, right = delayed_pair(2.0, fs, seconds=0.5)
-    stream = ItdStream(fs, method="gcc-phat")
+    stream = PairStream(fs, method="gcc-phat")
     track = stream.push_stereo(np.stack([left, right], axis=1))
     np.testing.assert_allclose(track.itds_s * fs, 2.0, atol=0.1)
     with pytest.raises(ValueError, match=r"shape \(n, 2\)"):
@@ -195,7 +196,7 @@ def test_nan_and_inf_are_errors(bad, match):
     with pytest.raises(ValueError, match=match):
         extract_itds(left, right, 16000)
     with pytest.raises(ValueError, match=match):
-        ItdStream(16000).push(left, right)
+        PairStream(16000).push(left, right)
 
 
 def test_bad_inputs_are_clear_errors():
@@ -226,7 +227,7 @@ def test_a_signal_of_exactly_one_window_gives_its_itd_at_once(method: str) -> No
     # 0.15 s at 16 kHz is 2400 samples: exactly one window, in the whole-signal form and in the push that brings it.
     left, right = delayed_pair(3.0, 16000, seconds=0.15)
     whole = extract_itds(left, right, 16000, method=method)
-    pushed = ItdStream(16000, method=method).push(left, right)
+    pushed = PairStream(16000, method=method).push(left, right)
     for track in (whole, pushed):
         assert track.times_s.tolist() == [0.075]
         assert track.itds_s[0] == pytest.approx(3.0 / 16000, abs=0.2 / 16000)
@@ -237,7 +238,7 @@ def test_unequal_channels_are_named_in_full() -> None:
     with pytest.raises(ValueError, match=r"^left and right must have the same length, got 4800 and 4799 samples$"):
         extract_itds(left, right[:-1], 16000)
     with pytest.raises(ValueError, match=r"^left and right blocks must have the same length, got 10 and 9 samples$"):
-        ItdStream(16000).push(left[:10], right[:9])
+        PairStream(16000).push(left[:10], right[:9])
 
 
 def test_samples_of_any_real_dtype_are_read_as_float_and_others_are_named_in_full() -> None:
@@ -253,7 +254,7 @@ def test_samples_of_any_real_dtype_are_read_as_float_and_others_are_named_in_ful
     with pytest.raises(TypeError, match=r"^right must hold real samples, got dtype <U1$"):
         extract_itds(left, np.array(["a"] * right.size), 16000)
     with pytest.raises(ValueError, match=r"^left must be a 1-D array of samples, got shape \(1, 4800\)$"):
-        ItdStream(16000).push(left[None], right)
+        PairStream(16000).push(left[None], right)
     left[[5, 9]] = [np.nan, -np.inf]
     with pytest.raises(ValueError, match=r"^left holds 2 NaN or infinite sample\(s\); clean the audio before "):
         extract_itds(left, right, 16000)
@@ -286,7 +287,7 @@ def test_a_window_at_exactly_the_least_confidence_is_kept() -> None:
 def test_frame_results_of_a_method_without_frames_are_named_in_full(asked: str) -> None:
     with pytest.raises(ValueError, match=rf"^{asked} needs the per-frame correlations of 'gcc-phat-robust' "
                                          rf"\(frame_corr_power > 0\); method 'gcc-phat' has none: pass {asked}=False$"):
-        ItdStream(16000, method="gcc-phat", **{asked: True})
+        PairStream(16000, method="gcc-phat", **{asked: True})
 
 
 def test_lag_search_is_limited_to_max_itd():
@@ -348,8 +349,8 @@ def test_lag_search_by_matrix_product_equals_the_inverse_fft(method):
     rng = np.random.default_rng(7)
     left, right = rng.standard_normal((2, fs)) * 0.1  # independent channels: a peak anywhere, ties unlikely
     left += np.roll(right, 3)
-    fast = ItdStream(fs, method=method)
-    slow = ItdStream(fs, method=method)
+    fast = PairStream(fs, method=method)
+    slow = PairStream(fs, method=method)
     slow._impl._lag_table = None  # force the inverse-FFT search
     a, b = fast.push(left, right), slow.push(left, right)
     assert len(a) == len(b) > 0
@@ -483,7 +484,7 @@ def test_dereverberation_survives_digital_silence_and_near_silence():
     last = batch.times_s > (len(left) - len(b_l) + 0.15 * fs) / fs  # windows wholly in the last stretch
     assert np.count_nonzero(last) >= 20
     np.testing.assert_allclose(batch.itds_s[last] * fs, -1.5, atol=0.1)
-    stream = ItdStream(fs, method="gcc-phat-robust")
+    stream = PairStream(fs, method="gcc-phat-robust")
     streamed = ItdTrack.concatenate([stream.push(left[i:i + 160], right[i:i + 160])
                                      for i in range(0, len(left), 160)])
     np.testing.assert_allclose(streamed.itds_s, batch.itds_s, rtol=0, atol=1e-12)
@@ -515,7 +516,7 @@ def test_frame_itds_of_the_robust_stream():
     left, right = delayed_pair(3.0, fs, seconds=1.0, seed=2)
     left[: fs // 4] = 0.0
     right[: fs // 4] = 0.0  # a silent start: no frame ITD there
-    whole = ItdStream(fs, method="gcc-phat-robust", frame_itds=True)
+    whole = PairStream(fs, method="gcc-phat-robust", frame_itds=True)
     whole.push(left, right)
     frames = whole.pop_frame_itds()
     assert len(whole.pop_frame_itds()) == 0  # popped once
@@ -524,7 +525,7 @@ def test_frame_itds_of_the_robust_stream():
     assert len(frames) > 60
     assert np.median(np.abs(frames.itds_s - 3.0 / fs)) < 10e-6
     assert np.all((frames.confidence > 0) & (frames.confidence <= 1))
-    pieces = ItdStream(fs, method="gcc-phat-robust", frame_itds=True)
+    pieces = PairStream(fs, method="gcc-phat-robust", frame_itds=True)
     parts = []
     for i in range(0, len(left), 333):
         pieces.push(left[i:i + 333], right[i:i + 333])
@@ -533,11 +534,11 @@ def test_frame_itds_of_the_robust_stream():
     np.testing.assert_array_equal(streamed.times_s, frames.times_s)
     np.testing.assert_allclose(streamed.itds_s, frames.itds_s, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="frame_itds"):
-        ItdStream(fs, method="gcc-phat", frame_itds=True)
+        PairStream(fs, method="gcc-phat", frame_itds=True)
     with pytest.raises(ValueError, match="frame_itds"):
-        ItdStream(fs, method="gcc-phat-robust", frame_itds=True, frame_corr_power=0)
+        PairStream(fs, method="gcc-phat-robust", frame_itds=True, frame_corr_power=0)
     with pytest.raises(RuntimeError, match="frame_itds=True"):
-        ItdStream(fs, method="gcc-phat-robust").pop_frame_itds()
+        PairStream(fs, method="gcc-phat-robust").pop_frame_itds()
 
 
 def test_band_itds_of_the_robust_stream():
@@ -548,26 +549,26 @@ def test_band_itds_of_the_robust_stream():
     left, right = delayed_pair(3.0, fs, seconds=1.0, seed=2)
     left[: fs // 4] = 0.0
     right[: fs // 4] = 0.0
-    stream = ItdStream(fs, method="gcc-phat-robust", frame_itds=True)
+    stream = PairStream(fs, method="gcc-phat-robust", frame_itds=True)
     windows = stream.push(left, right)
     frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
     assert len(stream.pop_band_itds()) == 0  # popped once
     assert len(frames) < len(bands) <= 4 * len(frames)
     assert set(np.round(bands.times_s, 6)) <= set(np.round(frames.times_s, 6))
     assert np.median(np.abs(bands.itds_s - 3.0 / fs)) < 16e-6  # within a step of the 1/4-sample grid
-    one_band = ItdStream(fs, method="gcc-phat-robust", frame_itds=True, band_edges_hz=())
+    one_band = PairStream(fs, method="gcc-phat-robust", frame_itds=True, band_edges_hz=())
     uncut = one_band.push(left, right)
     np.testing.assert_allclose(uncut.itds_s, windows.itds_s, rtol=0, atol=1e-9)
     assert len(one_band.pop_band_itds()) == len(one_band.pop_frame_itds())  # one band: one peak per frame
     with pytest.raises(ValueError, match="band_edges_hz"):
-        ItdStream(fs, method="gcc-phat-robust", band_edges_hz=(1600.0, 800.0))
+        PairStream(fs, method="gcc-phat-robust", band_edges_hz=(1600.0, 800.0))
     with pytest.raises(RuntimeError, match="frame_itds=True"):
-        ItdStream(fs, method="gcc-phat-robust").pop_band_itds()
+        PairStream(fs, method="gcc-phat-robust").pop_band_itds()
 
 
 def test_band_peaks_carry_no_height() -> None:
     left, right = delayed_pair(3.0, 16000, seconds=0.5, seed=2)
-    stream = ItdStream(16000, method="gcc-phat-robust", frame_itds=True)
+    stream = PairStream(16000, method="gcc-phat-robust", frame_itds=True)
     stream.push(left, right)
     bands = stream.pop_band_itds()
     assert len(bands) > 0 and bands.confidence.dtype == np.float64 and np.isnan(bands.confidence).all()
@@ -576,7 +577,7 @@ def test_band_peaks_carry_no_height() -> None:
 def test_a_robust_stream_analyses_each_frame_in_the_push_that_completes_it() -> None:
     # gcc-phat-robust at 16 kHz: 512-sample frames every 160 samples; a push of exactly one frame analyses it.
     left, right = delayed_pair(3.0, 16000, seconds=0.5, seed=2)
-    stream = ItdStream(16000, method="gcc-phat-robust", frame_itds=True, frame_bins=True)
+    stream = PairStream(16000, method="gcc-phat-robust", frame_itds=True, frame_bins=True)
     assert len(stream.push(left[:512], right[:512])) == 0  # no window yet
     assert stream.pop_frame_itds().times_s.tolist() == [0.016]
     assert stream.pop_frame_bins()[0].tolist() == [0.016]
@@ -589,7 +590,7 @@ def test_a_robust_stream_finishes_no_window_before_its_last_sample() -> None:
     # the next sample gives the second; both as the whole-signal extraction gives them.
     left, right = delayed_pair(3.0, 16000, seconds=0.5, seed=2)
     whole = extract_itds(left, right, 16000, method="gcc-phat-robust")
-    stream = ItdStream(16000, method="gcc-phat-robust")
+    stream = PairStream(16000, method="gcc-phat-robust")
     first = stream.push(left[:2719], right[:2719])
     second = stream.push(left[2719:2720], right[2719:2720])
     assert first.times_s.tolist() == [0.075] and second.times_s.tolist() == [0.095]
@@ -597,10 +598,10 @@ def test_a_robust_stream_finishes_no_window_before_its_last_sample() -> None:
 
 
 def test_pairs_stream_gives_every_pairs_itd_of_one_window_as_one_vector() -> None:
-    """Four microphones hearing one noise source: each pair's ITDs equal those of its own ItdStream, joined by
+    """Four microphones hearing one noise source: each pair's ITDs equal those of its own PairStream, joined by
     window into (K, P) vectors, and they match the array's geometry."""
     from avcore.geometry import MicArray
-    from avcore.itd import ItdStream, PairsItdStream
+    from avcore.itd import PairsItdStream
 
     fs = 16000
     array = MicArray(((-0.06, 0.0, 0.0), (0.06, 0.0, 0.0), (0.0, 0.0, 0.05), (0.0, 0.0, -0.05)),
@@ -619,7 +620,7 @@ def test_pairs_stream_gives_every_pairs_itd_of_one_window_as_one_vector() -> Non
     vectors = np.concatenate([p[1] for p in parts])
     assert vectors.shape == (times.size, 3) and times.size > 30
     for k, (i, j) in enumerate(array.pairs):
-        single = ItdStream(fs, method="gcc-phat", max_itd_s=1.2 * array.pair(k).max_itd_s)
+        single = PairStream(fs, method="gcc-phat", max_itd_s=1.2 * array.pair(k).max_itd_s)
         track = [single.push(channels[a:a + 512, i], channels[a:a + 512, j]) for a in range(0, channels.shape[0], 512)]
         np.testing.assert_array_equal(vectors[:, k], np.concatenate([t.itds_s for t in track]))
     np.testing.assert_allclose(np.median(vectors, axis=0), array.itd(source), atol=1.5 / fs)
@@ -749,7 +750,7 @@ def test_a_stream_with_silent_gaps_gives_the_batch_extractions_itds(method: str)
     assert 0 < len(whole) < 1 + (left.size - int(0.15 * fs)) // int(0.02 * fs)  # some windows gated out
     assert np.median(whole.itds_s) == pytest.approx(-3 / fs, abs=0.5 / fs)
     for block in (2500, left.size):  # blocks of a few windows each, and all at once
-        stream = ItdStream(fs, method=method)
+        stream = PairStream(fs, method=method)
         streamed = ItdTrack.concatenate([stream.push(left[i:i + block], right[i:i + block])
                                          for i in range(0, left.size, block)])
         np.testing.assert_allclose(streamed.times_s, whole.times_s, rtol=0, atol=1e-12)
@@ -789,13 +790,13 @@ def test_the_robust_methods_apply_the_confidence_floor_too() -> None:
 def test_what_a_stream_does_not_keep_is_named_and_an_empty_bins_pop_has_their_width() -> None:
     from avcore.itd._extract import geometry_options, gives_frame_itds
 
-    plain = ItdStream(16000, method="gcc-phat")
+    plain = PairStream(16000, method="gcc-phat")
     for pop in (plain.pop_frame_itds, plain.pop_band_itds):
-        with pytest.raises(RuntimeError, match="^this ItdStream keeps no frame ITDs: create it with frame_itds=True$"):
+        with pytest.raises(RuntimeError, match="^this PairStream keeps no frame ITDs: create it with frame_itds=True$"):
             pop()
-    with pytest.raises(RuntimeError, match="^this ItdStream keeps no frame bins: create it with frame_bins=True$"):
+    with pytest.raises(RuntimeError, match="^this PairStream keeps no frame bins: create it with frame_bins=True$"):
         plain.pop_frame_bins()
-    robust = ItdStream(16000, method="gcc-phat-robust", frame_bins=True)
+    robust = PairStream(16000, method="gcc-phat-robust", frame_bins=True)
     times, bins = robust.pop_frame_bins()
     assert times.shape == (0,) and bins.shape == (0, robust.bin_freqs_hz.size) and bins.dtype == np.complex64
     assert gives_frame_itds("gcc-phat-robust") and not gives_frame_itds("nope")

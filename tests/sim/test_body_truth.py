@@ -8,7 +8,8 @@ import pytest
 
 from avcore.stereo import StereoRig
 from sim.body_truth import interval_times, visible_moving_centres
-from sim.render import Person, drawn_face_texture
+from sim.face_textures import drawn_face_texture
+from sim.render import Person
 
 RIG = StereoRig.ideal(554.0, (640, 480), 0.12)
 TIMES = interval_times(1.0, 0.4)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from sim.mouths import HOP_S, MouthTracks
-from sim.render import MOUTH_MAX_GAP, drawn_face_texture, mouthless, skin_of
+from sim.face_textures import MOUTH_MAX_GAP, drawn_face_texture, mouthless, skin_of
 from sim.scenario import Actor, Path3D, Scenario, SoundEvent, synthetic_clip_bank
 
 
@@ -97,7 +97,7 @@ def test_the_face_mesh_follows_the_drawn_mouth_on_every_photographed_face() -> N
     from app.models import facemesh_model
     from app.sources.sim import _with_mouths_located
     from avcore.facemesh import FaceMesh, mouth_opening
-    from sim.render import load_textures
+    from sim.face_textures import load_textures
 
     try:
         mesh = FaceMesh(facemesh_model())
@@ -190,7 +190,8 @@ def test_a_hand_hides_the_mouth_and_a_turned_head_narrows_the_face() -> None:
 
     from avcore.stereo import StereoRig
     from sim.relief import turned_span
-    from sim.render import Person, StereoSceneRenderer, hand_over_mouth
+    from sim.face_textures import hand_over_mouth
+    from sim.render import Person, StereoSceneRenderer
 
     face = replace(drawn_face_texture(), drawn_mouth=True)
     opened = face.with_mouth(1.0)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sim.relief import CENTRE_DEPTH, relief, turned_span, turned_view
-from sim.render import FaceTexture
+from sim.face_textures import FaceTexture
 
 
 def _marked_face() -> FaceTexture:
@@ -76,7 +76,8 @@ def test_the_tracker_follows_a_head_turning_to_60_degrees(face_finder) -> None: 
     from app.models import blazeface_model
     from avcore.blazeface import BlazeFaceDetector, TrackingBlazeFace
     from avcore.stereo import StereoRig
-    from sim.render import Person, StereoSceneRenderer, load_textures
+    from sim.face_textures import load_textures
+    from sim.render import Person, StereoSceneRenderer
 
     if not isinstance(face_finder, BlazeFaceDetector):
         pytest.skip("BlazeFace's model is not installed")

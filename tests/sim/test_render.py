@@ -8,7 +8,8 @@ import pytest
 
 from avcore.faces import HaarFaceDetector
 from avcore.motion import harris_motion_points
-from sim.render import Person, StereoSceneRenderer, default_scene, drawn_face_texture, load_face_textures
+from sim.face_textures import drawn_face_texture, load_face_textures
+from sim.render import Person, StereoSceneRenderer, default_scene
 from avcore.stereo import StereoRig
 
 
@@ -75,7 +76,7 @@ def test_the_room_leaves_out_the_faces_haar_misses_whatever_opencv(shared_data):
     has the cascade); the room's textures are the others, with or without it."""
     import cv2
 
-    from sim.render import UNFOUND_FACES, load_textures
+    from sim.face_textures import UNFOUND_FACES, load_textures
 
     every = [t.source for t in load_face_textures(shared_data / "faces")]
     kept, kind = load_textures(shared_data)
