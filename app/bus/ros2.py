@@ -20,15 +20,17 @@ payloads are bare CDR; the bridge announces DDS readers and writers itself, so a
   infinite or automatic): keep-last 10 is ``::,10:,:,:,,``;
 - every sample's attachment: the sequence number (int64), the source time in ns since the epoch (int64) and the
   publisher's 16-byte GID, in Zenoh's serialization format (little-endian numbers; the GID as a sequence, its LEB128
-  length 0x10 then the bytes): 33 bytes. rmw_zenoh derives the GID from a hash of the token; any 16 bytes that
-  identify the publisher do, and avhear takes BLAKE2b's.
+  length 0x10 then the bytes): 33 bytes. The GID is rmw_zenoh's: XXH3-128 of the entity's token key, its low 64 bits
+  then its high 64 bits, each little-endian (``liveliness_utils.cpp``, ``Entity::Entity``);
+- one counter of entity ids per session (rmw_zenoh's context), from 0: a node takes the next id (its token carries it
+  twice), and each of its publishers and subscriptions the next; a node is declared once per session whatever number
+  of avhear's parts use it.
 
 Subscriptions of rmw_zenoh data use ``*`` for the hash, so that a Humble driver behind a bridge
 (``TypeHashNotSupported``) or a message revised upstream is still read; decoding is what checks the type.
 """
 from __future__ import annotations
 
-import hashlib
 import itertools
 import os
 import struct
@@ -40,7 +42,7 @@ from typing import Any, Callable
 from app.errors import UserError
 
 __all__ = ["CONVENTIONS", "DEFAULT_CONVENTION", "ROUTER", "router", "Convention", "Endpoint", "RosNode", "dds_type_name",
-           "domain_from_env", "qos_text"]
+           "domain_from_env", "entity_gid", "qos_text"]
 
 CONVENTIONS = ("rmw_zenoh", "bridge")
 DEFAULT_CONVENTION = "rmw_zenoh"
@@ -48,6 +50,33 @@ ROUTER = "tcp/127.0.0.1:7447"  # where rmw_zenoh's router (rmw_zenohd) listens; 
 ADMIN_SPACE = "@ros2_lv"
 _RMW_DEFAULT_DEPTH = 42
 _GID_BYTES = 16
+
+
+def entity_gid(token_key: str) -> bytes:
+    """rmw_zenoh's 16-byte GID of the entity whose liveliness token is ``token_key`` (module docstring)."""
+    import xxhash
+
+    return xxhash.xxh3_128_intdigest(token_key.encode()).to_bytes(_GID_BYTES, "little")
+
+
+class _SessionGraph:
+    """What rmw_zenoh's context keeps for one session: the counter of entity ids and the nodes declared, each with
+    its id, its token and the number of avhear's parts that use it."""
+
+    def __init__(self) -> None:
+        self.ids = itertools.count(0)
+        self.lock = threading.Lock()
+        self.nodes: dict[str, list[Any]] = {}  # node token key without its ids -> [node id, token, users]
+
+
+_GRAPHS: dict[str, _SessionGraph] = {}
+_GRAPHS_LOCK = threading.Lock()
+
+
+def _graph_of(session: Any) -> _SessionGraph:
+    zid = str(session.info.zid())
+    with _GRAPHS_LOCK:
+        return _GRAPHS.setdefault(zid, _SessionGraph())
 
 
 def dds_type_name(typename: str) -> str:
@@ -158,19 +187,32 @@ class RosNode:
 
     def __init__(self, session: Any, convention: Convention, name: str = "avhear") -> None:
         self.session, self.convention, self.name = session, convention, name
-        self._ids = itertools.count(1)  # rmw_zenoh numbers a context's entities; the node is 0
-        self._lock = threading.Lock()
-        self._tokens: list[Any] = []
         self.node_token_key: str | None = None
+        self.node_id = 0
+        self._graph: _SessionGraph | None = None
+        self._node: str | None = None
         if convention.native:
-            self.node_token_key = self._token_key(0, "NN")
-            self._tokens.append(session.liveliness().declare_token(self.node_token_key))
+            self._graph = graph = _graph_of(session)
+            self._node = self._token_key(-1, -1, "NN")  # the node's key without its ids: one node per name
+            with graph.lock:
+                entry = graph.nodes.get(self._node)
+                if entry is None:
+                    node_id = next(graph.ids)
+                    key = self._token_key(node_id, node_id, "NN")
+                    entry = graph.nodes[self._node] = [node_id, session.liveliness().declare_token(key), 0, key]
+                entry[2] += 1
+            self.node_id, self.node_token_key = entry[0], entry[3]
 
-    def _token_key(self, entity_id: int, kind: str, relative: str | None = None, typename: str | None = None,
-                   depth: int = 10) -> str:
+    def _next_id(self) -> int:
+        assert self._graph is not None
+        with self._graph.lock:
+            return next(self._graph.ids)
+
+    def _token_key(self, node_id: int, entity_id: int, kind: str, relative: str | None = None,
+                   typename: str | None = None, depth: int = 10) -> str:
         c = self.convention
         zid = str(self.session.info.zid())
-        key = (f"{ADMIN_SPACE}/{c.domain}/{zid}/0/{entity_id}/{kind}/%/{_mangle(c.topic(''))}/"
+        key = (f"{ADMIN_SPACE}/{c.domain}/{zid}/{node_id}/{entity_id}/{kind}/%/{_mangle(c.topic(''))}/"
                f"{_mangle(self.name)}")
         if relative is None or typename is None:
             return key
@@ -184,26 +226,33 @@ class RosNode:
         zenoh_publisher = self.session.declare_publisher(self.convention.key(relative, typename))
         if not self.convention.native:
             return Endpoint(zenoh_publisher)
-        with self._lock:
-            entity_id = next(self._ids)
-        token_key = self._token_key(entity_id, "MP", relative, typename)
+        token_key = self._token_key(self.node_id, self._next_id(), "MP", relative, typename)
         token = self.session.liveliness().declare_token(token_key)
-        return Endpoint(zenoh_publisher, token, hashlib.blake2b(token_key.encode(), digest_size=16).digest())
+        return Endpoint(zenoh_publisher, token, entity_gid(token_key))
 
     def subscriber(self, relative: str, typename: str, callback: Callable[[Any], None]) -> Endpoint:
         """A subscriber of ``relative``; ``callback`` gets Zenoh samples (in Zenoh's threads)."""
         subscriber = self.session.declare_subscriber(self.convention.subscription(relative, typename), callback)
         token = None
         if self.convention.native:
-            with self._lock:
-                entity_id = next(self._ids)
-            token = self.session.liveliness().declare_token(self._token_key(entity_id, "MS", relative, typename))
+            token = self.session.liveliness().declare_token(
+                self._token_key(self.node_id, self._next_id(), "MS", relative, typename))
         return Endpoint(subscriber, token)
 
     def close(self) -> None:
-        for token in self._tokens:
-            try:
-                token.undeclare()
-            except Exception:  # noqa: BLE001 - the session may be closing already
-                pass
-        self._tokens.clear()
+        """Leave the node: its token goes with the last of avhear's parts that use it."""
+        graph, node, self._graph = self._graph, self._node, None
+        if graph is None:
+            return
+        with graph.lock:
+            entry = graph.nodes.get(node)  # type: ignore[arg-type]
+            if entry is None:
+                return
+            entry[2] -= 1
+            if entry[2] > 0:
+                return
+            del graph.nodes[node]  # type: ignore[arg-type]
+        try:
+            entry[1].undeclare()
+        except Exception:  # noqa: BLE001 - the session may be closing already
+            pass

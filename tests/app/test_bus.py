@@ -251,6 +251,13 @@ def test_publish_between_two_processes_as_a_native_ros2_node() -> None:
         publishers[topic.replace("%", "/")] = (dds_type, type_hash, qos)
     assert set(publishers) == set(topics)
     assert len({p[4] for p in alive}) == len(alive)  # one id per entity
+    from app.bus.ros2 import entity_gid
+
+    token_of = {p[9].replace("%", "/"): "/".join(p) for p in alive if p[5] == "MP"}
+    for key, samples in received.items():  # each sample carries its publisher's GID, rmw_zenoh's hash of its token
+        if key != "lab/avhear/results":
+            topic = "/" + "/".join(key.split("/")[1:-2])
+            assert {a[17:] for _, a in samples} == {entity_gid(token_of[topic])}, key
     for topic, typename in topics.items():
         package, _, name = typename.split("/")
         assert publishers[topic] == (f"{package}::msg::dds_::{name}_", typestore().hash_rihs01(typename),
@@ -384,3 +391,54 @@ def test_a_voice_out_of_view_is_a_person_with_a_voice_only_on_its_ray() -> None:
     assert "person_p2" not in frames and "face_f2" not in frames
     v = frames["voice_v2"].transform.translation
     assert (v.x, v.y, v.z) == pytest.approx((-0.7986, 0.0, 0.6018), abs=1e-4)
+
+
+def test_nodes_of_one_session_share_rmw_zenohs_counter_and_declare_each_node_once() -> None:
+    """rmw_zenoh numbers a context's entities with one counter from 0, nodes and endpoints alike, and a node's token
+    carries its id twice; avhear's parts that share a session and a node name are one node with one token
+    (ros2/rmw_zenoh rmw_context_impl_s.cpp ``get_next_entity_id``, liveliness_utils.cpp ``Entity::Entity``)."""
+    import zenoh
+
+    from app.bus.ros2 import Convention, RosNode
+
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", json.dumps([f"tcp/127.0.0.1:{_free_port()}"]))
+    convention = Convention(domain=3, namespace="twice")
+    with zenoh.open(config) as session:
+        first, second = RosNode(session, convention), RosNode(session, convention)  # e.g. the source and the sink
+        sensors = RosNode(session, convention, name="avhear_sensors")
+        endpoints = [first.publisher("humans/voices/tracked", "hri_msgs/msg/IdsList"),
+                     second.publisher("humans/faces/tracked", "hri_msgs/msg/IdsList"),
+                     second.subscriber("audio/audio_info", "audio_common_msgs/msg/AudioInfo", lambda s: None),
+                     sensors.publisher("camera/camera/color/image_raw", "sensor_msgs/msg/Image")]
+        tokens = [str(r.ok.key_expr) for r in session.liveliness().get("@ros2_lv/3/**", timeout=5.0) if r.ok]
+        parts = [t.split("/") for t in tokens]
+        nodes = {p[8]: p for p in parts if p[5] == "NN"}
+        assert sorted(p[8] for p in parts if p[5] == "NN") == ["avhear", "avhear_sensors"]  # one token a node
+        assert all(p[3] == p[4] for p in nodes.values())  # a node's token: its id twice
+        assert len({int(p[4]) for p in parts}) == len(parts) == 6  # one counter: no id used twice
+        assert sorted(int(p[4]) for p in parts) == list(range(6))  # from 0, nodes and endpoints alike
+        for p in parts:
+            assert p[3] == nodes[p[8]][3]  # each endpoint under its own node's id
+        first.close()  # the node stays while another part uses it
+        still = [str(r.ok.key_expr) for r in session.liveliness().get("@ros2_lv/3/**", timeout=5.0) if r.ok]
+        assert sum(t.split("/")[5] == "NN" for t in still) == 2
+        for e in endpoints:
+            e.undeclare()
+        second.close()
+        sensors.close()
+        time.sleep(0.2)
+        gone = [str(r.ok.key_expr) for r in session.liveliness().get("@ros2_lv/3/**", timeout=5.0) if r.ok]
+        assert gone == []
+
+
+def test_a_publishers_gid_is_xxh3_128_of_its_token_low_half_first() -> None:
+    """rmw_zenoh's GID: XXH3-128 of the token key, low 64 bits then high 64, each little-endian (liveliness_utils.cpp
+    memcpy's the hash struct's two halves). XXH3-128 of the empty input is 99aa06d3014798d8 6001c324468d497f (high,
+    low; xxHash's own test vector)."""
+    from app.bus.ros2 import entity_gid
+
+    assert entity_gid("") == bytes.fromhex("7f498d4624c30160d8984701d306aa99")
+    assert len(entity_gid("@ros2_lv/0/abc/0/1/MP/%/%/avhear")) == 16
