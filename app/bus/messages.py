@@ -10,7 +10,10 @@ ROS4HRI (REP-155) as avhear publishes it (the README's table): faces (``humans/f
 voice's ``is_speaking``), persons (``humans/persons/tracked`` and ``known``; each person's ``anonymous``,
 ``face_id``, ``voice_id`` and ``location_confidence``: 1 while seen, then down to 0 over :data:`PERSON_MEMORY_S`,
 REP-155's "Person frame" case 2), ``humans/candidate_matches`` (PERSON = 1, FACE = 2, VOICE = 4) and TF frames on
-``tf``. Topics REP-155 latches are sent with every result instead.
+``tf``. Topics REP-155 latches are sent with every result instead. Where the camera's own frame is known (a ROS
+robot's CameraInfo, or its images' ``frame_id``), :data:`RIG_FRAME` is linked to it on ``tf_static``
+(:meth:`Topics.rig_link`, sent again every second in place of a latched topic), so that every frame avhear publishes
+resolves in the robot's TF tree.
 
 avhear's ids: a tracked person ``N`` (:class:`avcore.tracking.NearestTracker`; the results file's ``id``) is the
 person ``pN`` with the face ``fN`` (face-guided runs) and the voice ``vN``, matched with confidence 1.0 (the voice is
@@ -164,6 +167,15 @@ class Topics:
             transform=t["geometry_msgs/msg/Transform"](
                 translation=t["geometry_msgs/msg/Vector3"](x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2])),
                 rotation=t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0)))
+
+    def rig_link(self, stamp_s: float, camera_frame: str, rig_in_camera_m: tuple[float, float, float]
+                 ) -> tuple[str, str, bytes]:
+        """The static transform from the camera's optical frame (REP-103's x right, y down, z forward, as the scene
+        frame's axes) to :data:`RIG_FRAME`, whose origin is ``rig_in_camera_m`` in it (the cyclopean point half a
+        baseline to the right of a stereo rig's left camera; the camera itself for an RGB-D camera)."""
+        header = make_header(stamp_s, camera_frame)
+        transform = self._transform(header, RIG_FRAME, list(rig_in_camera_m))
+        return "tf_static", TF, encode(self._t[TF](transforms=[transform]), TF)
 
     def messages(self, record: dict[str, Any]) -> list[tuple[str, str | None, bytes]]:
         """Every message of one result, given as its :meth:`app.result.Result.as_dict`."""

@@ -88,6 +88,7 @@ class RosSource(ReceivedSource):
         self._format: AudioFormat | None = None
         self._next_sample = self._blocks = 0
         self._audio_t0: float | None = None
+        self.camera_frame: str | None = None  # the camera's optical frame (CameraInfo's or the images' frame_id)
         colour_type = COMPRESSED_IMAGE if topics.colour.rstrip("/").endswith("/compressed") else IMAGE
         subs = [(topics.colour, colour_type, lambda s: self._on_image(0, s, colour_type)),
                 (topics.depth, IMAGE, lambda s: self._on_image(1, s, IMAGE)),
@@ -132,6 +133,7 @@ class RosSource(ReceivedSource):
             k, size = camera_matrix(info)
         except ValueError as exc:
             raise UserError(f"{convention.topic(self.topics.camera_info)}: {exc}") from None
+        self.camera_frame = info.header.frame_id or None
         return StereoRig.rgbd(k, size)
 
     def _audio_info(self, timeout_s: float, convention: Convention) -> AudioFormat:
@@ -164,6 +166,8 @@ class RosSource(ReceivedSource):
             self.bad_payloads += 1
             return
         stamp = self._rebase[("colour camera", "depth camera")[side]](stamp_s(msg.header), time.time())
+        if side == 0 and self.camera_frame is None:
+            self.camera_frame = msg.header.frame_id or None
         self._images.put((side, stamp, msg))
 
     def _on_audio(self, sample: Any) -> None:

@@ -209,6 +209,8 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
                                  mic_spacing_m=getattr(args, "mic_spacing", None),
                                  progress=lambda m: print(f"  {m}", file=sys.stderr, flush=True))
         stack.enter_context(source)
+        if publisher is not None and hasattr(source, "camera_frame"):  # a ROS robot's camera: link the rig to it
+            publisher.link_rig(lambda: source.camera_frame, (0.5 * source.rig.baseline_m, 0.0, 0.0))
         return _run_checked(spec, args, target, config, source, results, publisher,
                             wall_time=live is not None or spec in ("bus", "ros"))
 

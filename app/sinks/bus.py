@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
+from collections.abc import Callable
 from typing import Any
 
 from app.bus.messages import Topics
@@ -17,7 +19,9 @@ from app.queues import DropOldestQueue
 
 log = logging.getLogger(__name__)
 
-__all__ = ["ResultPublisher"]
+__all__ = ["RIG_LINK_EVERY_S", "ResultPublisher"]
+
+RIG_LINK_EVERY_S = 1.0  # the rig's static link is sent again this often (no latched topic here)
 
 
 class ResultPublisher:
@@ -32,12 +36,20 @@ class ResultPublisher:
         self._publishers: dict[str, Endpoint] = {}
         self._stop = threading.Event()
         self._error: BaseException | None = None
+        self._camera_frame: Callable[[], str | None] | None = None
+        self._rig_in_camera_m = (0.0, 0.0, 0.0)
+        self._linked_at = -float("inf")
         self._thread = threading.Thread(target=self._run, name="avhear-bus-publisher", daemon=True)
         self._thread.start()
 
     @property
     def dropped(self) -> int:
         return self._queue.dropped
+
+    def link_rig(self, camera_frame: Callable[[], str | None], rig_in_camera_m: tuple[float, float, float]) -> None:
+        """Link the rig's frame to the camera's optical frame on ``tf_static`` (:meth:`app.bus.messages.Topics.
+        rig_link`) once ``camera_frame()`` names it, and again every :data:`RIG_LINK_EVERY_S`."""
+        self._camera_frame, self._rig_in_camera_m = camera_frame, tuple(float(v) for v in rig_in_camera_m)
 
     def publish(self, result: Any) -> None:
         """Hand one :class:`app.result.Result` over; never blocks."""
@@ -51,7 +63,12 @@ class ResultPublisher:
                 record = self._queue.get(timeout=0.05)
                 if record is None:
                     continue
-                for topic, typename, payload in self.topics.messages(record):
+                messages = self.topics.messages(record)
+                frame = self._camera_frame() if self._camera_frame is not None else None
+                if frame and time.monotonic() - self._linked_at >= RIG_LINK_EVERY_S:
+                    messages.append(self.topics.rig_link(record["stamp_s"], frame, self._rig_in_camera_m))
+                    self._linked_at = time.monotonic()
+                for topic, typename, payload in messages:
                     pub = self._publishers.get(topic)
                     if pub is None:
                         pub = self._publishers[topic] = self._declare(topic, typename)

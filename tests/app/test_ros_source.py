@@ -125,6 +125,7 @@ def test_a_realsense_and_audio_capture_as_a_source(tmp_path: Path) -> None:
         finally:
             stop_info.set()
         assert source.rig.image_size == (w, h) and source.samplerate_hz == 16000.0
+        assert source.camera_frame == "camera_color_optical_frame"  # CameraInfo's: where the rig hangs in TF
         np.testing.assert_allclose(source.rig.back_project([[322.0, 239.0]], [2.0], rectified=False),
                                    [[-0.0005, 0.0, 2.0]], atol=1e-9)  # the principal point, 2 m ahead
         rng = np.random.default_rng(0)
@@ -179,23 +180,41 @@ def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router
     audio_capture topics), then `avhear run --source ros` and `avhear record --source ros`, all joined to an
     rmw_zenoh router: the people are found where they are (in the colour camera's frame), someone speaks, and the recording
     holds the colour and the depth and replays."""
+    import zenoh
+
+    from app.bus.messages import decode
+
     env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()), PYTHONPATH=str(ROOT))
     env.pop("ROS_DOMAIN_ID", None)
     results = tmp_path / "results.jsonl"
     ns = ("--bus-namespace", "e2e")  # this test's robot only, whatever other tests left running
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("connect/endpoints", json.dumps([rmw_router]))
+    statics: list[bytes] = []
+    graph = zenoh.open(config)
+    graph.declare_subscriber("0/e2e/tf_static/tf2_msgs::msg::dds_::TFMessage_/*",
+                             lambda sample: statics.append(sample.payload.to_bytes()))
     robot = subprocess.Popen([sys.executable, "-m", "app", "sensors", "--source", "sim:S1", "--ros", "--duration",
                               "60", *ns], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
                              env=env)
     try:
         run = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "6", "--headless",
-                              "--results-jsonl", str(results), "--vote-frames", "1", *ns],
+                              "--results-jsonl", str(results), "--vote-frames", "1", "--publish", *ns],
                              capture_output=True, text=True, cwd=tmp_path, env=env, timeout=180)
         record = subprocess.run([sys.executable, "-m", "app", "record", "--source", "ros", "-o", "rec", "--duration",
                                  "3", *ns], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=180)
     finally:
         robot.send_signal(signal.SIGTERM)
         robot.communicate(timeout=60)
+        graph.close()
     assert run.returncode == 0, run.stderr
+    # the rig hangs under the camera's optical frame in the robot's TF tree (REP-103, REP-155), once a second
+    links = [decode(payload, "tf2_msgs/msg/TFMessage").transforms[0] for payload in statics]
+    assert 3 <= len(links) <= 8, len(links)
+    assert {(t.header.frame_id, t.child_frame_id) for t in links} == {("camera_color_optical_frame", "avhear_rig")}
+    assert links[0].transform.rotation.w == 1.0 and 0 <= links[0].transform.translation.x < 0.01
     lines = [json.loads(line) for line in results.read_text().splitlines()]
     assert len(lines) > 30
     from app.sources.sim import load_clip_bank
