@@ -42,7 +42,7 @@ from typing import Any, Callable
 from app.errors import UserError
 
 __all__ = ["CONVENTIONS", "DEFAULT_CONVENTION", "ROUTER", "router", "Convention", "Endpoint", "RosNode", "dds_type_name",
-           "domain_from_env", "entity_gid", "qos_text"]
+           "domain_from_env", "entity_gid", "published_topics", "qos_text", "ros_type_name"]
 
 CONVENTIONS = ("rmw_zenoh", "bridge")
 DEFAULT_CONVENTION = "rmw_zenoh"
@@ -77,6 +77,27 @@ def _graph_of(session: Any) -> _SessionGraph:
     zid = str(session.info.zid())
     with _GRAPHS_LOCK:
         return _GRAPHS.setdefault(zid, _SessionGraph())
+
+
+def ros_type_name(dds_name: str) -> str:
+    """``hri_msgs::msg::dds_::IdsList_`` -> ``hri_msgs/msg/IdsList`` (the inverse of :func:`dds_type_name`)."""
+    parts = dds_name.split("::")
+    if len(parts) != 4 or parts[2] != "dds_" or not parts[3].endswith("_"):
+        return dds_name
+    return f"{parts[0]}/{parts[1]}/{parts[3][:-1]}"
+
+
+def published_topics(session: Any, domain: int, timeout_s: float = 2.0) -> dict[str, set[str]]:
+    """{topic: its ROS types} of every publisher rmw_zenoh's graph announces in ``domain``: the publishers' liveliness
+    tokens, as ``ros2 topic list -t`` reads them (module docstring)."""
+    out: dict[str, set[str]] = {}
+    for reply in session.liveliness().get(f"{ADMIN_SPACE}/{domain}/**", timeout=timeout_s):
+        if reply.ok is None:
+            continue
+        parts = str(reply.ok.key_expr).split("/")
+        if len(parts) >= 11 and parts[5] == "MP":
+            out.setdefault(parts[9].replace("%", "/"), set()).add(ros_type_name(parts[10]))
+    return out
 
 
 def dds_type_name(typename: str) -> str:

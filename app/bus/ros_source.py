@@ -31,7 +31,7 @@ import numpy as np
 
 from app.bus.convert import AudioFormat, audio_format, audio_samples, camera_matrix, image_from_msg, stamp_s
 from app.bus.messages import AUDIO_INFO, AUDIO_STAMPED, CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, RosTopics, decode
-from app.bus.ros2 import Convention, RosNode
+from app.bus.ros2 import Convention, RosNode, published_topics
 from app.bus.sensors import RIG_KEY
 from app.bus.source import Presence, ReceivedSource, ask_rig
 from app.config import RigConfig
@@ -67,15 +67,23 @@ class RosSource(ReceivedSource):
 
     def __init__(self, session: Any, rig: RigConfig | None = None, *, convention: Convention | None = None,
                  topics: RosTopics | None = None, info_timeout_s: float = 10.0, gap_s: float = 1.0,
-                 clock_tolerance_s: float = 10.0, queue_size: int = 64) -> None:
-        convention = convention or Convention()
+                 clock_tolerance_s: float = 10.0, queue_size: int = 64, router: str | None = None) -> None:
+        self._started = time.monotonic()
+        self.convention = convention = convention or Convention()
+        self.router, self.info_timeout_s = router, info_timeout_s
+        self._heard: set[str] = set()  # the streams that have sent something: "colour", "depth", "audio"
+        self._silence_checked = False
+        self.session = session
         if rig is None:  # a robot made of `avhear sensors --ros` answers with its microphones
-            rig = ask_rig(session, convention.plain(RIG_KEY), info_timeout_s, convention.namespace.strip("/"))[0]
+            try:
+                rig = ask_rig(session, convention.plain(RIG_KEY), info_timeout_s, convention.namespace.strip("/"))[0]
+            except UserError as exc:
+                raise self._no_router() or exc from None
         if rig.microphones is None and rig.array is None:
             raise UserError("the rig file needs a 'microphones' or 'array' section: where the robot's microphones "
                             "are, in the colour camera's optical frame (x right, y down, z forward, metres)")
         self.topics = topics = topics or RosTopics()
-        self.session, self.node = session, RosNode(session, convention, name="avhear")
+        self.node = RosNode(session, convention, name="avhear")
         self.keys = (convention.topic(topics.colour), convention.topic(topics.depth))  # for messages
         self.bad_payloads = self.images_received = self.audio_gaps = 0
         self._presence = Presence(gap_s)
@@ -89,7 +97,8 @@ class RosSource(ReceivedSource):
         self._next_sample = self._blocks = 0
         self._audio_t0: float | None = None
         self.camera_frame: str | None = None  # the camera's optical frame (CameraInfo's or the images' frame_id)
-        colour_type = COMPRESSED_IMAGE if topics.colour.rstrip("/").endswith("/compressed") else IMAGE
+        self._colour_type = colour_type = (COMPRESSED_IMAGE if topics.colour.rstrip("/").endswith("/compressed")
+                                           else IMAGE)
         subs = [(topics.colour, colour_type, lambda s: self._on_image(0, s, colour_type)),
                 (topics.depth, IMAGE, lambda s: self._on_image(1, s, IMAGE)),
                 (topics.audio_info, AUDIO_INFO, lambda s: self._on_info("audio", s, AUDIO_INFO)),
@@ -126,9 +135,9 @@ class RosSource(ReceivedSource):
     def _camera(self, timeout_s: float, convention: Convention) -> StereoRig:
         info = self._wait_for("camera", timeout_s)
         if info is None:
-            raise UserError(f"no CameraInfo on {convention.topic(self.topics.camera_info)} within {timeout_s:g} s: "
-                            "is the camera driver running (same --ros-domain, --ros-keys)? Name the topic with "
-                            "--camera-info-topic, or give the camera's intrinsics in the rig file's stereo section")
+            raise self._silent(self.topics.camera_info, CAMERA_INFO, "--camera-info-topic", "no CameraInfo",
+                               "is the camera driver running (same --ros-domain, --ros-keys)? Or give the camera's "
+                               "intrinsics in the rig file's stereo section")
         try:
             k, size = camera_matrix(info)
         except ValueError as exc:
@@ -139,13 +148,63 @@ class RosSource(ReceivedSource):
     def _audio_info(self, timeout_s: float, convention: Convention) -> AudioFormat:
         info = self._wait_for("audio", timeout_s)
         if info is None:
-            raise UserError(f"no AudioInfo on {convention.topic(self.topics.audio_info)} within {timeout_s:g} s: "
-                            "is audio_capture running (it publishes one every 5 s)? Name the topics with "
-                            "--audio-topic and --audio-info-topic")
+            raise self._silent(self.topics.audio_info, AUDIO_INFO, "--audio-info-topic", "no AudioInfo",
+                               "is audio_capture running (it publishes one every 5 s)?")
         try:
             return audio_format(info)
         except ValueError as exc:
             raise UserError(f"{convention.topic(self.topics.audio_info)}: {exc}") from None
+
+    # -- a topic that stays silent: say which, and what there is ----------------------------------------------
+
+    def _silent(self, topic: str, typename: str, flag: str, nothing: str, hint: str = "") -> UserError:
+        """The one-line error for ``topic`` silent since the start: nothing answers at the router's endpoint, or no
+        node publishes the topic (the topics of its type that exist, from the graph's liveliness tokens), or it is
+        published and nothing came."""
+        waited = time.monotonic() - self._started
+        no_router = self._no_router()
+        if no_router is not None:
+            return no_router
+        full = self.convention.topic(topic)
+        where = f"{nothing} on {full} within {waited:.0f} s"
+        if not self.convention.native:
+            return UserError(f"{where}: {hint + ' ' if hint else ''}Name the topic with {flag} (`ros2 topic list` on "
+                             "the robot lists them; under --ros-keys bridge avhear cannot)")
+        topics = published_topics(self.session, self.convention.domain)
+        if full in topics:
+            return UserError(f"{where}, though {full} is published ({', '.join(sorted(topics[full]))}): is it of "
+                             f"type {typename}? {hint}".rstrip())
+        alike = sorted(t for t, types in topics.items() if typename in types)
+        there = (f"the {typename} topics published: {', '.join(alike)}" if alike else
+                 f"no node publishes a {typename} topic ({len(topics)} topics published in domain "
+                 f"{self.convention.domain})")
+        return UserError(f"{where}: no node publishes it; {there}. Name the right one with {flag}")
+
+    def _no_router(self) -> UserError | None:
+        """The error for an rmw_zenoh router that the session was to join and that does not answer, else None."""
+        if self.router is None or list(self.session.info.routers_zid()):
+            return None
+        return UserError(f"nothing answers at {self.router}, where rmw_zenoh's router should be: start it on the "
+                         "robot's machine (`ros2 run rmw_zenoh_cpp rmw_zenohd`), or name another with "
+                         "AVHEAR_ROS_ROUTER=tcp/HOST:7447 (a robot's own Zenoh peers: --bus-connect)")
+
+    def _check_silence(self) -> None:
+        """Called while a stream waits: once ``info_timeout_s`` has passed since the start, a stream that has sent
+        nothing is a user's mistake (a wrong topic name), never a silent success."""
+        if self._silence_checked:
+            return
+        if len(self._heard) == 3:
+            self._silence_checked = True
+            return
+        if time.monotonic() - self._started < self.info_timeout_s:
+            return
+        self._silence_checked = True
+        t = self.topics
+        for stream, topic, typename, flag in (("colour", t.colour, self._colour_type, "--colour-topic"),
+                                              ("depth", t.depth, IMAGE, "--depth-topic"),
+                                              ("audio", t.audio, AUDIO_STAMPED, "--audio-topic")):
+            if stream not in self._heard:
+                raise self._silent(topic, typename, flag, f"no {stream} messages")
 
     # -- Zenoh's threads: decode and hand over ---------------------------------------------------------------
 
@@ -165,6 +224,7 @@ class RosSource(ReceivedSource):
         except ValueError:
             self.bad_payloads += 1
             return
+        self._heard.add(("colour", "depth")[side])
         stamp = self._rebase[("colour camera", "depth camera")[side]](stamp_s(msg.header), time.time())
         if side == 0 and self.camera_frame is None:
             self.camera_frame = msg.header.frame_id or None
@@ -180,6 +240,7 @@ class RosSource(ReceivedSource):
         except ValueError:
             self.bad_payloads += 1
             return
+        self._heard.add("audio")
         if samples.shape[0] == 0:
             return
         fs = fmt.samplerate_hz

@@ -27,7 +27,7 @@ from typing import Any
 from app.bus.ros2 import DEFAULT_CONVENTION, Convention, router
 from app.errors import UserError
 
-__all__ = ["ENDPOINT", "RENDEZVOUS_PORT", "BusOptions", "open_session", "rendezvous"]
+__all__ = ["ENDPOINT", "RENDEZVOUS_PORT", "BusOptions", "open_session", "rendezvous", "ros_router"]
 
 RENDEZVOUS_PORT = 7448  # one above Zenoh's (and rmw_zenoh's router's) 7447, which avhear leaves to them
 _ANY_PORT = "tcp/127.0.0.1:0"
@@ -49,6 +49,14 @@ class BusOptions:
     @property
     def convention(self) -> Convention:
         return Convention(self.keys, self.domain, self.namespace)
+
+
+def ros_router(options: BusOptions) -> str | None:
+    """The rmw_zenoh router the session joins by itself (:func:`open_session`), or None when it joins none (the
+    bridge's keys, endpoints or a configuration file given, or ``AVHEAR_ROS_ROUTER`` empty)."""
+    if not options.convention.native or options.config is not None or options.listen or options.connect:
+        return None
+    return router()
 
 
 def _one_line(exc: BaseException) -> str:

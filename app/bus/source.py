@@ -115,6 +115,7 @@ class ReceivedSource(SourceBase):
         last = [-np.inf, -np.inf]
         while not stop.is_set():
             item = self._images.get(timeout=0.05)
+            self._check_silence()
             if not self._presence.seen(item is not None):
                 continue
             self.images_received += 1
@@ -135,9 +136,14 @@ class ReceivedSource(SourceBase):
     def _frame(self, index: int, stamp: float, first: Any, second: Any) -> StereoFrame:  # pragma: no cover
         raise NotImplementedError
 
+    def _check_silence(self) -> None:
+        """Called each time a stream waits for its next item (cheap): a subclass may raise a :class:`UserError` for a
+        stream that never started (a wrong topic name)."""
+
     def audio(self, stop: threading.Event) -> Iterator[AudioBlock]:
         while not stop.is_set():
             block = self._audio.get(timeout=0.05)
+            self._check_silence()
             if block is not None:
                 yield block
 

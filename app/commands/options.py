@@ -365,7 +365,9 @@ def ros_source(session: Any, options: BusOptions, args: argparse.Namespace) -> A
             raise UserError(f"{args.rig} has no 'microphones' section: {MICROPHONES_HINT}")
     topics = RosTopics(args.colour_topic, args.depth_topic, args.camera_info_topic, args.audio_topic,
                        args.audio_info_topic)
-    return RosSource(session, rig, convention=options.convention, topics=topics)
+    from app.bus.session import ros_router
+
+    return RosSource(session, rig, convention=options.convention, topics=topics, router=ros_router(options))
 
 
 def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:

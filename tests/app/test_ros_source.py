@@ -42,8 +42,11 @@ def _session(listen: int | None = None, connect: int | None = None):  # noqa: AN
 class _Driver:
     """A RealSense and an audio_capture node, as rosbags serialises their messages (ROS 2 Jazzy)."""
 
-    def __init__(self, session) -> None:  # noqa: ANN001
+    def __init__(self, session, tokens: bool = False) -> None:  # noqa: ANN001
         from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+        self.tokens = tokens  # each publisher's liveliness token, as rmw_zenoh declares it (node "camera", id 0)
+        self._live: list = []
 
         self.store = get_typestore(Stores.ROS2_JAZZY)
         # audio_common (ros-drivers/audio_common, branch ros2), audio_common_msgs/msg/*.msg
@@ -61,6 +64,11 @@ class _Driver:
         key = f"0/{topic}/{package}::msg::dds_::{name}_/{self.store.hash_rihs01(typename)}"
         if key not in self._pubs:
             self._pubs[key] = self.session.declare_publisher(key)
+            if self.tokens:  # ros2/rmw_zenoh docs/design.md: @ros2_lv/<domain>/<zid>/<node>/<id>/MP/<enclave>/...
+                token = (f"@ros2_lv/0/{self.session.info.zid()}/0/{len(self._pubs)}/MP/%/%/camera/"
+                         f"%{topic.replace('/', '%')}/{package}::msg::dds_::{name}_/{self.store.hash_rihs01(typename)}/"
+                         "::,10:,:,:,,")
+                self._live.append(self.session.liveliness().declare_token(token))
         self._pubs[key].put(bytes(self.store.serialize_cdr(message, typename)))
 
     def header(self, stamp: float, frame: str):  # noqa: ANN201
@@ -236,3 +244,66 @@ def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router
     assert rec.depth_files is not None and rec.n_frames > 30 and rec.n_samples > 16000
     frame = next(x for x in rec.stream() if isinstance(x, StereoFrame))
     assert frame.right is None and np.nanmedian(frame.depth_m) > 1.0
+
+
+@pytest.mark.parametrize("wrong, flag, right", [
+    ({"colour": "/camera/color/image_raw"}, "--colour-topic", "/camera/camera/color/image_raw"),
+    ({"audio": "/audio/audio"}, "--audio-topic", "/audio/audio_stamped"),
+])
+def test_a_topic_nobody_publishes_is_named_with_those_that_exist(wrong: dict, flag: str, right: str) -> None:
+    """A wrong topic name is never a silent success: within the info timeout the stream says which topic has no
+    publisher and lists the topics of its type the robot's graph announces (its liveliness tokens), naming the
+    flag; the run then ends with that one line (a UserError)."""
+    from app.bus.messages import RosTopics
+    from app.bus.ros_source import RosSource
+    from app.config import RigConfig
+    from app.errors import UserError
+    from avcore.geometry import MicPair
+
+    port = _free_port()
+    rig = RigConfig(None, MicPair(left=(-0.05, 0.0, 0.0), right=(0.05, 0.0, 0.0)))
+    with _session(listen=port) as robot, _session(connect=port) as laptop:
+        driver = _Driver(robot, tokens=True)
+        stop_robot = threading.Event()
+
+        def drivers() -> None:  # the robot's drivers, publishing as they do
+            k = 0
+            while not stop_robot.is_set():
+                now = time.time()
+                driver.camera_info(now, 64, 48)
+                driver.audio_info(2)
+                driver.camera(now, np.zeros((48, 64, 3), np.uint8), np.full((48, 64), 1500, np.uint16))
+                driver.audio(now, np.zeros((160, 2), np.int16))
+                k += 1
+                stop_robot.wait(0.03)
+
+        threading.Thread(target=drivers, daemon=True).start()
+        try:
+            source = RosSource(laptop, rig, topics=RosTopics(**wrong), info_timeout_s=3.0)
+            stop = threading.Event()
+            started = time.monotonic()
+            with pytest.raises(UserError) as caught:
+                stream = source.frames(stop) if "colour" in wrong else source.audio(stop)
+                for _ in stream:
+                    assert time.monotonic() - started < 20, "no word about the silent topic"
+            source.close()
+        finally:
+            stop_robot.set()
+    message = str(caught.value)
+    bad = next(iter(wrong.values()))
+    assert f"on {bad} within" in message and "no node publishes it" in message, message
+    assert right in message and flag in message and "\n" not in message, message
+
+
+def test_no_router_is_said_to_be_no_router(tmp_path: Path) -> None:
+    """`run --source ros` with nothing at the rmw_zenoh router's endpoint: one line that says so and how to start
+    one (not a missing camera driver), exit 2."""
+    env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()), AVHEAR_ROS_ROUTER=f"tcp/127.0.0.1:{_free_port()}")
+    env.pop("ROS_DOMAIN_ID", None)
+    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "3", "--headless"],
+                          capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert "Traceback" not in done.stderr
+    errors = [line for line in done.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and f"nothing answers at {env['AVHEAR_ROS_ROUTER']}" in errors[0], done.stderr
+    assert "rmw_zenohd" in errors[0] and "CameraInfo" not in errors[0]
