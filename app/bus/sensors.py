@@ -25,7 +25,7 @@ import numpy as np
 from app.bus import convert
 from app.bus.messages import (AUDIO_BLOCK, AUDIO_INFO, AUDIO_STAMPED, CAMERA_INFO, COMPRESSED_IMAGE, IMAGE, RosTopics,
                               encode, make_header, typestore)
-from app.bus.ros2 import Convention, RosNode
+from app.bus.ros2 import Convention, RosNode, published_topics
 from app.config import RigConfig, rig_to_dict
 from app.events import AudioBlock, StereoFrame
 from avcore.depth import depth_millimetres
@@ -86,10 +86,22 @@ class SensorPublisher:
         """What moves the source's stamps onto the robot's: a robot stamps at capture on its monotonic clock."""
         return time.monotonic() - self.source.clock()
 
+    def topics(self) -> dict[str, tuple[str, str]]:
+        """{name: (topic, ROS type)} of what :meth:`run` publishes."""
+        return {"left": (LEFT_KEY, COMPRESSED_IMAGE), "right": (RIGHT_KEY, COMPRESSED_IMAGE),
+                "audio": (AUDIO_KEY, AUDIO_BLOCK)}
+
+    def taken(self, timeout_s: float = 2.0) -> list[str]:
+        """The topics :meth:`run` would publish that another node publishes already, as the graph's liveliness
+        tokens tell (rmw_zenoh's keys; under the bridge's keys nothing can tell: empty)."""
+        convention = self.node.convention
+        if not convention.native:
+            return []
+        there = published_topics(self.session, convention.domain, timeout_s)
+        return [convention.topic(topic) for topic, _ in self.topics().values() if convention.topic(topic) in there]
+
     def _declare(self) -> None:
-        self._pubs = {"left": self.node.publisher(LEFT_KEY, COMPRESSED_IMAGE),
-                      "right": self.node.publisher(RIGHT_KEY, COMPRESSED_IMAGE),
-                      "audio": self.node.publisher(AUDIO_KEY, AUDIO_BLOCK)}
+        self._pubs = {name: self.node.publisher(topic, typename) for name, (topic, typename) in self.topics().items()}
 
     def _send_frame(self, frame: StereoFrame, offset: float) -> int:
         left = image_message(frame.left, frame.stamp_s + offset, "avhear_left", self.jpeg_quality)
@@ -172,15 +184,14 @@ class RosDriverPublisher(SensorPublisher):
     def _clock_offset(self) -> float:
         return time.time() - self.source.clock()
 
+    def topics(self) -> dict[str, tuple[str, str]]:
+        t = RosTopics()  # the drivers' own names
+        return {"colour": (t.colour, IMAGE), "depth": (t.depth, IMAGE), "camera_info": (t.camera_info, CAMERA_INFO),
+                "audio": (t.audio, AUDIO_STAMPED), "audio_info": (t.audio_info, AUDIO_INFO)}
+
     def _declare(self) -> None:
-        topics = RosTopics()  # the drivers' own names
-        self._pubs = {"colour": self.node.publisher(topics.colour, IMAGE),
-                      "depth": self.node.publisher(topics.depth, IMAGE),
-                      "camera_info": self.node.publisher(topics.camera_info, CAMERA_INFO),
-                      "audio": self.node.publisher(topics.audio, AUDIO_STAMPED),
-                      "audio_info": self.node.publisher(topics.audio_info, AUDIO_INFO)}
-        rig = self.source.rig
-        self._k = rig.proj_left[:, :3].copy()
+        super()._declare()
+        self._k = self.source.rig.proj_left[:, :3].copy()
 
     def _send_frame(self, frame: StereoFrame, offset: float) -> int:
         if frame.depth_m is None:

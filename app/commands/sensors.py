@@ -33,6 +33,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="publish as a ROS 2 robot's drivers do: the simulated room's RGB-D camera as "
                         "realsense2_camera's colour, aligned depth and camera_info topics, the microphones as "
                         "audio_common's audio_stamped and audio_info (read them with avhear run --source ros)")
+    p.add_argument("--force", action="store_true",
+                   help="publish even onto topics another node already publishes (a robot's own camera driver: "
+                        "its images and the simulated ones would mix); by default avhear sensors refuses")
     add_mics_argument(p)
     add_lips_argument(p)
     add_device_arguments(p)
@@ -68,7 +71,17 @@ def run(args: argparse.Namespace) -> int:
                             f"avhear run --source {args.source}")
         kind = RosDriverPublisher if args.ros else SensorPublisher
         publisher = kind(session, source, convention=options.convention, jpeg_quality=args.jpeg_quality)
-        print(f"avhear: publishing {args.source} on the bus ... Ctrl-C stops", file=sys.stderr, flush=True)
+        if not args.force:
+            if args.ros:  # the robot's drivers are met through its router
+                _wait_for_router(session, options)
+            taken = publisher.taken()
+            if taken:
+                publisher.close()
+                raise UserError(f"another node already publishes {', '.join(taken)} (a robot's own drivers?): "
+                                f"{args.source}'s frames would mix with its own. Publish beside it with "
+                                "--bus-namespace NAME (and read them with the same), or give --force")
+        topics = ", ".join(options.convention.topic(t) for t, _ in publisher.topics().values())
+        print(f"avhear: publishing {_what(args)} on {topics} ... Ctrl-C stops", file=sys.stderr, flush=True)
         start = time.monotonic()
         with stop_on_signals(threading.Event()) as stop:
             publisher.run(stop, duration_s=args.duration)
@@ -81,3 +94,23 @@ def run(args: argparse.Namespace) -> int:
     if publisher.errors:
         raise UserError(f"the sensors stopped: {publisher.errors[0]}")
     return 130 if getattr(stop, "signal", None) is not None else 0
+
+
+def _what(args: argparse.Namespace) -> str:
+    """What the robot is made of, in words: a simulated room says it is one (and which)."""
+    if args.source.startswith("sim:"):
+        kind = "an RGB-D camera" if args.ros else "a stereo pair"
+        return f"the simulated room {args.source} (seed {args.seed}) as {kind} and microphones ({args.mics})"
+    return args.source
+
+
+def _wait_for_router(session: object, options: object, timeout_s: float = 3.0) -> None:
+    """Give the session up to ``timeout_s`` to join the rmw_zenoh router it is to join, so that the graph it then
+    reads is the robot's (a session just opened has not met the router yet)."""
+    from app.bus.session import ros_router
+
+    if ros_router(options) is None:  # type: ignore[arg-type]
+        return
+    deadline = time.monotonic() + timeout_s
+    while not list(session.info.routers_zid()) and time.monotonic() < deadline:  # type: ignore[attr-defined]
+        time.sleep(0.05)

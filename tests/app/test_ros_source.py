@@ -307,3 +307,24 @@ def test_no_router_is_said_to_be_no_router(tmp_path: Path) -> None:
     errors = [line for line in done.stderr.splitlines() if "error" in line]
     assert len(errors) == 1 and f"nothing answers at {env['AVHEAR_ROS_ROUTER']}" in errors[0], done.stderr
     assert "rmw_zenohd" in errors[0] and "CameraInfo" not in errors[0]
+
+
+def test_sensors_never_publish_onto_a_robots_own_topics_unless_forced(tmp_path: Path, rmw_router: str) -> None:
+    """`avhear sensors --ros` beside a robot whose camera driver already publishes (its liveliness tokens say so):
+    refused in one line that names the topic and the way out, exit 2; with --force it publishes, and says which
+    simulated room it publishes on which topics."""
+    env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()), PYTHONPATH=str(ROOT))
+    env.pop("ROS_DOMAIN_ID", None)
+    with _session(connect=int(rmw_router.rsplit(":", 1)[1])) as robot:
+        driver = _Driver(robot, tokens=True)
+        driver.camera(time.time(), np.zeros((48, 64, 3), np.uint8), np.zeros((48, 64), np.uint16))
+        argv = [sys.executable, "-m", "app", "sensors", "--source", "sim:S1", "--ros", "--duration", "1"]
+        refused = subprocess.run(argv, capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
+        forced = subprocess.run([*argv, "--force"], capture_output=True, text=True, cwd=tmp_path, env=env,
+                                timeout=120)
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr, refused.stderr
+    error = [line for line in refused.stderr.splitlines() if "error" in line]
+    assert len(error) == 1 and "/camera/camera/color/image_raw" in error[0] and "--force" in error[0], error
+    assert forced.returncode == 0, forced.stderr
+    assert "publishing the simulated room sim:S1 (seed 0) as an RGB-D camera" in forced.stderr
+    assert "/camera/camera/color/image_raw" in forced.stderr and "/audio/audio_stamped" in forced.stderr
