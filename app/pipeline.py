@@ -41,6 +41,7 @@ from avcore.faces import FaceDetector
 from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.lips import frame_powers
+from avcore.mic_check import MicCheck
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
 from avcore.tracking import NearestTracker
@@ -126,6 +127,7 @@ class PipelineStats:
     out_of_order: int = 0  # frames and ITDs stamped before what the fusion already took: counted and dropped
     interrupted: bool = False
     self_calibration: list[dict[str, Any]] | None = None  # per pair, at the end of a self-calibrating run
+    microphones: list[str] = field(default_factory=list)  # what the sound says of the rig file's microphones
 
     @property
     def duration_s(self) -> float:
@@ -153,6 +155,7 @@ class PipelineStats:
             "out_of_order": self.out_of_order,
             "interrupted": self.interrupted,
             "self_calibration": self.self_calibration,
+            "microphones": list(self.microphones),
         }
 
     def summary(self) -> str:
@@ -208,6 +211,8 @@ class Pipeline:
         self._first_audio_stamp: float | None = None
         self._sync: TimeFrame | None = None  # the fusion thread's synchroniser, for its drop counts
         self._hearing: Any = None  # the fusion thread's hearing, for the self-calibration's state
+        self._mic_check: MicCheck | None = None  # the fusion thread's check of the rig's microphones
+        self._mic_said: set[tuple[int, str]] = set()
 
     # -- control ---------------------------------------------------------------------------------------------
 
@@ -431,6 +436,8 @@ class Pipeline:
     def _fusion_loop(self) -> None:
         sync = self._sync = self.mode.time_frame()
         hearing = self._hearing = self.mode.hearing(_array(self.source))
+        # faces tell where the sound should come from: the rig file's microphones are checked against it
+        self._mic_check = MicCheck(hearing.array) if self.config.inference == "face" else None
         tracker = NearestTracker()
         while True:
             if self._stop.is_set():
@@ -484,7 +491,18 @@ class Pipeline:
             self._fuse(hearing, tracker, vision, itds)
         for voted in self._vote.flush():
             self._emit_voted(*voted)
+        self._say_mics()
         self.stats.self_calibration = hearing.state() if isinstance(hearing, SelfCalibrating) else None
+
+    def _say_mics(self) -> None:
+        """Say once (a warning, and in the stats) each thing the sound shows wrong with the rig's microphones."""
+        if self._mic_check is None:
+            return
+        for finding in self._mic_check.findings():
+            if (finding.pair, finding.kind) not in self._mic_said:
+                self._mic_said.add((finding.pair, finding.kind))
+                self.stats.microphones.append(finding.message())
+                log.warning("%s", finding.message())
 
     def _fuse(self, hearing: Any, tracker: NearestTracker, vision: Vision, itds: list[tuple[float, float]]) -> None:
         t0 = time.perf_counter()
@@ -492,6 +510,10 @@ class Pipeline:
         times = np.array([t for t, _ in itds], dtype=np.float64)
         a = np.array([v for _, v in itds], dtype=np.float64).reshape(times.size, hearing.array.n_pairs)  # (K, P)
         output = self.mode.step(hearing, vision, a, times, lambda: self._frame_itds.near(stamp))
+        if self._mic_check is not None:
+            self._mic_check.push(vision.xyz, a)
+            if self._fused % 150 == 149:
+                self._say_mics()
         ids = tracker.update(self.mode.people_xyz(vision, output), vision.stamp_s)
         result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,
                         frame.depth_m, self.mode.people_lips(vision, output),

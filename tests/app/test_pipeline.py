@@ -14,7 +14,7 @@ from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.pipeline import Pipeline, PipelineConfig
 from app.result import Result
-from avcore.geometry import MicPair
+from avcore.geometry import MicArray, MicPair
 from sim.render import default_scene
 
 FS = 16_000
@@ -512,3 +512,28 @@ def test_out_of_order_stamps_are_counted_and_dropped_never_fatal() -> None:
     assert stats.out_of_order >= 2  # the late frame and the frame after the jump at least
     assert len(results) >= 15  # the run reached its end
     assert stats.as_dict()["out_of_order"] == stats.out_of_order and "out of order" in stats.summary()
+
+
+@pytest.mark.parametrize("scale", [1.0, 40.5 / 32.0])
+def test_a_rig_files_wrong_microphones_are_said_not_silently_heard(tmp_path, scale: float) -> None:  # noqa: ANN001
+    """The ReSpeaker 4-mic preset (radius 40.5 mm) on an array of radius 32 mm: the run says which pairs hear ITDs
+    shorter than their declared spacing allows and about how far apart they are (a warning and the stats); with the
+    right geometry it says nothing (the room's reverberation pull alone is no finding)."""
+    from app.sources.open import StreamAdapter
+    from app.sources.sim import SimSource
+
+    source = StreamAdapter(SimSource.from_preset("S2", duration_s=12.0, seed=0, fps=15, data_dir=tmp_path / "none",
+                                                 mics="respeaker4"), realtime=False)
+    real = source.array
+    source.array = MicArray(tuple(tuple(scale * np.asarray(p)) for p in real.positions), real.pairs,
+                            channels=real.channels)
+    stats = Pipeline(source, PipelineConfig(), lambda r: None).run()
+    said = stats.as_dict()["microphones"]
+    if scale == 1.0:
+        assert said == []
+        return
+    assert said and all("times what that geometry predicts" in m for m in said), said
+    for message in said:  # each pair's declared spacing, then the one the sound suggests: near the true one
+        declared, implied = (float(m.split(" mm")[0].split()[-1].lstrip("(")) for m in
+                             (message.split("rig file)")[0], message.split("about ")[1]))
+        assert implied < 0.85 * declared, message
