@@ -493,6 +493,9 @@ class Pipeline:
             self._emit_voted(*voted)
         self._say_mics()
         self.stats.self_calibration = hearing.state() if isinstance(hearing, SelfCalibrating) else None
+        for line in _far_from_the_rig(self.stats.self_calibration or []):
+            self.stats.microphones.append(line)
+            log.warning("%s", line)
 
     def _say_mics(self) -> None:
         """Say once (a warning, and in the stats) each thing the sound shows wrong with the rig's microphones."""
@@ -537,6 +540,23 @@ class Pipeline:
         if self.on_result is not None:
             self.on_result(result)
         self.stats.results += 1
+
+
+def _far_from_the_rig(state: list[dict[str, Any]], turn_deg: float = 15.0,
+                      scale: tuple[float, float] = (0.75, 1.25)) -> list[str]:
+    """What a self-calibration learned that the rig file should say instead: an array turned more than ``turn_deg``
+    from its placement, a pair whose c1 (the ITDs' scale) is outside ``scale``."""
+    out = []
+    yaw = next((s.get("array_yaw_deg") for s in state if s.get("array_yaw_deg") is not None), None)
+    if yaw is not None and abs(yaw) > turn_deg:
+        out.append(f"the microphone array hears as if turned {yaw:+.0f} degrees about the vertical from where the rig "
+                   f"file places it: its array: rotation should probably turn it by {yaw:+.0f} degrees")
+    for k, s in enumerate(state):
+        c1 = s.get("c1")
+        if s.get("inliers") and c1 is not None and not scale[0] <= c1 <= scale[1]:
+            out.append(f"pair {k}: the ITDs are {c1:.2f} times the rig file's geometry's: the microphones are about "
+                       f"{c1:.2f} times as far apart as it says")
+    return out
 
 
 def _good_frame(frame: Any, rig: StereoRig) -> bool:

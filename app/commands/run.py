@@ -158,6 +158,10 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
             raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")
     webcam = spec == "webcam"
     if args.mics not in (None, "pair") and not (spec.startswith("sim:") or webcam):
+        if spec in ("ros", "bus", "live"):
+            raise UserError(f"--mics {args.mics} chooses the simulated room's (or a webcam's) microphones; the "
+                            f"robot's are in the rig file (--rig): array: {{preset: {args.mics}, translation_m: "
+                            "[x, y, z]}, or array: {positions_m: [[x, y, z], ...]} in the colour camera's frame")
         raise UserError(f"--mics {args.mics} chooses the simulated room's (or a webcam's) microphones; {spec} brings "
                         "its own (one pair from the rig file or the recording)")
     for flag, value in (("--fov", getattr(args, "fov", None)), ("--mic-spacing", getattr(args, "mic_spacing", None))):

@@ -134,6 +134,14 @@ def test_simulator_options_on_a_real_source_are_one_line(flag: list[str], messag
     assert message in err and "Traceback" not in err
 
 
+def test_simulated_microphones_on_a_robot_show_the_rig_files_array(capsys: pytest.CaptureFixture[str]) -> None:
+    """--mics on a ROS robot: the refusal shows the rig file's array: form that says the same (issue 57.7)."""
+    assert main(["run", "--source", "ros", "--mics", "respeaker4", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "array: {preset: respeaker4, translation_m: [x, y, z]}" in err and "positions_m" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
 @pytest.mark.parametrize("command", ["demo", "run"])
 def test_motion_with_one_camera_is_one_line(command: str, capsys: pytest.CaptureFixture[str]) -> None:
     """Algorithm 1 needs depth for its moving points: asked of one camera, it says so before any work."""

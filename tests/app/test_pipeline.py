@@ -537,3 +537,18 @@ def test_a_rig_files_wrong_microphones_are_said_not_silently_heard(tmp_path, sca
         declared, implied = (float(m.split(" mm")[0].split()[-1].lstrip("(")) for m in
                              (message.split("rig file)")[0], message.split("about ")[1]))
         assert implied < 0.85 * declared, message
+
+
+def test_a_self_calibration_far_from_the_rig_file_is_said() -> None:
+    """What --self-calibrate learned that the rig file should say instead: a turn beyond 15 degrees, a scale outside
+    0.75-1.25 (only where a fit stands); nothing for what the room's reverberation alone explains."""
+    from app.pipeline import _far_from_the_rig
+
+    fitted = {"c1": 0.85, "c0_s": 0.0, "inliers": 40, "observations": 60, "confidence": 0.7}
+    assert _far_from_the_rig([dict(fitted, array_yaw_deg=8.0)] * 6) == []
+    said = _far_from_the_rig([dict(fitted, array_yaw_deg=-30.0)] * 6)
+    assert len(said) == 1 and "turned -30 degrees" in said[0] and "rotation" in said[0]
+    said = _far_from_the_rig([dict(fitted, c1=0.55)])
+    assert said == ["pair 0: the ITDs are 0.55 times the rig file's geometry's: the microphones are about 0.55 times "
+                    "as far apart as it says"]
+    assert _far_from_the_rig([dict(fitted, c1=0.55, inliers=0)]) == []  # not fitted: no word
