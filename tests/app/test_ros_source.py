@@ -183,11 +183,29 @@ def test_mp3_audio_is_one_line() -> None:
         audio_format(info)
 
 
-def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router: str) -> None:
-    """`avhear sensors --ros` (the simulated room's RGB-D camera and microphones as realsense2_camera and
-    audio_capture topics), then `avhear run --source ros` and `avhear record --source ros`, all joined to an
-    rmw_zenoh router: the people are found where they are (in the colour camera's frame), someone speaks, and the recording
-    holds the colour and the depth and replays."""
+def _ros_recipe() -> tuple[list[str], str]:
+    """The README's ROS recipe: its `avhear ...` line's arguments and the mics.yaml that follows it."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8").split("<!-- the ROS recipe", 1)[1]
+    block = text.split("```bash", 1)[1].split("```", 1)[0]
+    lines = [line.split("#", 1)[0].split() for line in block.splitlines()]
+    (avhear,) = [words[1:] for words in lines if words and words[0] == "avhear"]
+    return avhear, text.split("```yaml", 1)[1].split("```", 1)[0]
+
+
+def test_the_readmes_ros_recipe_on_a_ros_robot_made_of_the_simulator(tmp_path: Path, rmw_router: str) -> None:
+    """The README's ROS recipe as written (its `avhear run` line and its mics.yaml) on a robot made of the simulated
+    room (`avhear sensors --ros --mics respeaker4`: realsense2_camera and audio_capture topics), all joined to an
+    rmw_zenoh router; then `avhear record --source ros`. The people are found where they are (in the colour
+    camera's frame), someone speaks, the rig hangs under the camera's frame on tf_static, and the recording holds
+    the colour and the depth and replays. The topics the README says it reads are the defaults."""
+    from app.bus.messages import RosTopics
+
+    args, mics = _ros_recipe()
+    assert args[:3] == ["run", "--source", "ros"] and "--publish" in args
+    section = (ROOT / "README.md").read_text(encoding="utf-8").split("## A ROS 2 robot", 1)[1].split("\n## ", 1)[0]
+    assert all(f"`{topic}`" in section for topic in (RosTopics.colour, RosTopics.depth, RosTopics.camera_info,
+                                                      RosTopics.audio, RosTopics.audio_info))
+    (tmp_path / args[args.index("--rig") + 1]).write_text(mics)
     import zenoh
 
     from app.bus.messages import decode
@@ -204,12 +222,15 @@ def test_a_ros_robot_made_of_the_simulator_end_to_end(tmp_path: Path, rmw_router
     graph = zenoh.open(config)
     graph.declare_subscriber("0/e2e/tf_static/tf2_msgs::msg::dds_::TFMessage_/*",
                              lambda sample: statics.append(sample.payload.to_bytes()))
-    robot = subprocess.Popen([sys.executable, "-m", "app", "sensors", "--source", "sim:S1", "--ros", "--duration",
-                              "60", *ns], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
-                             env=env)
+    robot = subprocess.Popen([sys.executable, "-m", "app", "sensors", "--source", "sim:S1", "--ros", "--mics",
+                              "respeaker4", "--duration", "60", *ns], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, cwd=tmp_path, env=env)
     try:
-        run = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "6", "--headless",
-                              "--results-jsonl", str(results), "--vote-frames", "1", "--publish", *ns],
+        for line in robot.stderr:  # a robot up and running, as the recipe starts from
+            if "avhear: publishing" in line:
+                break
+        run = subprocess.run([sys.executable, "-m", "app", *args, "--duration", "6", "--headless",
+                              "--results-jsonl", str(results), "--vote-frames", "1", *ns],
                              capture_output=True, text=True, cwd=tmp_path, env=env, timeout=180)
         record = subprocess.run([sys.executable, "-m", "app", "record", "--source", "ros", "-o", "rec", "--duration",
                                  "3", *ns], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=180)
