@@ -245,7 +245,7 @@ def write_recording(folder: str | Path, source: ReplayStream, *, video: str = "a
 
     progress : called as ``progress(frames_written, n_frames)`` after every frame.
     stop : when set, writing ends after the current item (a complete frame or audio block) and the folder is
-        closed as a whole recording of what was written (the events file keeps every event, some past the end).
+        closed as a whole recording of what was written, its events cut at its last frame.
     """
     array = getattr(source, "array", None)
     array = array if array is not None and array.n_pairs > 1 else None
@@ -257,19 +257,22 @@ def write_recording(folder: str | Path, source: ReplayStream, *, video: str = "a
     with RecordingWriter(folder, rig=rig, fps=source.fps, samplerate_hz=source.samplerate_hz,
                          n_channels=source.n_channels, video=video, meta=meta, overwrite=overwrite,
                          channels=channels) as writer:
+        end, last = float("inf"), -float("inf")
         for item in source.stream(realtime=False):
             if stop is not None and stop.is_set():
+                end = last  # the recording ends with its last frame: so do its events
                 break
             if isinstance(item, StereoFrame):
                 writer.add_frame(item, source.truth(item.index))
+                last = item.stamp_s
                 if progress:
                     progress(writer.n_frames, source.n_frames)
             else:
                 writer.add_audio(item)
         scenario = getattr(source, "scenario", None)
         if scenario is not None:
-            writer.write_events([(e.actor, scenario.actors[e.actor].name, e.kind, e.start_s, e.end_s, e.label)
-                                 for e in scenario.events])
+            writer.write_events([(e.actor, scenario.actors[e.actor].name, e.kind, e.start_s, min(e.end_s, end),
+                                  e.label) for e in scenario.events if e.start_s < end])
     return Path(folder)
 
 

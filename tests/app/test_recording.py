@@ -267,3 +267,25 @@ def test_one_cameras_recording_replays_one_camera(tmp_path, capsys):
     assert main(["run", "--source", f"replay:{folder}", "--motion", "--headless", "--fast"]) == 2
     err = capsys.readouterr().err
     assert "needs depth" in err and "Traceback" not in err
+
+
+def test_an_interrupted_recording_keeps_the_events_of_what_it_holds(tmp_path):
+    """A stop (Ctrl-C in `avhear simulate`) after 40 frames: the folder is a whole recording of 40 frames, and its
+    events end with its last frame (none starts after it; one that runs on is cut there)."""
+    import threading
+
+    source = SimSource.from_preset("S2", duration_s=6.0, seed=0, fps=10, data_dir=tmp_path / "none")
+    stop = threading.Event()
+
+    def progress(done: int, total: int) -> None:
+        if done == 40:
+            stop.set()
+
+    folder = write_recording(tmp_path / "cut", source, video="png", progress=progress, stop=stop)
+    rec = open_recording(folder)
+    last = 39 / 10.0
+    assert rec.n_frames == 40
+    with open(folder / "events.csv", newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    assert rows and all(float(r["start_s"]) < last + 1e-9 and float(r["end_s"]) <= last + 1e-9 for r in rows)
+    assert len(rows) < len(source.scenario.events)
