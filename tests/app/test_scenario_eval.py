@@ -105,7 +105,7 @@ def test_wrong_states_and_missed_faces_are_counted(people_result: Callable[..., 
 def test_timing_reference_scores_the_truth_held_longer(people_result: Callable[..., Result], monkeypatch: pytest.MonkeyPatch) -> None:
     """The per-interval timing reference counts what a detector that knows the truth, but holds each number
     TIMING_REFERENCE_S longer at both ends, would score; held 0 s it is the truth's own counts."""
-    import app.eval.scenarios as scenario_eval
+    import app.eval.scoring as scenario_eval
 
     scenario = _scenario("S2")
     speech = [e for e in scenario.events if e.kind == "speech"]

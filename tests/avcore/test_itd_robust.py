@@ -8,7 +8,8 @@ import re
 import numpy as np
 import pytest
 
-from avcore.itd import ItdStream, RobustCorrelogram, RobustGccPhat, extract_itds
+from avcore.itd import RobustCorrelogram, RobustGccPhat, extract_itds
+from avcore.itd._extract import PairStream
 from avcore.itd.robust import FrameMethod, FrameState, _ratio
 
 
@@ -85,10 +86,10 @@ def test_the_band_holds_both_its_edges_and_nothing_above() -> None:
 def test_frame_methods_are_run_by_the_stream_only() -> None:
     method = make()
     spectrum = np.ones(method.n_used, dtype=complex)
-    with pytest.raises(NotImplementedError, match=r"^frame methods run through ItdStream; use frame_terms and "
+    with pytest.raises(NotImplementedError, match=r"^frame methods run through PairStream; use frame_terms and "
                                                   r"finish_window$"):
         method.weighted_cross_spectrum(spectrum, spectrum)
-    with pytest.raises(NotImplementedError, match=r"^frame methods run through ItdStream \(extract_itds does that "
+    with pytest.raises(NotImplementedError, match=r"^frame methods run through PairStream \(extract_itds does that "
                                                   r"for you\)$"):
         method.estimate(np.zeros((1, 2400)), np.zeros((1, 2400)))
 
@@ -241,7 +242,7 @@ def test_a_frames_height_is_its_normalised_correlation_whatever_the_power() -> N
     left = np.roll(right, 3) + 0.05 * rng.standard_normal(16000)
     heights = []
     for power in (1.0, 2.0, 4.0):
-        stream = ItdStream(16000, method="gcc-phat-robust", frame_itds=True, frame_corr_power=power)
+        stream = PairStream(16000, method="gcc-phat-robust", frame_itds=True, frame_corr_power=power)
         stream.push(left, right)
         heights.append(stream.pop_frame_itds().confidence)
     assert 0.5 < np.median(heights[0]) < 0.99
@@ -408,7 +409,7 @@ def test_one_band_edge_cuts_the_correlation_into_two_pieces_of_the_same_sum() ->
 def test_a_band_without_weight_gives_no_peak() -> None:
     # an edge at 60 Hz makes a band of bins 0-3, all below the 80 Hz band: it never has weight
     left, right = sound_field(np.array([0.5]), np.random.default_rng(1), seconds=0.5)
-    cut = ItdStream(16000, method="gcc-phat-robust", frame_itds=True, band_edges_hz=(60.0,))
+    cut = PairStream(16000, method="gcc-phat-robust", frame_itds=True, band_edges_hz=(60.0,))
     cut.push(left, right)
     frames, bands = cut.pop_frame_itds(), cut.pop_band_itds()
     assert len(frames) > 0 and bands.times_s.tolist() == frames.times_s.tolist()
