@@ -1,11 +1,19 @@
 """sim.bodies: people with bodies for Algorithm 1 (issue 18)."""
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import pytest
 
 from avcore.geometry import MicPair
 from sim.bodies import FAMILIES, generate_bodies
+
+
+@lru_cache(maxsize=None)
+def _bodies(family: str, seed: int) -> tuple:
+    """60 intervals of a family, drawn once for the module's tests that read them."""
+    return tuple(generate_bodies(family, seed=seed, n_intervals=60))
 
 
 def _person_points(iv, i):  # noqa: ANN001, ANN202
@@ -53,7 +61,7 @@ def test_people_at_the_edge_and_behind_others_lose_points() -> None:
     edge = generate_bodies("edge", seed=0, n_intervals=3)[0]
     counts = [int((edge.point_ids == i).sum()) for i in range(3)]
     assert counts[2] < 0.8 * min(counts[:2])  # the third stands at the edge of the view
-    crossing = generate_bodies("crossing", seed=0, n_intervals=60)
+    crossing = _bodies("crossing", 0)
     behind = [int((iv.point_ids == 1).sum()) for iv in crossing]
     assert min(behind) < 0.5 * max(behind)  # hidden while the one in front covers them
 
@@ -62,14 +70,14 @@ def test_people_at_the_edge_and_behind_others_lose_points() -> None:
 def test_walkers_pass_each_other_without_walking_through(family: str) -> None:
     """People keep 0.6 m apart; walkers go to and fro across the room, so they keep to lanes of their own depth."""
     for seed in (0, 1, 2):
-        for iv in generate_bodies(family, seed=seed, n_intervals=60)[::3]:
+        for iv in _bodies(family, seed)[::3]:
             centres = np.concatenate([iv.truth_xyz, iv.hidden_xyz])
             gaps = np.linalg.norm(centres[:, None] - centres[None], axis=2)[np.triu_indices(3, 1)]
             assert gaps.min() > 0.45, (seed, iv.index)
 
 
 def test_a_person_too_hidden_for_the_truth_is_listed_as_hidden() -> None:
-    crossing = generate_bodies("crossing", seed=0, n_intervals=60)
+    crossing = _bodies("crossing", 0)
     listed = [iv for iv in crossing if iv.hidden_xyz.shape[0]]
     assert listed, "the walker behind is never hidden enough"
     checked = 0
