@@ -39,15 +39,15 @@ def _wait_for_rows(path: Path, rows: int, proc: subprocess.Popen, timeout_s: flo
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_a_stopped_simulate_leaves_a_recording_that_replays(tmp_path: Path, sig: int) -> None:
     out = tmp_path / "s2"
-    proc = _start("simulate", "S2", "-o", str(out), "--duration", "8")
+    proc = _start("simulate", "S2", "-o", str(out), "--duration", "16")
     _wait_for_rows(out / "frames.csv", 20, proc)
     proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr
     info = json.loads((out / "recording.json").read_text())
-    assert 20 <= info["n_frames"] < 240
-    assert f"kept {info['n_frames']} of 240 frames in {out}" in stderr
+    assert 20 <= info["n_frames"] < 480
+    assert f"kept {info['n_frames']} of 480 frames in {out}" in stderr
     rec = open_recording(out)
     assert rec.n_frames == info["n_frames"] == len((out / "frames.csv").read_text().splitlines()) - 1
     stats = tmp_path / "stats.json"
