@@ -12,6 +12,7 @@ import os
 import signal
 import sys
 import threading
+import warnings
 from collections.abc import Sequence
 
 from app.errors import UserError
@@ -87,6 +88,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     return status
 
 
+def _warning_as_a_log_line(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+                            file: object = None, line: str | None = None) -> None:
+    """A Python warning as one log line, without its source line: a fit that stopped at its iteration limit
+    (avcore.mixture.ConvergenceWarning) is a detail of the method (-vv shows it); any other a warning."""
+    logger = logging.getLogger(category.__module__)
+    level = logging.DEBUG if category.__name__ == "ConvergenceWarning" else logging.WARNING
+    logger.log(level, "%s: %s", category.__name__, message)
+
+
 def _interrupt(signum: int, _frame: object) -> None:
     raise KeyboardInterrupt
 
@@ -98,6 +108,7 @@ def _main(argv: Sequence[str] | None) -> int:
         getattr(args, "_parser", parser).error(f"unrecognized arguments: {' '.join(unknown)}")
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s")
+    warnings.showwarning = _warning_as_a_log_line
     try:
         return int(args.func(args) or 0)
     except UserError as exc:

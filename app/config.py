@@ -253,8 +253,11 @@ def load_rig(path: str | Path) -> RigConfig:
         raise UserError(f"{p}: cannot read the rig file ({exc.strerror})") from None
     try:
         data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise UserError(f"{p}: not valid YAML: {exc}") from None
+    except yaml.YAMLError as exc:  # one line: where, and what the parser found (not its excerpt of the file)
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        what = getattr(exc, "problem", None) or " ".join(str(exc).split())
+        raise UserError(f"{p}: not valid YAML{where}: {what}") from None
     if data is None:
         raise UserError(f"{p}: the rig file is empty; it needs a 'stereo' and/or a 'microphones' section")
     return rig_from_dict(data, p)

@@ -77,8 +77,11 @@ class RosSource(ReceivedSource):
         if rig is None:  # a robot made of `avhear sensors --ros` answers with its microphones
             try:
                 rig = ask_rig(session, convention.plain(RIG_KEY), info_timeout_s, convention.namespace.strip("/"))[0]
-            except UserError as exc:
-                raise self._no_router() or exc from None
+            except UserError:
+                raise self._no_router() or UserError(
+                    "where are the robot's microphones? Give them with --rig mics.yaml (a microphones or array "
+                    "section, in the colour camera's frame: README, 'A ROS 2 robot'); a robot made of `avhear sensors "
+                    f"--ros` answers with its own, and none answered within {info_timeout_s:g} s") from None
         if rig.microphones is None and rig.array is None:
             raise UserError("the rig file needs a 'microphones' or 'array' section: where the robot's microphones "
                             "are, in the colour camera's optical frame (x right, y down, z forward, metres)")

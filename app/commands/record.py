@@ -97,13 +97,19 @@ def _record_bus(args: argparse.Namespace) -> int:
     if (args.output / "frames.csv").exists() and not args.force:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
     options = bus_options(args)
+    fresh = not args.output.exists()
+    output_dir(args.output, "-o")  # an unwritable path is said at once, not after the wait for the robot
     with ExitStack() as stack:
-        session = open_session(options)
-        stack.callback(session.close)
-        source = (ros_source if args.source == "ros" else bus_source)(session, options, args)
+        try:
+            session = open_session(options)
+            stack.callback(session.close)
+            source = (ros_source if args.source == "ros" else bus_source)(session, options, args)
+        except BaseException:
+            if fresh:  # no robot: leave no empty folder behind
+                shutil.rmtree(args.output, ignore_errors=True)
+            raise
         stack.callback(source.close)
         samplerate, n_channels = source.audio_format()
-        output_dir(args.output, "-o")
         rig = RigConfig(source.rig, source.mics, getattr(source, "array", None))
         writer = RecordingWriter(args.output, rig=rig, fps=args.fps,
                                  samplerate_hz=int(samplerate), n_channels=n_channels, video=args.video,

@@ -81,7 +81,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     _common(demo, duration_help=f"seconds of the simulated room to run (default 20, at most {MAX_SIMULATED_S:g})",
             max_duration_s=MAX_SIMULATED_S)
     demo.set_defaults(func=run_demo, duration=20.0)
-    run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER, live, bus or ros",
+    run = sub.add_parser("run", help="run the pipeline on a source: sim:PRESET, replay:FOLDER, live, webcam, bus or "
+                         "ros",
                          description="Runs the pipeline (who is there, where, who speaks) on a source: the simulated "
                          "room (sim:S1..S6), a recording folder (replay:FOLDER), cameras and a microphone (live, "
                          "with --rig), a robot's `avhear sensors` on the bus (bus), or a ROS 2 robot's RGB-D camera "
@@ -157,6 +158,10 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
             flag = f"--{name}" if getattr(args, name) else f"--no-{name}"
             raise UserError(f"{flag} chooses how the simulated room's people are drawn; {spec} has real ones")
     webcam = spec == "webcam"
+    if spec.startswith(("replay:", "sim:")) and getattr(args, "rig", None):
+        what = "a recording replays with the rig it was recorded with (its rig.yaml: edit or replace that file)" \
+            if spec.startswith("replay:") else "the simulated room has its own rig"
+        raise UserError(f"--rig {args.rig} is not used with --source {spec}: {what}")
     if args.mics not in (None, "pair") and not (spec.startswith("sim:") or webcam):
         if spec in ("ros", "bus", "live"):
             raise UserError(f"--mics {args.mics} chooses the simulated room's (or a webcam's) microphones; the "
@@ -271,7 +276,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
                             "leave --motion out (faces are located by their size)")
         config = replace(config, face_detector=face_detector_name(args, one_camera=True))
     meta = getattr(stream, "meta", None)
-    if isinstance(meta, dict) and (meta.get("faces") == "drawn" or meta.get("speech") == "synthetic"):
+    if spec.startswith("sim:") and isinstance(meta, dict) and (meta.get("faces") == "drawn"
+                                                               or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
               f"{meta.get('speech')} speech", file=sys.stderr, flush=True)
     array = getattr(source, "array", None)

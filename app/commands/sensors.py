@@ -23,7 +23,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        "(avhear_msgs/AudioBlock) of a source on Zenoh in real time, and answers the laptop's query "
                        "for the rig. On the same machine: avhear run --source bus; on a laptop: avhear run --source bus "
                        "--bus-connect tcp/ROBOT:7448 (with --bus-listen tcp/ROBOT:7448 here).")
-    p.add_argument("--source", default="sim:S2", help="live, sim:S1..S6|calibration or replay:FOLDER")
+    p.add_argument("--source", default="sim:S2", help="live (a stereo pair, with --rig), sim:S1..S6|calibration or "
+                   "replay:FOLDER (a webcam's one camera goes with avhear run --source webcam)")
     p.add_argument("--seed", type=count(0), default=0, help="seed of a simulated source")
     p.add_argument("--rig", default=None, help="live: rig YAML (stereo + microphones)")
     p.add_argument("--duration", type=duration(), default=None, metavar="SECONDS",

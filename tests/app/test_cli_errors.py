@@ -415,3 +415,64 @@ def test_version_names_the_installed_release(capsys: pytest.CaptureFixture[str])
         main(["--version"])
     assert stop.value.code == 0
     assert capsys.readouterr().out.strip() == f"avhear {version('avhear')}"
+
+
+
+def test_a_replay_or_the_simulated_room_refuses_a_rig_it_would_not_use(tmp_path: Path,
+                                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    """--rig on a replay was ignored without a word: the recording's own rig.yaml is the one it replays with."""
+    assert main(["run", "--source", f"replay:{tmp_path}", "--rig", "r.yaml", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "--rig r.yaml is not used with --source replay:" in err and "its rig.yaml" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_help_names_the_sources_each_command_takes(capsys: pytest.CaptureFixture[str]) -> None:
+    """`avhear --help` lists webcam among run's sources; `sensors --help` sends a webcam to `run`, not to itself."""
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    assert "live, webcam, bus or" in " ".join(capsys.readouterr().out.split())
+    with pytest.raises(SystemExit):
+        main(["sensors", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "a webcam's one camera goes with avhear run --source webcam" in text
+
+
+def test_record_from_the_bus_names_an_unwritable_output_before_waiting(tmp_path: Path,
+                                                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """`record --source bus -o <unwritable>` said so only after waiting 10 s for a robot: now at once."""
+    import time
+
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    started = time.monotonic()
+    assert main(["record", "--source", "bus", "-o", str(blocker / "rec")]) == 2
+    assert time.monotonic() - started < 5
+    err = capsys.readouterr().err
+    assert str(blocker / "rec") in err and "Traceback" not in err
+
+
+def test_python_warnings_reach_the_user_as_one_line(monkeypatch: pytest.MonkeyPatch,
+                                                    caplog: pytest.LogCaptureFixture,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """A warning during a command is one log line without its source line; the EM's ConvergenceWarning (a fit that
+    stopped at its iteration limit) is a debug detail, not a user's concern."""
+    import logging
+    import warnings
+
+    import app.commands.devices
+    from avcore.mixture import ConvergenceWarning
+
+    def warn(args: object) -> int:
+        warnings.warn("the face-guided EM did not converge in 50 iterations", ConvergenceWarning, stacklevel=1)
+        warnings.warn("something else", UserWarning, stacklevel=1)
+        return 0
+
+    monkeypatch.setattr(app.commands.devices, "run", warn)
+    with caplog.at_level(logging.DEBUG), warnings.catch_warnings():
+        warnings.simplefilter("always")
+        assert main(["devices"]) == 0
+    levels = {r.getMessage(): r.levelno for r in caplog.records if "Warning" in r.getMessage()}
+    assert levels == {"ConvergenceWarning: the face-guided EM did not converge in 50 iterations": logging.DEBUG,
+                      "UserWarning: something else": logging.WARNING}
+    assert "warnings.warn(" not in capsys.readouterr().err

@@ -92,6 +92,10 @@ def test_missing_file_and_bad_yaml(tmp_path):
     bad.write_text("stereo: [1, 2\n")
     with pytest.raises(UserError, match="not valid YAML"):
         load_rig(bad)
+    bad.write_text("microphones:\n  left_m: [0, 0\n  right_m: [1, 2]\n")
+    with pytest.raises(UserError) as info:
+        load_rig(bad)
+    assert str(info.value) == f"{bad}: not valid YAML at line 3, column 10: expected ',' or ']', but got ':'"
 
 
 def test_an_array_section_places_a_preset_on_the_rig_and_round_trips(tmp_path):
