@@ -255,6 +255,11 @@ def test_the_demo_says_when_it_falls_back_to_drawn_faces(tmp_path: Path, monkeyp
     monkeypatch.setenv("AVHEAR_DATA", str(tmp_path / "no-data"))
     assert main(["demo", "--duration", "1", "--fast", "--headless"]) == 0
     assert "no ../shared/data here: the simulated room uses drawn faces" in capsys.readouterr().err
+    # a recording of that room replays with what it holds, and needs no shared data: nothing is said of it
+    assert main(["simulate", "S1", "-o", str(tmp_path / "rec"), "--duration", "1"]) == 0
+    capsys.readouterr()
+    assert main(["run", "--source", f"replay:{tmp_path / 'rec'}", "--fast", "--headless"]) == 0
+    assert "shared/data" not in capsys.readouterr().err
 
 
 def test_demo_help_gives_the_real_default_duration(capsys: pytest.CaptureFixture[str]) -> None:

@@ -349,3 +349,15 @@ def test_sensors_never_publish_onto_a_robots_own_topics_unless_forced(tmp_path: 
     assert forced.returncode == 0, forced.stderr
     assert "publishing the simulated room sim:S1 (seed 0) as an RGB-D camera" in forced.stderr
     assert "/camera/camera/color/image_raw" in forced.stderr and "/audio/audio_stamped" in forced.stderr
+
+
+def test_a_ros_robot_without_a_rig_is_asked_for_its_microphones(tmp_path: Path, rmw_router: str) -> None:
+    """`run --source ros` with a router and no --rig: one line that asks for the microphones' rig file (it
+    suggested `avhear sensors`, which a ROS robot does not run), exit 2."""
+    env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()))
+    env.pop("ROS_DOMAIN_ID", None)
+    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "2", "--headless"],
+                          capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    errors = [line for line in done.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and "--rig mics.yaml" in errors[0] and "start `avhear sensors`" not in errors[0]
