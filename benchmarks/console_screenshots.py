@@ -137,6 +137,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--frames", nargs="+", type=int, default=[50, 165], help="frames to look at (30 a second)")
     parser.add_argument("--wait", type=float, default=40.0, help="seconds Chromium gets to load the data")
     args = parser.parse_args(argv)
+    if chromium_executable() is None or rerun_executable() is None:  # checked before minutes of demo runs
+        print("console_screenshots: needs Debian's chromium (apt-get install chromium) and rerun-sdk's `rerun` "
+              "command on PATH", file=sys.stderr)
+        return 2
     args.out.mkdir(parents=True, exist_ok=True)
     for run in args.runs:
         rrd = args.out / f"{run}.rrd"

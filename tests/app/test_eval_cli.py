@@ -59,3 +59,17 @@ def test_eval_synthetic_progress_is_each_seeds_own(capsys: pytest.CaptureFixture
 def _json_of(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
     assert main(argv) == 0
     return capsys.readouterr().out
+
+
+def test_the_screenshot_benchmark_without_chromium_is_one_line(load_benchmark, monkeypatch: pytest.MonkeyPatch,
+                                                               capsys: pytest.CaptureFixture[str],
+                                                               tmp_path) -> None:  # noqa: ANN001
+    """benchmarks/console_screenshots.py on a machine without Chromium: one line saying what it needs, exit 2,
+    checked before its demo runs (it ended in a traceback after them)."""
+    shots = load_benchmark("console_screenshots")
+    monkeypatch.setattr(shots, "chromium_executable", lambda: None)
+    monkeypatch.setattr(shots, "avhear", lambda argv: pytest.fail("ran a demo before checking for Chromium"))
+    assert shots.main(["--out", str(tmp_path / "shots")]) == 2
+    err = capsys.readouterr().err
+    assert "needs Debian's chromium" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "shots").exists()
