@@ -5,8 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from avcore.inference import FaceGuidedParams
-
 __all__ = ["DEFAULT_ITD_METHOD", "PipelineConfig"]
 
 
@@ -114,6 +112,8 @@ class PipelineConfig:
         if not 0 < self.lip_both_above <= 1:
             raise ValueError(f"lip_both_above must be a share of a face's own lip range in (0, 1], got "
                              f"{self.lip_both_above!r}")
+        from avcore.inference import FaceGuidedParams  # (not at import: the command line's help reads the defaults)
+
         FaceGuidedParams(decision_window_s=self.decision_window_s)  # the hearing's own check, here at once
         least = max(self.frame_window_s, self.interval_s) + self.window_s + self.hop_s
         if self.max_audio_lead_s <= least:

@@ -43,6 +43,7 @@ from sim.render import VisualRoom
 from sim.roomsim import AcousticRoom
 from sim.roomsim import synthetic_speech
 from avcore.stereo import StereoRig
+from sim.presets import DEFAULT_DURATION_S, PRESETS
 
 __all__ = [
     "PRESETS",
@@ -61,9 +62,6 @@ __all__ = [
     "default_acoustic_room",
 ]
 
-PRESETS: tuple[str, ...] = ("S1", "S2", "S3", "S4", "S5", "S6", "calibration")
-DEFAULT_DURATION_S: dict[str, float] = {"S1": 20.0, "S2": 20.0, "S3": 20.0, "S4": 20.0, "S5": 25.0, "S6": 25.0,
-                                        "calibration": 40.0}
 EventKind = Literal["speech", "clap", "noise"]
 # where each kind of sound leaves the person, relative to the face centre (metres, scene frame): the mouth, the hands
 # clapping in front of the chest, the loudspeaker held just below the face (section 5.3)

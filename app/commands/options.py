@@ -6,15 +6,17 @@ import argparse
 import math
 import sys
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from app.bus.ros2 import CONVENTIONS, DEFAULT_CONVENTION
 from app.bus.session import ENDPOINT, RENDEZVOUS_PORT, BusOptions
 from app.errors import UserError
-from app.sources.live import LiveConfig
-from app.sources.sim import MAX_SIMULATED_S
+from app.sources.limits import MAX_SIMULATED_S
+
+if TYPE_CHECKING:
+    from app.sources.live import LiveConfig
 
 __all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_bus_arguments", "add_device_arguments", "add_method_arguments",
            "bus_options", "bus_source", "count", "duration", "live_config", "odd_count", "pipeline_config", "port",
@@ -22,6 +24,32 @@ __all__ = ["MAX_DURATION_S", "MAX_SIMULATED_S", "add_bus_arguments", "add_device
            "add_ros_topic_arguments", "ros_source"]
 
 MAX_DURATION_S = 24 * 3600.0  # a run or a recording of live devices: one day at most
+
+
+class LazyChoices(Sequence):
+    """An option's choices that a heavy module knows (the ITD methods, the rooms' methods): ``load()`` runs when
+    argparse first looks at them (a value given, or the command's own help), not when the parsers are built, so
+    that `avhear --help` imports none of the method."""
+
+    def __init__(self, load: Callable[[], Iterable[str]]) -> None:
+        self._load, self._items = load, None
+
+    def _all(self) -> tuple[str, ...]:
+        if self._items is None:
+            self._items = tuple(self._load())
+        return self._items
+
+    def __getitem__(self, index: Any) -> Any:
+        return self._all()[index]
+
+    def __len__(self) -> int:
+        return len(self._all())
+
+    def __contains__(self, value: object) -> bool:
+        return value in self._all()
+
+    def __iter__(self) -> Any:
+        return iter(self._all())
 
 
 def positive(text: str, *, maximum: float = math.inf, what: str = "a positive number") -> float:
@@ -75,15 +103,23 @@ def odd_count(minimum: int, maximum: int) -> Callable[[str], int]:
     return parse
 
 
+def itd_methods() -> LazyChoices:
+    """The ITD extractors' names (:data:`avcore.itd.METHODS`), as lazy choices."""
+    def load() -> list[str]:
+        from avcore.itd import METHODS
+
+        return sorted(METHODS)
+    return LazyChoices(load)
+
+
 def add_method_arguments(p: argparse.ArgumentParser) -> None:
     """The pipeline's method options, the same for ``run``, ``demo`` and ``eval scenarios``
     (:func:`pipeline_config` reads them)."""
-    from app.pipeline import DEFAULT_ITD_METHOD
-    from avcore.itd import METHODS
+    from app.pipeline_config import DEFAULT_ITD_METHOD
 
     p.add_argument("--motion", action="store_true",
                    help="motion-guided inference (HM3D points, Algorithm 1) instead of face-guided (Algorithm 2)")
-    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(METHODS),
+    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=itd_methods(),
                    help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
                         "correlogram-robust")
     p.add_argument("--decision-window", type=duration(1.0), default=None, metavar="SECONDS",
@@ -265,6 +301,8 @@ def live_config(args: argparse.Namespace, *, one_camera: bool = False, **extra: 
     """The :class:`LiveConfig` of :func:`add_device_arguments`' options (``extra``: fps, samplerate_hz ...); with
     ``one_camera`` the first of ``--cameras`` alone (a webcam; default 0). A bad combination is a
     :class:`UserError`."""
+    from app.sources.live import LiveConfig
+
     cams = [_device(c) for c in args.cameras]
     if one_camera:
         if args.side_by_side:

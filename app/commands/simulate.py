@@ -18,10 +18,8 @@ from app.errors import UserError
 from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_lips_argument,
                                   add_mics_argument, count, duration, positive, wants_bodies, wants_lips)
 from app.commands.paths import output_dir
-from app.sources.recording import write_recording
 from app.signals import stop_on_signals
-from app.sources.sim import SimSource
-from sim.scenario import DEFAULT_DURATION_S, PRESETS
+from sim.presets import DEFAULT_DURATION_S, PRESETS
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -54,6 +52,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from app.sources.recording import write_recording
+    from app.sources.sim import SimSource
+
     out = sys.stdout
     if (args.output / "frames.csv").exists() and not args.force:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")

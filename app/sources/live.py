@@ -19,6 +19,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from app.sources.limits import DEFAULT_FOV_DEG
 from app.sources.contract import SourceBase
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
@@ -32,7 +33,6 @@ log = logging.getLogger(__name__)
 
 __all__ = ["DEFAULT_FOV_DEG", "LiveConfig", "LiveSource", "camera_size", "webcam_rig"]
 
-DEFAULT_FOV_DEG = 70.0  # a laptop webcam's horizontal field of view: typically 65-80 degrees
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 
 from app.errors import UserError
+from app.sources.limits import CAMERAS, MAX_SIMULATED_S, MIN_SIMULATED_S
 from app.sources.replay import ReplayStream
 from sim.face_textures import FaceTexture, load_textures
 from sim.render import Person, StereoSceneRenderer
@@ -56,9 +57,6 @@ NOD_HZ = 2.0
 GESTURE_M = 0.15  # how far a talker's hands swing (SimSource(bodies=True))
 LISTENING_GESTURE_M = 0.03  # and a listener's: people with bodies are never quite still
 GESTURE_RAMP_S = 0.25  # how long the hands take to go from one to the other
-MAX_SIMULATED_S = 1800.0  # the simulator renders a scenario's audio in memory: half an hour at most
-MIN_SIMULATED_S = 1.0  # and one second at least (sim.scenario's bound)
-CAMERAS = ("stereo", "rgbd", "mono")  # the rig's stereo pair; an RGB-D camera, or its left camera alone, in its place
 
 
 def check_simulated_duration(duration_s: float | None) -> None:
