@@ -32,7 +32,6 @@ import logging
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from avcore._validate import as_points, as_samples
 from avcore.geometry import MicPair
@@ -324,6 +323,8 @@ def _refine_positions(
         jac[:n, 7] = -1.0
         jac[n:] = prior_rows
         return jac
+
+    from scipy.optimize import least_squares  # here: the calibration's signal and constants import no SciPy
 
     start = np.concatenate([np.zeros(6), [mics.c1, mics.c0 / scale_s]])
     # Residuals are in robust scales: soft-L1 turns linear beyond 3 of them.

@@ -38,6 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from avcore.geometry import MicPair
+from sim.presets import SEQUENCES
 
 __all__ = [
     "SEQUENCES",
@@ -49,8 +50,6 @@ __all__ = [
     "format_summaries",
 ]
 
-SEQUENCES = ("StaCon", "DynCon", "StaVar", "DynVar")
-"""The four sequence types of section 7.1: Sta(tic)/Dyn(amic) people, Con(stant)/Var(ying) number in view."""
 
 
 def _check_positive(name: str, value: float) -> None:

@@ -163,3 +163,16 @@ def test_argparse_stays_in_the_command_line() -> None:
     users = {module for package in ("app", "avhear", "sim", "avcore")
              for module, names in _imports(package).items() if "argparse" in names}
     assert users and all(m == "app/cli.py" or m.startswith("app/commands/") for m in users), sorted(users)
+
+
+def test_the_command_lines_help_imports_none_of_the_method() -> None:
+    """`avhear --help` (the parsers of every command) imports no SciPy, OpenCV, Rerun, Zenoh, YAML or ROS types:
+    what it states comes from light modules (sim/presets.py, app/sources/limits.py, app/bus/drivers.py), choices
+    a method knows are loaded when looked at (issue 56.5: it took 1.5 s; the time itself is benchmarks' to say)."""
+    script = ("import sys\nfrom app.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
+              "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})), file=sys.stderr)")
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and "usage: avhear" in done.stdout, done.stderr
+    loaded = set(done.stderr.split())
+    assert not loaded & {"scipy", "cv2", "rerun", "zenoh", "yaml", "rosbags", "sounddevice", "pyroomacoustics"}, \
+        sorted(loaded & {"scipy", "cv2", "rerun", "zenoh", "yaml", "rosbags", "sounddevice", "pyroomacoustics"})

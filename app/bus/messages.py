@@ -38,13 +38,13 @@ Message definitions not in rosbags' ROS 2 Jazzy store are declared here from the
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
 import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from app.bus.drivers import RosTopics
 from avcore.tracking import PERSON_MEMORY_S  # as long as the tracker keeps a person's id
 
 __all__ = [
@@ -108,20 +108,6 @@ def decode(payload: bytes, typename: str) -> Any:
         return typestore().deserialize_cdr(payload, typename)
     except Exception as exc:  # noqa: BLE001 - rosbags raises several types for bad bytes
         raise ValueError(f"a {typename} payload of {len(payload)} bytes does not decode: {exc}") from exc
-
-
-@dataclass(frozen=True)
-class RosTopics:
-    """The topics of a ROS 2 robot's RGB-D camera and microphone as their drivers name them by default:
-    realsense2_camera 4.x (``align_depth.enable:=true``: colour rgb8, depth 16UC1 millimetres aligned to it, the
-    colour camera's CameraInfo) and audio_common's ``audio_capture`` (namespace ``audio``; ``format:=wave``).
-    Read by :class:`app.bus.ros_source.RosSource`, published by :class:`app.bus.sensors.RosDriverPublisher`."""
-
-    colour: str = "/camera/camera/color/image_raw"
-    depth: str = "/camera/camera/aligned_depth_to_color/image_raw"
-    camera_info: str = "/camera/camera/color/camera_info"
-    audio: str = "/audio/audio_stamped"
-    audio_info: str = "/audio/audio_info"
 
 
 def make_header(stamp_s: float, frame_id: str = RIG_FRAME) -> Any:

@@ -17,20 +17,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import cv2
 import numpy as np
 
-from app.config import MICROPHONES_HINT, RigConfig, load_rig, save_rig
 from app.errors import UserError
-from app.commands.options import count, duration
+from app.commands.options import count, duration, itd_methods
 from app.commands.paths import distinct_outputs, output_file
-from app.pipeline import DEFAULT_ITD_METHOD
+from app.pipeline_config import DEFAULT_ITD_METHOD
 from avcore.calibration import CALIBRATION_BURST_S, calibration_signal
-from avcore.itd import METHODS as ITD_METHODS
-from avcore.stereo import StereoCalibration, calibrate_stereo, find_chessboard
 
 if TYPE_CHECKING:
     from app.av_calibration import CalibrationResult
+    from app.config import RigConfig
+    from avcore.stereo import StereoCalibration
 
 log = logging.getLogger(__name__)
 
@@ -98,6 +96,8 @@ def _expand(pattern: str, option: str) -> list[Path]:
 
 
 def _read(path: Path) -> np.ndarray:
+    import cv2
+
     img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
     if img is None:
         raise UserError(f"{path}: cannot read this picture (missing, corrupt or not an image); "
@@ -108,6 +108,8 @@ def _read(path: Path) -> np.ndarray:
 def _corners_mosaic(images: list[np.ndarray], corners: list[np.ndarray | None], pattern: tuple[int, int],
                     names: list[str]) -> np.ndarray:
     """All left pictures with their detected corners drawn, tiled four per row at half size."""
+    import cv2
+
     tiles = []
     for img, c, name in zip(images, corners, names):
         colour = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
@@ -148,6 +150,8 @@ def _detect_pairs(args: argparse.Namespace, lefts: list[Path], rights: list[Path
                                                        list[np.ndarray | None]]:
     """The chessboard's corners in both pictures of each pair: those of the usable pairs, their indices, and the
     left corners of every pair (None where not found) for the mosaic."""
+    from avcore.stereo import find_chessboard
+
     print(f"detecting {args.pattern[0]}x{args.pattern[1]} inner corners in {len(lefts)} pairs ...")
     found_l, found_r, used = [], [], []
     all_l: list[np.ndarray | None] = []
@@ -197,6 +201,8 @@ def _print_views(cal: StereoCalibration, used: list[int], names: list[str], max_
 
 def _print_rig(cal: StereoCalibration) -> None:
     """The intrinsics of both cameras and the stereo fit."""
+    import cv2
+
     rig = cal.rig
     angle_deg = float(np.degrees(np.linalg.norm(cv2.Rodrigues(rig.rotation)[0])))
     for name, result, k in (("left camera ", cal.left, rig.camera_matrix_left),
@@ -212,6 +218,8 @@ def _print_rig(cal: StereoCalibration) -> None:
 
 def _save_stereo(args: argparse.Namespace, cal: StereoCalibration) -> None:
     """Write the rig file, keeping the microphones of an existing one."""
+    from app.config import RigConfig, load_rig, save_rig
+
     microphones = None
     if args.output.exists():
         try:
@@ -226,6 +234,9 @@ def _save_stereo(args: argparse.Namespace, cal: StereoCalibration) -> None:
 
 
 def run_stereo(args: argparse.Namespace) -> int:
+    import cv2
+    from avcore.stereo import calibrate_stereo
+
     corners_path = args.corners_image or args.output.with_name(args.output.stem + "_corners.png")
     distinct_outputs(("-o", args.output), ("--corners-image", corners_path))
     output_file(args.output, "-o")
@@ -274,8 +285,9 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
                    help="also move the microphone positions (prior: 2 cm around --rig) to remove the parallax error "
                         "that c1, c0 cannot absorb; needs the full one-minute sequence; a refinement that moves a "
                         "microphone more than 5 cm is rejected and only c1, c0 are written")
-    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=sorted(ITD_METHODS),
-                   help="ITD extractor (default gcc-phat-robust, as `avhear run`)")
+    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=itd_methods(), metavar="METHOD",
+                   help="ITD extractor: gcc-phat-robust (the default, as `avhear run`), correlogram, gcc-phat, "
+                        "correlogram-robust")
     p.add_argument("--energy-threshold", type=_positive_float, default=1e-3,
                    help="audio windows with less mean power yield no ITD (paper's E_A, default 0.001)")
     p.add_argument("--pair-window", type=_positive_float, default=None, metavar="S",
@@ -290,6 +302,8 @@ def add_av_parser(kinds: argparse._SubParsersAction) -> None:
 def _check_av_inputs(args: argparse.Namespace) -> tuple[RigConfig, Path]:
     """The rig (with microphones), the recording's existence and every output path, before any work; returns the
     rig and the figure's path."""
+    from app.config import MICROPHONES_HINT, load_rig
+
     rig = load_rig(args.rig)
     if rig.microphones is None and rig.array is None:
         raise UserError(f"{args.rig}: has no 'microphones' section: {MICROPHONES_HINT}")
@@ -348,6 +362,8 @@ def _print_av_report(result: CalibrationResult, args: argparse.Namespace) -> Non
 
 
 def run_av(args: argparse.Namespace) -> int:
+    from app.config import RigConfig, save_rig
+
     from app.av_calibration import calibrate_recording
     from app.sources.recording import open_recording
 
@@ -397,6 +413,8 @@ def _run_av_array(args: argparse.Namespace, rig: RigConfig, figure: Path) -> int
     """``calibrate av`` with a microphone array in the rig: c1, c0 of every pair (:func:`calibrate_array`), one table
     row per pair (a pair the fit refuses keeps its values, and the row says why); the rig file gets them in its
     ``array`` section; the figure and ``.rrd`` show the first pair fitted."""
+    from app.config import RigConfig, save_rig
+
     from app.av_calibration import calibrate_array
     from app.sources.recording import open_recording
 

@@ -6,8 +6,6 @@ import glob
 import re
 import sys
 
-import cv2
-
 from app.commands.options import count
 from app.sound import DeviceError, load_sounddevice
 
@@ -32,6 +30,8 @@ def camera_indices(max_cameras: int) -> list[int]:
 
 def list_cameras(max_cameras: int) -> list[tuple[int, int, int, float]]:
     """(index, width, height, fps) of every camera that delivers a frame."""
+    import cv2  # here, so that `avhear --help` imports no OpenCV
+
     found = []
     for index in camera_indices(max_cameras):
         cap = cv2.VideoCapture(index)

@@ -15,31 +15,28 @@ from pathlib import Path
 import numpy as np
 
 from app.errors import UserError
-from app.commands.options import (MAX_SIMULATED_S, add_bodies_argument, add_camera_argument, add_lips_argument,
-                                  add_method_arguments, add_mics_argument, count, duration, pipeline_config,
-                                  wants_bodies, wants_lips)
-from app.eval.tables import (format_face_table, format_room_table, format_scenario_table, format_tables, scenario_targets, signed_us,
-                             synthetic_json)
+from app.commands.options import (MAX_SIMULATED_S, LazyChoices, add_bodies_argument, add_camera_argument,
+                                  add_lips_argument, add_method_arguments, add_mics_argument, count, duration,
+                                  pipeline_config, wants_bodies, wants_lips)
 from app.commands.paths import output_dir
-from app.eval.scenarios import (
-    PAPER_SCENARIOS,
-    SCENARIOS,
-    SCENARIO_CHOICES,
-    CalibrationFit,
-    calibrate_on_preset,
-    evaluate_scenario,
-)
-from app.eval.scoring import INTERVAL_S, ITD_TOLERANCE_S, ScenarioScore
-from app.eval.rooms import METHODS as ROOM_METHODS, RoomScore, evaluate_room
 from avcore.geometry import MicArray, MicPair
-from sim.synthetic import SEQUENCES
-from app.eval.synthetic import (
-    FACE_VARIANTS,
-    VARIANTS,
-    SequenceScore,
-    evaluate_face_guided,
-    evaluate_sequence,
-)
+from sim.presets import INTERVAL_S, SCENARIO_CHOICES, SCENARIOS, SEQUENCES
+
+
+def _synthetic_variants() -> LazyChoices:
+    def load() -> list[str]:
+        from app.eval.synthetic import VARIANTS
+
+        return sorted(VARIANTS)
+    return LazyChoices(load)
+
+
+def _room_methods() -> LazyChoices:
+    def load() -> tuple[str, ...]:
+        from app.eval.rooms import METHODS
+
+        return METHODS
+    return LazyChoices(load)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -57,8 +54,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      help=f"sequence types to run (default: all of {', '.join(SEQUENCES)})")
     syn.add_argument("--seed", nargs="+", type=count(0), default=None, metavar="N",
                      help="seeds of the generated sequences (default: 0 1 2)")
-    syn.add_argument("--variant", nargs="+", choices=sorted(VARIANTS), default=["paper", "avhear"],
-                     help="which variants of the method to run (default: both)")
+    syn.add_argument("--variant", nargs="+", choices=_synthetic_variants(), default=["paper", "avhear"],
+                     metavar="VARIANT", help="which variants of the method to run: paper, avhear (default: both)")
     syn.add_argument("--face-guided", action="store_true",
                      help="also run Algorithm 2 (faces given) with its variants on the same sequences (table 3)")
     syn.add_argument("--json", action="store_true", help="print the results as JSON instead of tables")
@@ -116,7 +113,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        help="seeds of the rooms; counts are summed over them (default: 0)")
     rooms.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="SECONDS",
                        help="seconds of each room (default 30)")
-    rooms.add_argument("--method", nargs="+", choices=ROOM_METHODS, default=list(ROOM_METHODS),
+    rooms.add_argument("--method", nargs="+", choices=_room_methods(), default=None, metavar="METHOD",
                        help="avhear (the options given) and/or paper (Algorithm 2 as written: free means, tau_A, the "
                             "correlogram's ITDs, no vote); default both")
     add_method_arguments(rooms)
@@ -140,6 +137,9 @@ def _progress(message: str) -> None:
 
 
 def run_synthetic(args: argparse.Namespace) -> int:
+    from app.eval.synthetic import FACE_VARIANTS, SequenceScore, VARIANTS, evaluate_face_guided, evaluate_sequence
+    from app.eval.tables import format_face_table, format_tables, synthetic_json
+
     seeds = args.seed if args.seed is not None else [0, 1, 2]
     if any(s < 0 for s in seeds):
         raise UserError(f"--seed takes non-negative integers, got {seeds}")
@@ -182,6 +182,10 @@ def _gap_us(line: dict, mics: MicPair) -> float:
 
 
 def run_scenarios(args: argparse.Namespace) -> int:
+    from app.eval.scenarios import CalibrationFit, PAPER_SCENARIOS, calibrate_on_preset, evaluate_scenario
+    from app.eval.scoring import ITD_TOLERANCE_S, ScenarioScore
+    from app.eval.tables import format_scenario_table, scenario_targets, signed_us
+
     if any(s < 0 for s in args.seed):
         raise UserError(f"--seed takes non-negative integers, got {args.seed}")
     if args.duration is not None and not (2.0 <= args.duration <= 3600.0):
@@ -285,6 +289,9 @@ def run_scenarios(args: argparse.Namespace) -> int:
 
 
 def run_rooms(args: argparse.Namespace) -> int:
+    from app.eval.rooms import METHODS, RoomScore, evaluate_room
+    from app.eval.tables import format_room_table
+
     if args.motion:
         raise UserError("avhear eval rooms scores face-guided hearing; leave out --motion")
     if args.duration is not None and not (5.0 <= args.duration <= 3600.0):
@@ -292,7 +299,7 @@ def run_rooms(args: argparse.Namespace) -> int:
     config = pipeline_config(args)
     start = time.perf_counter()
     scores: list[RoomScore] = []
-    for method in args.method:
+    for method in args.method or METHODS:
         runs: list[RoomScore] = []
         for seed in args.seed:
             _progress(f"room {seed}, {method}: simulating and running the pipeline ...")

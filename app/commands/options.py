@@ -119,7 +119,7 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--motion", action="store_true",
                    help="motion-guided inference (HM3D points, Algorithm 1) instead of face-guided (Algorithm 2)")
-    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=itd_methods(),
+    p.add_argument("--itd-method", default=DEFAULT_ITD_METHOD, choices=itd_methods(), metavar="METHOD",
                    help="ITD extractor: gcc-phat-robust (default), correlogram (the paper's), gcc-phat, "
                         "correlogram-robust")
     p.add_argument("--decision-window", type=duration(1.0), default=None, metavar="SECONDS",
@@ -156,9 +156,12 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
 def add_mics_argument(p: argparse.ArgumentParser, *, webcam: bool = False) -> None:
     """``--mics``: the simulated robot's microphones (or a webcam's), one of the array presets; with ``webcam``
     the default is None, resolved by the source (the simulated room's pair, a webcam's laptop pair)."""
-    from avcore.geometry import ARRAY_PRESETS
+    def presets() -> list[str]:
+        from avcore.geometry import ARRAY_PRESETS
 
-    p.add_argument("--mics", default=None if webcam else "pair", choices=list(ARRAY_PRESETS),
+        return list(ARRAY_PRESETS)
+
+    p.add_argument("--mics", default=None if webcam else "pair", choices=LazyChoices(presets), metavar="ARRAY",
                    help="the simulated robot's microphones" + (" (or, with --source webcam, the computer's)" if webcam
                                                                 else "") +
                         ": pair (the paper's 12 cm pair, the simulated room's default), laptop (two microphones 10 "
@@ -377,7 +380,7 @@ def add_bus_arguments(p: argparse.ArgumentParser) -> None:
 
 def add_ros_topic_arguments(p: argparse.ArgumentParser) -> None:
     """The topics of ``--source ros`` (defaults: the drivers' own names, :class:`app.bus.messages.RosTopics`)."""
-    from app.bus.messages import RosTopics
+    from app.bus.drivers import RosTopics
 
     g = p.add_argument_group("ROS 2 robot (--source ros)")
     d = RosTopics()
@@ -392,7 +395,7 @@ def add_ros_topic_arguments(p: argparse.ArgumentParser) -> None:
 
 def ros_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:
     """A ROS 2 robot's RGB-D camera and microphone topics as a pipeline source (``--source ros``)."""
-    from app.bus.messages import RosTopics
+    from app.bus.drivers import RosTopics
     from app.bus.ros_source import RosSource
     from app.config import MICROPHONES_HINT, load_rig
 

@@ -8,17 +8,17 @@ import shutil
 import sys
 import threading
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from app.bus.session import open_session
-from app.config import RigConfig, require_live_rig
 from app.errors import UserError
-from app.sources.live import LiveSource
 from app.commands.options import (add_bus_arguments, add_device_arguments, add_ros_topic_arguments, bus_options,
                                   bus_source, count, duration, live_config, positive, ros_source)
 from app.commands.paths import output_dir
-from app.sources.recorder import RecordStats, record
-from app.sources.recording import RecordingWriter
 from app.signals import stop_on_signals
+
+if TYPE_CHECKING:
+    from app.sources.recorder import RecordStats
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -46,6 +46,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from app.config import require_live_rig
+    from app.sources.live import LiveSource
+    from app.sources.recorder import record
+    from app.sources.recording import RecordingWriter
+
     if args.source in ("bus", "ros"):
         return _record_bus(args)
     if args.rig is None:
@@ -94,6 +99,10 @@ def _status(stats: RecordStats, stop: threading.Event, folder: Path) -> int:
 def _record_bus(args: argparse.Namespace) -> int:
     """The robot's sensors from the bus (``avhear sensors``, or a ROS 2 robot's topics) into the same raw recording
     format, as received (stamps included; an RGB-D camera's depth in depth/)."""
+    from app.config import RigConfig
+    from app.sources.recorder import record
+    from app.sources.recording import RecordingWriter
+
     if (args.output / "frames.csv").exists() and not args.force:
         raise UserError(f"{args.output} already holds a recording; choose another folder or add --force")
     options = bus_options(args)

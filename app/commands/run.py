@@ -11,13 +11,9 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from app.bus.session import open_session
-from app.config import RigConfig, save_rig
-from app.console import Console
 from app.errors import UserError
-from app.sources.live import LiveConfig
 from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_argument, add_camera_argument,
                                   add_lips_argument, wants_lips,
                                   add_ros_topic_arguments, ros_name, ros_source,
@@ -25,16 +21,17 @@ from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_ar
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
                                   face_detector_name, positive, wants_bodies)
 from app.commands.paths import distinct_outputs, output_file
-from app.pipeline import Pipeline, PipelineConfig, PipelineStats
-from app.sinks import Sinks
-from app.sinks.bus import ResultPublisher
-from app.sinks.results_file import ResultsWriter
-from app.sources.live import DEFAULT_FOV_DEG
-from app.sources.open import open_source
-from app.sources.sim import check_simulated_duration
-from app.console.viewer import ViewerSession, ViewerTarget, check_viewer, display_available
-from avcore.geometry import MicArray
-from sim.scenario import PRESETS
+from app.sources.limits import DEFAULT_FOV_DEG
+from sim.presets import PRESETS
+
+if TYPE_CHECKING:  # the run's parts are imported when it runs: `avhear --help` imports none of them
+    from app.console.viewer import ViewerTarget
+    from app.pipeline import PipelineStats
+    from app.pipeline_config import PipelineConfig
+    from app.sinks import Sinks
+    from app.sinks.bus import ResultPublisher
+    from app.sinks.results_file import ResultsWriter
+    from app.sources.live import LiveConfig
 
 DEMO_RRD = Path("recordings/demo.rrd")
 
@@ -136,6 +133,8 @@ def run_source(args: argparse.Namespace) -> int:
 
 
 def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
+    from app.console.viewer import ViewerTarget, display_available
+
     if args.headless:
         return ViewerTarget()
     if args.save is not None:
@@ -151,6 +150,9 @@ def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
 
 def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) -> None:
     """Everything the run will write or reach, checked before the (possibly long) preparation and run."""
+    from app.console.viewer import check_viewer
+    from app.sources.sim import check_simulated_duration
+
     if spec.startswith("sim:"):
         check_simulated_duration(args.duration)
     for name in ("bodies", "lips"):
@@ -191,6 +193,11 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
 
 
 def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveConfig | None = None) -> int:
+    from app.bus.session import open_session
+    from app.sinks.bus import ResultPublisher
+    from app.sinks.results_file import ResultsWriter
+    from app.sources.open import open_source
+
     config = pipeline_config(args)
     _check_outputs(spec, args, target)
     with ExitStack() as stack:
@@ -251,6 +258,9 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
 def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> None:
     """The source's cameras and microphones with each pair's self-calibrated c1, c0 (and an array's learned turn
     about the vertical, in its positions), as a rig file."""
+    from app.config import RigConfig, save_rig
+    from avcore.geometry import MicArray
+
     array = getattr(source, "array", None)
     array = array if array is not None else MicArray.from_pair(source.mics, tuple(source.channels))
     yaw = state[0].get("array_yaw_deg")
@@ -269,6 +279,11 @@ def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> N
 
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
+    from app.console import Console
+    from app.console.viewer import ViewerSession
+    from app.pipeline import Pipeline
+    from app.sinks import Sinks
+
     stream = getattr(source, "stream", None)
     if getattr(stream, "camera", "stereo") == "mono":  # a recording of one camera: known once it is open
         if config.inference == "motion":

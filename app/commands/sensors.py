@@ -8,13 +8,11 @@ import sys
 import threading
 import time
 
-from app.bus.sensors import RosDriverPublisher, SensorPublisher
 from app.bus.session import open_session
 from app.errors import UserError
 from app.commands.options import (add_bus_arguments, add_device_arguments, add_lips_argument, add_mics_argument,
                                   bus_options, count, duration, live_config, wants_lips)
 from app.signals import stop_on_signals
-from app.sources.open import open_source
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -45,6 +43,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from app.bus.sensors import RosDriverPublisher, SensorPublisher
+    from app.sources.open import open_source
+
     if args.source == "bus":
         raise UserError("avhear sensors publishes a source on the bus: give live, sim:S2 or replay:FOLDER")
     if args.source == "webcam":

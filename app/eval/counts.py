@@ -10,11 +10,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sim.presets import INTERVAL_S
+
 if TYPE_CHECKING:
     from sim.scenario import Scenario
 
-__all__ = ["IdentityCounts", "LipCue", "SpeakingCounts", "Timeline", "UtteranceCounts", "VOICE_SILENT_HOLD_S",
-           "VOICE_TOLERANCE_DEG", "VoiceCounts", "identity_counts", "json_number"]
+__all__ = ["INTERVAL_S", "IdentityCounts", "LipCue", "SpeakingCounts", "Timeline", "UtteranceCounts",
+           "VOICE_SILENT_HOLD_S", "VOICE_TOLERANCE_DEG", "VoiceCounts", "identity_counts", "json_number"]
 
 
 class _Counts:

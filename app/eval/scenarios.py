@@ -27,6 +27,7 @@ from app.result import Result
 from app.sources.open import StreamAdapter, open_source
 from avcore.calibration import fit_av_calibration_report
 from avcore.geometry import MicArray, MicPair
+from sim.presets import SCENARIO_CHOICES, SCENARIOS
 from sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
@@ -34,10 +35,6 @@ log = logging.getLogger(__name__)
 __all__ = ["PAPER_PERCENT", "PAPER_SCENARIOS", "SCENARIOS", "SCENARIO_CHOICES", "CalibrationFit",
            "calibrate_on_preset", "evaluate_scenario"]
 
-SCENARIOS: tuple[str, ...] = ("S1", "S2", "S3", "S4", "S5")
-"""The paper's scenarios: what ``avhear eval scenarios`` runs by default."""
-SCENARIO_CHOICES: tuple[str, ...] = (*SCENARIOS, "S6")
-"""Every scenario that can be scored: the paper's and S6 (two people in one direction), which the paper has not."""
 PAPER_PERCENT: dict[str, tuple[float, float]] = {
     # the table's own FN % and TP % (its S2 row rounds 31 / 207 to 14.9 %)
     "S1": (13.4, 86.6), "S2": (14.9, 85.1), "S3": (11.3, 88.7), "S4": (6.7, 93.3), "S5": (19.0, 81.0),

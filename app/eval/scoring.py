@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from app.eval.counts import (
+    INTERVAL_S,
     VOICE_SILENT_HOLD_S,
     VOICE_TOLERANCE_DEG,
     IdentityCounts,
@@ -44,8 +45,6 @@ __all__ = ["INTERVAL_S", "ITD_TOLERANCE_S", "LATERAL_ITD_S", "TIMING_REFERENCE_S
 
 Positions = Callable[[float], np.ndarray]
 
-INTERVAL_S = 0.4
-"""One count of the speaking-state table: a person during 0.4 s (the Delta t of section 7)."""
 ITD_TOLERANCE_S = 40e-6
 """An extracted ITD is accurate when within 40 us of the talker's true ITD."""
 TIMING_REFERENCE_S = 0.025
