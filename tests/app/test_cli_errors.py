@@ -177,7 +177,7 @@ def test_sensors_move_the_simulated_mouths_only_of_a_simulated_room(tmp_path: Pa
         opened.append(kwargs)
         raise UserError("opened")
 
-    monkeypatch.setattr("app.commands.sensors.open_source", open_source)
+    monkeypatch.setattr("app.sources.open.open_source", open_source)  # the command imports it when it runs
     monkeypatch.setattr("app.commands.sensors.open_session", lambda options: type("S", (), {"close": lambda s: None})())
     assert main(["sensors", "--source", "sim:S2", "--lips"]) == 2
     assert main(["sensors", "--source", "sim:S2"]) == 2

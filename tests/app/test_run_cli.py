@@ -160,7 +160,7 @@ def test_the_simulated_people_have_bodies_unless_told_otherwise(argv: list[str],
                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
     """`avhear demo` and `avhear run --source sim:` draw people with bodies by default (issue 18); --no-bodies gives
     the flat scene."""
-    from app.commands import run as run_command
+    import app.sources.open
     from app.errors import UserError
 
     asked: dict[str, object] = {}
@@ -169,7 +169,7 @@ def test_the_simulated_people_have_bodies_unless_told_otherwise(argv: list[str],
         asked.update(kwargs)
         raise UserError("stopped here")
 
-    monkeypatch.setattr(run_command, "open_source", stop)
+    monkeypatch.setattr(app.sources.open, "open_source", stop)  # where the command takes it from when it runs
     assert main([*argv, "--headless"]) == 2
     assert asked["bodies"] is bodies
 

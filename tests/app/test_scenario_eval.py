@@ -373,7 +373,7 @@ def test_evaluate_scenario_scores_motion_on_the_moving_bodies(monkeypatch: pytes
 
 
 def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.MonkeyPatch) -> None:
-    from app.commands import eval as eval_command
+    import app.eval.scenarios as scenarios_module
 
     asked: list[bool] = []
 
@@ -381,7 +381,7 @@ def test_eval_scenarios_draws_bodies_unless_told_otherwise(monkeypatch: pytest.M
         asked.append(bool(kwargs["bodies"]))
         raise SystemExit(0)
 
-    monkeypatch.setattr(eval_command, "evaluate_scenario", stop)
+    monkeypatch.setattr(scenarios_module, "evaluate_scenario", stop)  # the command imports it when it runs
     for argv, bodies in ((["--motion"], True), ([], True), (["--motion", "--no-bodies"], False)):
         with pytest.raises(SystemExit):
             main(["eval", "scenarios", "--scenario", "S1", "--no-calibrate", *argv])
