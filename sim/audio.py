@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import fftconvolve
 
-from sim.roomsim import AcousticRoom, read_wav, fan_noise, load_speech, pink_noise, resolve_data_dir, synthetic_speech
+from sim.roomsim import AcousticRoom, data_path, fan_noise, load_speech, pink_noise, read_wav, synthetic_speech
 from sim.scenario import (
     SOURCE_OFFSETS_M,
     ClipBank,
@@ -30,14 +30,13 @@ FAN_POSITION_M = (0.02, -0.04, -0.06)  # the fan inside the head, behind the mic
 PRA_DELAY_SAMPLES = 40   # pyroomacoustics' global delay in its responses (sim.roomsim.AcousticRoom.impulse_responses)
 def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = None, n_voices: int = 3,
                    seed: int = 0) -> ClipBank:
-    """The spoken digits of ``data_dir/speech/digits`` grouped by speaker (``{digit}_{speaker}_N.wav``), one voice
-    per speaker with its ten digits, each cut to its audible part (:func:`sim.scenario.trim_quiet_ends`: the
-    truth's speaking states follow the clips); :func:`sim.scenario.synthetic_clip_bank` when the folder is absent
-    or incomplete. ``data_dir`` defaults to :func:`sim.roomsim.resolve_data_dir`."""
-    root = resolve_data_dir(data_dir)
-    folder = root / "speech" / "digits"
+    """The spoken digits of ``speech/digits`` (:func:`sim.roomsim.data_path`: the data folder's, else the copy
+    avhear ships) grouped by speaker (``{digit}_{speaker}_N.wav``), one voice per speaker with its ten digits, each
+    cut to its audible part (:func:`sim.scenario.trim_quiet_ends`: the truth's speaking states follow the clips);
+    :func:`sim.scenario.synthetic_clip_bank` when the folder is absent or incomplete."""
+    folder = data_path("speech/digits", data_dir)
     names = sorted(p.name for p in folder.glob("*.wav")) if folder.is_dir() else []
-    clips = load_speech(samplerate_hz, "digits", root) if names else None
+    clips = load_speech(samplerate_hz, "digits", data_dir) if names else None
     if clips is not None and len(clips) == len(names):
         by_speaker: dict[str, dict[int, np.ndarray]] = {}
         for name, clip in zip(names, clips):
@@ -54,14 +53,14 @@ def load_clip_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = Non
 
 
 def load_sentence_bank(samplerate_hz: int = 16000, data_dir: str | Path | None = None, seed: int = 0) -> ClipBank:
-    """Read sentences for the rooms (:mod:`sim.rooms`): the CMU ARCTIC excerpts of ``data_dir/speech/arctic``, one
-    voice per speaker (``cmu_arctic_us_<speaker>_<id>.wav``; a file without a speaker is a voice of its own), each
-    cut to its audible part and scaled to unit RMS; three synthetic voices of six 1.5-3.5 s utterances when the
-    folder is absent (``ClipBank.source`` says which: "arctic" or "synthetic")."""
-    root = resolve_data_dir(data_dir)
-    folder = root / "speech" / "arctic"
+    """Read sentences for the rooms (:mod:`sim.rooms`): the CMU ARCTIC excerpts of ``speech/arctic`` (the data
+    folder's, else the shipped copy: :func:`sim.roomsim.data_path`), one voice per speaker
+    (``cmu_arctic_us_<speaker>_<id>.wav``; a file without a speaker is a voice of its own), each cut to its audible
+    part and scaled to unit RMS; three synthetic voices of six 1.5-3.5 s utterances when the folder is absent
+    (``ClipBank.source`` says which: "arctic" or "synthetic")."""
+    folder = data_path("speech/arctic", data_dir)
     names = sorted(p.name for p in folder.glob("*.wav")) if folder.is_dir() else []
-    clips = load_speech(samplerate_hz, "arctic", root) if names else None
+    clips = load_speech(samplerate_hz, "arctic", data_dir) if names else None
     if clips is not None and len(clips) == len(names):
         by_speaker: dict[str, list[np.ndarray]] = {}
         for name, clip in zip(names, clips):
@@ -93,9 +92,9 @@ class Background:
 
 def load_background(position_m: tuple[float, float, float], snr_db: float, samplerate_hz: int = 16000,
                     data_dir: str | Path | None = None, seed: int = 0) -> Background:
-    """The kitchen noise of ``data_dir/noise/doing_the_dishes.wav`` (Speech Commands' background noise), or pink
-    noise without it, at ``position_m`` and ``snr_db``."""
-    path = resolve_data_dir(data_dir) / "noise" / "doing_the_dishes.wav"
+    """The kitchen noise of ``noise/doing_the_dishes.wav`` (Speech Commands' background noise; the data folder's,
+    else the shipped copy), or pink noise without it, at ``position_m`` and ``snr_db``."""
+    path = data_path("noise/doing_the_dishes.wav", data_dir)
     if path.is_file():
         return Background(read_wav(path, samplerate_hz), position_m, snr_db, "kitchen")
     return Background(pink_noise(60 * samplerate_hz, np.random.default_rng([seed, 29])), position_m, snr_db, "pink")

@@ -52,6 +52,22 @@ DATA_ENV = "AVHEAR_DATA"
 DEFAULT_DATA_DIR = Path("../shared/data")  # relative to the current folder: the repository's root
 
 
+EMBEDDED_DATA_DIR = Path(__file__).resolve().parent / "data"
+"""The real speech and noise avhear ships (``sim/data/SOURCES.md``: each file's source and licence)."""
+
+
+def data_path(relative: str, data_dir: str | Path | None = None) -> Path:
+    """Where ``relative`` (``speech/digits``, ``speech/arctic``, ``noise/doing_the_dishes.wav``) is read: the data
+    folder's (:func:`resolve_data_dir`) when it has it or was given by name (``data_dir``: a test's empty folder
+    means "none"); else the copy shipped inside the package, when there is one; else the folder's path (absent:
+    the caller falls back to synthetic sounds)."""
+    path = resolve_data_dir(data_dir) / relative
+    if path.exists() or data_dir is not None:
+        return path
+    shipped = EMBEDDED_DATA_DIR / relative
+    return shipped if shipped.exists() else path
+
+
 def resolve_data_dir(data_dir: str | Path | None = None) -> Path:
     """Where the real third-party data (faces, speech, noise) is read from: ``data_dir`` when given, else the
     ``AVHEAR_DATA`` environment variable, else ``../shared/data`` relative to the current folder. A folder that is
@@ -93,12 +109,13 @@ def read_wav(path: Path, samplerate_hz: int) -> np.ndarray:
 
 def load_speech(samplerate_hz: int, kind: Literal["digits", "arctic"] = "digits",
                 data_dir: Path | None = None) -> list[np.ndarray] | None:
-    """Real utterances from ``data_dir/speech/<kind>``, resampled to ``samplerate_hz``; None if absent.
+    """Real utterances from ``speech/<kind>`` (:func:`data_path`: the data folder's, or the shipped copy),
+    resampled to ``samplerate_hz``; None if absent.
 
     Returns a list of ``(n,)`` float arrays (full scale 1), sorted by file name; each trimmed of leading and
     trailing silence (below 1 % of its peak) and high-passed at about 60 Hz (removes DC and hum).
     """
-    folder = resolve_data_dir(data_dir) / "speech" / kind
+    folder = data_path(f"speech/{kind}", data_dir)
     files = sorted(folder.glob("*.wav"))
     if not files:
         return None
@@ -422,7 +439,7 @@ def simulate(room: AcousticRoom, talkers_scene: object, duration_s: float = 10.0
     used = speech if utterances else "synthetic"
     dry = speech_turns(talkers.shape[0], duration_s, fs, rng, utterances)
 
-    noise_file = resolve_data_dir(data_dir) / "noise" / "doing_the_dishes.wav"
+    noise_file = data_path("noise/doing_the_dishes.wav", data_dir)
     full = read_wav(noise_file, fs) if used != "synthetic" and noise_file.is_file() else None
     noise_kind = "doing_the_dishes.wav" if full is not None else "pink"
     n_talk = talkers.shape[0]

@@ -42,7 +42,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--video", choices=("avi", "png"), default="avi",
                    help="avi: MJPG video per camera (compact); png: lossless image sequences (large)")
     p.add_argument("--data", type=Path, default=None, metavar="DIR",
-                   help="real faces and speech (default ../shared/data; drawn faces and synthetic speech without it)")
+                   help="real faces and speech (default ../shared/data; without it drawn faces and the speech avhear "
+                        "ships; a folder given here is read alone)")
     p.add_argument("--force", action="store_true", help="replace a recording already in the output folder")
     add_mics_argument(p)
     add_bodies_argument(p)

@@ -166,6 +166,15 @@ def _header_lines(n_seeds: int, config: PipelineConfig, calibration: Calibration
     ]
 
 
+def _data_lines(scores: list[ScenarioScore]) -> list[str]:
+    """What the simulated room ran on: photographed faces (../shared/data) or drawn ones, real speech or synthetic."""
+    kinds = sorted({(s.faces, s.speech) for s in scores if s.faces or s.speech})
+    if not kinds:
+        return []
+    return ["Data: " + "; ".join(f"{faces or '?'} faces, {speech or '?'} speech" for faces, speech in kinds) +
+            " (photographed faces need ../shared/data beside the clone; the speech avhear ships)."]
+
+
 def _per_number_lines(scores: list[ScenarioScore], label: str) -> list[str]:
     lines = [
         ("Per spoken number (the paper's unit, its people counting to 16): TP = a number judged spoken by its "
@@ -309,7 +318,7 @@ def format_scenario_table(scores: list[ScenarioScore], config: PipelineConfig,
     label = ("paper's Alg. 1 (here)" if config.inference == "motion" and config.motion_variant == "paper"
              else f"avhear {config.inference}-guided")
     reference = f"truth held +-{TIMING_REFERENCE_S * 1e3:.0f} ms"
-    sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration),
+    sections = [_header_lines(len(scores[0].seeds) if scores else 0, config, calibration) + _data_lines(scores),
                 _per_number_lines(scores, label), _per_result_lines(scores),
                 _per_interval_lines(scores, label, reference),
                 _front_end_lines(scores), _identity_lines(scores), _voice_lines(scores), _lip_lines(scores),

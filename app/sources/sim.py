@@ -183,7 +183,8 @@ class SimSource(ReplayStream):
                     mics: str = "pair", bodies: bool = False, camera: str = "stereo", lips: bool = False,
                     progress: Callable[[str], None] | None = None) -> SimSource:
         """A preset of :data:`sim.scenario.PRESETS` with real faces and digits from ``data_dir`` (default
-        ``../shared/data``; drawn faces and synthetic clips when it is absent), heard by the microphones ``mics``
+        ``../shared/data``; without it drawn faces and the digits avhear ships, :func:`sim.roomsim.data_path`),
+        heard by the microphones ``mics``
         (:data:`avcore.geometry.ARRAY_PRESETS`)."""
         bank = load_clip_bank(16000, data_dir, seed=seed)
         scenario = make_scenario(name, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,

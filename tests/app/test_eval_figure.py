@@ -61,7 +61,10 @@ def test_eval_scenarios_saves_a_timeline_per_run(tmp_path: Path, capsys: pytest.
                  "--timeline", str(out)]) == 0
     img = cv2.imread(str(out / "S1_seed0.png"))
     assert img is not None and img.shape[1] == 1600
-    assert "timeline saved" in capsys.readouterr().err
+    printed = capsys.readouterr()
+    assert "timeline saved" in printed.err
+    # the table says which data the room ran on: real digits (../shared/data's or the copies avhear ships)
+    assert "Data: " in printed.out and "faces, digits speech" in printed.out
 
 
 def test_timeline_to_an_unwritable_place_is_a_clear_error(people_result: Callable[..., object], tmp_path: Path) -> None:
