@@ -1,3 +1,5 @@
+"""sim.audio: where the simulated room's voices and noise come from."""
+from __future__ import annotations
 
 
 def test_a_clone_alone_speaks_with_the_real_voices_it_ships(tmp_path, monkeypatch) -> None:  # noqa: ANN001
