@@ -193,7 +193,8 @@ class RosSource(ReceivedSource):
 
     def _check_silence(self) -> None:
         """Called while a stream waits: once ``info_timeout_s`` has passed since the start, a stream that has sent
-        nothing is a user's mistake (a wrong topic name), never a silent success."""
+        nothing and that no node publishes is a user's mistake (a wrong topic name), never a silent success; one that
+        a node publishes (its type as asked) is said and waited for."""
         if self._silence_checked:
             return
         if len(self._heard) == 3:
@@ -203,11 +204,17 @@ class RosSource(ReceivedSource):
             return
         self._silence_checked = True
         t = self.topics
+        published = published_topics(self.session, self.convention.domain) if self.convention.native else {}
         for stream, topic, typename, flag in (("colour", t.colour, self._colour_type, "--colour-topic"),
                                               ("depth", t.depth, IMAGE, "--depth-topic"),
                                               ("audio", t.audio, AUDIO_STAMPED, "--audio-topic")):
-            if stream not in self._heard:
-                raise self._silent(topic, typename, flag, f"no {stream} messages")
+            if stream in self._heard:
+                continue
+            if typename in published.get(self.convention.topic(topic), ()):  # its driver is there: a slow start
+                log.warning("nothing has come on %s in %.0f s, though a node publishes it: waiting for it",
+                            self.convention.topic(topic), time.monotonic() - self._started)
+                continue
+            raise self._silent(topic, typename, flag, f"no {stream} messages")
 
     # -- Zenoh's threads: decode and hand over ---------------------------------------------------------------
 

@@ -71,6 +71,13 @@ class _Driver:
                 self._live.append(self.session.liveliness().declare_token(token))
         self._pubs[key].put(bytes(self.store.serialize_cdr(message, typename)))
 
+    def announce(self, topic: str, typename: str) -> None:
+        """A publisher's liveliness token alone, as a driver that has started and sent nothing yet."""
+        package, _, name = typename.split("/")
+        self._live.append(self.session.liveliness().declare_token(
+            f"@ros2_lv/0/{self.session.info.zid()}/0/{100 + len(self._live)}/MP/%/%/camera/%{topic.replace('/', '%')}/"
+            f"{package}::msg::dds_::{name}_/{self.store.hash_rihs01(typename)}/::,10:,:,:,,"))
+
     def header(self, stamp: float, frame: str):  # noqa: ANN201
         sec = int(stamp)
         return self.t["std_msgs/msg/Header"](stamp=self.t["builtin_interfaces/msg/Time"](
@@ -361,3 +368,41 @@ def test_a_ros_robot_without_a_rig_is_asked_for_its_microphones(tmp_path: Path, 
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
     errors = [line for line in done.stderr.splitlines() if "error" in line]
     assert len(errors) == 1 and "--rig mics.yaml" in errors[0] and "start `avhear sensors`" not in errors[0]
+
+
+def test_a_published_topic_that_is_slow_to_start_is_waited_for(caplog: pytest.LogCaptureFixture) -> None:
+    """Image topics whose driver is up (their tokens are there) but has sent nothing yet by the info timeout: said as
+    a warning and waited for, not an error (a driver's slow start is no wrong name)."""
+    import logging
+
+    from app.bus.ros_source import RosSource
+    from app.config import RigConfig
+    from avcore.geometry import MicPair
+
+    port = _free_port()
+    rig = RigConfig(None, MicPair(left=(-0.05, 0.0, 0.0), right=(0.05, 0.0, 0.0)))
+    with _session(listen=port) as robot, _session(connect=port) as laptop:
+        driver = _Driver(robot, tokens=True)
+        driver.announce("camera/camera/color/image_raw", "sensor_msgs/msg/Image")
+        driver.announce("camera/camera/aligned_depth_to_color/image_raw", "sensor_msgs/msg/Image")
+        stop_robot = threading.Event()
+
+        def drivers() -> None:  # everything but the images
+            while not stop_robot.is_set():
+                driver.camera_info(time.time(), 64, 48)
+                driver.audio_info(2)
+                driver.audio(time.time(), np.zeros((160, 2), np.int16))
+                stop_robot.wait(0.03)
+
+        threading.Thread(target=drivers, daemon=True).start()
+        try:
+            source = RosSource(laptop, rig, info_timeout_s=2.0)
+            stop = threading.Event()
+            threading.Timer(4.0, stop.set).start()
+            with caplog.at_level(logging.WARNING):
+                assert list(source.frames(stop)) == []  # waited until stopped: no error
+            source.close()
+        finally:
+            stop_robot.set()
+    assert any("/camera/camera/color/image_raw" in r.getMessage() and "though a node publishes it" in r.getMessage()
+               for r in caplog.records)
