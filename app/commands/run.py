@@ -250,9 +250,24 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
     if len(parts) > 1:
         pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
         print(f"avhear: the console's data is in {len(parts)} parts, {parts[0]} to {parts[-1]}; open them together "
-              f"with: rerun {pattern}")
+              f"with: {_rerun_command()} {pattern}")
     elif target.save is not None:
-        print(f"avhear: the console's data is in {target.save}; open it with: rerun {target.save}")
+        print(f"avhear: the console's data is in {target.save}; open it with: {_rerun_command()} {target.save}")
+
+
+def _rerun_command() -> str:
+    """How to call Rerun's viewer from here: ``rerun`` when it is on PATH, else its path in the venv (relative to the
+    current folder when it lies below it: ``.venv/bin/rerun``)."""
+    import os
+    import shutil
+
+    from app.console.viewer import rerun_executable
+
+    found = rerun_executable()
+    if found is None or shutil.which("rerun"):
+        return "rerun"
+    relative = os.path.relpath(found)
+    return relative if not relative.startswith("..") else found
 
 
 def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> None:

@@ -24,6 +24,11 @@ def test_demo_writes_the_console_to_an_rrd(tmp_path: Path, capsys: pytest.Captur
     assert main(["demo", "--duration", "3", "--fast", "--save", str(rrd), "--stats-json", str(stats)]) == 0
     out = capsys.readouterr().out
     assert "results in" in out and f"rerun {rrd}" in out
+    # the command it gives runs from here: `rerun` on PATH, or the venv's own (.venv/bin/rerun when not activated)
+    import shutil
+
+    command = out.split("open it with: ", 1)[1].split()[0]
+    assert shutil.which(command) or Path(command).is_file(), command
     figures = json.loads(stats.read_text())
     assert figures["results"] >= 80  # 3 s at 30 FPS, nothing lost when replayed as fast as possible
     assert set(figures["drops"]) >= {"frames", "audio", "fusion", "itds_unmatched", "frame_itds"}
