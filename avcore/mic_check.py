@@ -10,9 +10,9 @@ Two signs, per pair, from what the run hears anyway:
   whose ITDs on a pair spread less than ``max_spread_s`` (one source, as :mod:`avcore.selfcal` takes them) gives
   the ratio of their median to the raw ITD (eq. itd) of the face that explains it (with one pair: the one face in
   view; with an array: the face whose ITD vector, scaled, lies closest to the medians), where that face's ITD is
-  at least ``min_itd_s`` off zero. Reverberation pulls measured ITDs 5-15 % towards zero (section 5.3's c1) and a
-  head between the microphones lengthens them (NAO's: up to 1.5 times free field on its rear pairs, measured on
-  the drawn rooms), so only a median ratio outside ``scale_range`` over ``min_observations`` counts.
+  at least ``min_itd_s`` off zero. Reverberation pulls measured ITDs towards zero (section 5.3's c1) and a head
+  between the microphones lengthens them (NAO's rear pairs: docs/experiments.md), so only a median ratio outside
+  ``scale_range`` over ``min_observations`` counts.
 
 Each finding says which pair, the spacing the rig file declares and the one the sound suggests.
 """

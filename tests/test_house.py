@@ -168,7 +168,7 @@ def test_argparse_stays_in_the_command_line() -> None:
 def test_the_command_lines_help_imports_none_of_the_method() -> None:
     """`avhear --help` (the parsers of every command) imports no SciPy, OpenCV, Rerun, Zenoh, YAML or ROS types:
     what it states comes from light modules (sim/presets.py, app/sources/limits.py, app/bus/drivers.py), choices
-    a method knows are loaded when looked at (issue 56.5: it took 1.5 s; the time itself is benchmarks' to say)."""
+    a method knows are loaded when looked at (issue 56.5; the time itself is not a test's to say)."""
     script = ("import sys\nfrom app.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass\n"
               "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})), file=sys.stderr)")
     done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=60)

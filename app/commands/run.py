@@ -263,8 +263,10 @@ def _rerun_command() -> str:
 
     from app.console.viewer import rerun_executable
 
-    found = rerun_executable()
-    if found is None or shutil.which("rerun"):
+    if shutil.which("rerun"):
+        return "rerun"
+    found = rerun_executable()  # the venv's, beside this Python
+    if found is None:
         return "rerun"
     relative = os.path.relpath(found)
     return relative if not relative.startswith("..") else found

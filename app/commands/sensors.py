@@ -7,8 +7,9 @@ import argparse
 import sys
 import threading
 import time
+from typing import Any
 
-from app.bus.session import open_session
+from app.bus.session import BusOptions, open_session
 from app.errors import UserError
 from app.commands.options import (add_bus_arguments, add_device_arguments, add_lips_argument, add_mics_argument,
                                   bus_options, count, duration, live_config, wants_lips)
@@ -106,13 +107,13 @@ def _what(args: argparse.Namespace) -> str:
     return args.source
 
 
-def _wait_for_router(session: object, options: object, timeout_s: float = 3.0) -> None:
+def _wait_for_router(session: Any, options: BusOptions, timeout_s: float = 3.0) -> None:
     """Give the session up to ``timeout_s`` to join the rmw_zenoh router it is to join, so that the graph it then
     reads is the robot's (a session just opened has not met the router yet)."""
     from app.bus.session import ros_router
 
-    if ros_router(options) is None:  # type: ignore[arg-type]
+    if ros_router(options) is None:
         return
     deadline = time.monotonic() + timeout_s
-    while not list(session.info.routers_zid()) and time.monotonic() < deadline:  # type: ignore[attr-defined]
+    while not list(session.info.routers_zid()) and time.monotonic() < deadline:
         time.sleep(0.05)
