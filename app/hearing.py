@@ -84,8 +84,9 @@ class LipReader:
     to get it) when it is made."""
 
     runtime: str = "opencv"
+    earn_trust: bool = True
     tracks: LipTracks = field(default_factory=LipTracks, init=False, repr=False)
-    hidden: HiddenLips = field(default_factory=HiddenLips, init=False, repr=False)
+    hidden: HiddenLips = field(init=False, repr=False)
     envelope: SoundEnvelope = field(default_factory=SoundEnvelope, init=False, repr=False)
     _mesh: Any = field(default=None, init=False, repr=False)
 
@@ -94,6 +95,7 @@ class LipReader:
         from avcore.facemesh import FaceMesh
 
         self._mesh = FaceMesh(facemesh_model(), runtime=self.runtime)
+        self.hidden = HiddenLips(earn_trust=self.earn_trust)
 
     def landmarks(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> np.ndarray:
         """The mesh's landmarks (n, 468, 3) on ``boxes``, its crops levelled by ``eyes`` (the detector's) when given."""
@@ -145,7 +147,7 @@ class FaceGuided:
 
     def __post_init__(self) -> None:
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
-            self._lips = LipReader(self.config.tflite_runtime)
+            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust)
 
     @property
     def frame_capacity(self) -> int:
@@ -239,7 +241,8 @@ class FaceGuided:
             out = replace(out, speaking=out.speaking[owner], probability=out.probability[owner],
                           itd_means=out.itd_means[owner], itd_counts=out.itd_counts[owner],
                           model=out.model.shared(owner),
-                          pair_itd_means=None if out.pair_itd_means is None else out.pair_itd_means[owner])
+                          pair_itd_means=None if out.pair_itd_means is None else out.pair_itd_means[owner],
+                          rescued=None if out.rescued is None else out.rescued[owner])
             speaking, probability = choose_by_lips(out.speaking, out.probability, vision.lip_relative, groups,
                                                    self.config.lip_both_above)
             out = replace(out, speaking=speaking, probability=probability)
@@ -302,7 +305,7 @@ class MotionGuided:
 
     def __post_init__(self) -> None:
         if self.config.lips:
-            self._lips = LipReader(self.config.tflite_runtime)
+            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust)
 
     @property
     def frame_capacity(self) -> int:

@@ -42,6 +42,7 @@ from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.lips import frame_powers
 from avcore.mic_check import MicCheck
+from avcore.speaking import RescueContinuity
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
 from avcore.tracking import NearestTracker
@@ -204,6 +205,7 @@ class Pipeline:
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
         self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
         self._vote = self.mode.vote()
+        self._continuity = RescueContinuity(c.rescue_gap_s) if c.rescue_gap_s is not None else None
         self._fused = 0  # vision frames fused (results emitted lag them by the vote)
         # a live source must never wait; a replay as fast as possible waits for room rather than lose data
         self._backpressure = not source.realtime
@@ -518,6 +520,10 @@ class Pipeline:
             if self._fused % 150 == 149:
                 self._say_mics()
         ids = tracker.update(self.mode.people_xyz(vision, output), vision.stamp_s)
+        rescued = getattr(output, "rescued", None)
+        if self._continuity is not None and rescued is not None:
+            speaking, probability = self._continuity.update(stamp, ids, output.speaking, output.probability, rescued)
+            output = replace(output, speaking=speaking, probability=probability)
         result = Result(stamp, frame.index, frame.left, vision.boxes, vision.xyz, a, output, float("nan"), ids,
                         frame.depth_m, self.mode.people_lips(vision, output),
                         self.mode.voices(hearing.array, vision, a, tracker.new_id))

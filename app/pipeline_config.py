@@ -33,6 +33,10 @@ class PipelineConfig:
     vote_frames : face-guided: each person's speaking state is the majority of their states over this many
         consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
         thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
+    rescue_gap_s : face-guided: a call that only the speaking test's later looks make (single frames, bands, bins)
+        stands while the same person's last call that stood is at most this old
+        (:class:`avcore.speaking.RescueContinuity`: they carry a person's speech on, not start it); None: every
+        such call stands (avhear before wave 4).
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7). motion_variant,
         face_variant : "avhear" (the default) or "paper" (Algorithm 1, or 2's EM and eq. audio_act, as written).
     *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
@@ -53,7 +57,9 @@ class PipelineConfig:
     lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): a face whose lips
         are still (under ``lip_still_below``) is not speaking; faces within ``lip_same_direction_s`` on every pair
         are heard as one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its
-        own range). Motion-guided, a person's face is the one within ``lip_face_within_m`` of them horizontally
+        own range). ``lip_earn_trust``: a face's still lips veto only once its lips have moved with its own voice
+        (:class:`avcore.lips.HiddenLips`); False: from the start, until they stay still through its voice.
+        Motion-guided, a person's face is the one within ``lip_face_within_m`` of them horizontally
         (:func:`app.hearing.faces_of_people`), and the veto applies to the person.
     """
 
@@ -66,6 +72,7 @@ class PipelineConfig:
     decision_window_s: float | None = None
     frame_itds: bool = True
     vote_frames: int = 9
+    rescue_gap_s: float | None = 0.1
     face_detector: Literal["auto", "haar", "blazeface"] = "auto"
     latency: Literal["default", "low"] = "default"
     self_calibrate: bool = False
@@ -76,6 +83,7 @@ class PipelineConfig:
     lip_same_direction_s: float = 40e-6
     lip_both_above: float = 0.5
     lip_face_within_m: float = 0.35
+    lip_earn_trust: bool = True
     interval_s: float = 0.4
     motion_variant: Literal["avhear", "paper"] = "avhear"
     face_variant: Literal["avhear", "paper"] = "avhear"
@@ -119,6 +127,8 @@ class PipelineConfig:
         if self.max_audio_lead_s <= least:
             raise ValueError(f"max_audio_lead_s must exceed the time frame plus a window ({least:g} s), got "
                              f"{self.max_audio_lead_s!r}")
+        if self.rescue_gap_s is not None and not 0 <= self.rescue_gap_s < 10:
+            raise ValueError(f"rescue_gap_s must be None or a time in [0, 10) seconds, got {self.rescue_gap_s!r}")
         if not (isinstance(self.vote_frames, int) and self.vote_frames >= 1 and self.vote_frames % 2 == 1):
             raise ValueError(f"vote_frames must be an odd number of results >= 1 (1: no vote), got "
                              f"{self.vote_frames!r}")

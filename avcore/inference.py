@@ -515,6 +515,8 @@ class FaceGuidedOutput:
     tau_a : K / (N + 2). n_iter : EM iterations run.
     pair_itd_means : (N, P) seconds, each person's mean on each pair (``itd_means`` and ``model`` are the first
     pair's); None only in outputs built by hand.
+    rescued : (N,) bool, the calls only the speaking test's later looks made
+    (:meth:`avcore.speaking.SpeakingTest.decide_all`, for :class:`avcore.speaking.RescueContinuity`); None: none.
     """
 
     speaking: np.ndarray
@@ -525,6 +527,7 @@ class FaceGuidedOutput:
     tau_a: float
     n_iter: int
     pair_itd_means: np.ndarray | None = None
+    rescued: np.ndarray | None = None
 
 
 def _as_array(mics: object) -> MicArray:
@@ -619,8 +622,8 @@ class FaceGuidedHearing:
             if frame_bins.bins.shape[1] != n_pairs:
                 raise ValueError(f"frame_bins must hold the array's {n_pairs} pairs, got {frame_bins.bins.shape[1]}")
             share = bin_shares(frame_bins.bins, frame_bins.freqs_hz, means, p.speaking.bin_agreement)
-        speaking, prob, tau = p.speaking.decide(beta[:, :-1], x, fit.means, fit.variances, self._supports, present,
-                                                frames, bands, share)
+        d = p.speaking.decide_all(beta[:, :-1], x, fit.means, fit.variances, self._supports, present, frames, bands,
+                                  share)
         model = Mixture1D.unchecked(fit.weights, fit.means[:, 0].copy(), fit.variances[:, 0].copy(), self.support)
-        return FaceGuidedOutput(speaking, prob, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model, tau,
-                                fit.n_iter, fit.means.copy())
+        return FaceGuidedOutput(d.speaking, d.probability, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model,
+                                d.tau_a, fit.n_iter, fit.means.copy(), d.rescued)

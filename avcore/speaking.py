@@ -2,11 +2,13 @@
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["COUNT_BY", "SpeakingTest", "SpeakingVote", "bin_shares", "speaking_threshold", "vote_speaking"]
+__all__ = ["COUNT_BY", "Decision", "RescueContinuity", "SpeakingTest", "SpeakingVote", "bin_shares", "speaking_threshold",
+           "vote_speaking"]
 
 
 def speaking_threshold(n_itds: int, n_objects: int) -> float:
@@ -72,6 +74,17 @@ def _poisson_quantile(q: float, lam: np.ndarray) -> np.ndarray:
     cdf = np.cumsum(np.exp(log_pmf), axis=1)
     cdf[lam == 0] = 1.0
     return (cdf < q).sum(axis=1).astype(np.float64)
+
+
+class Decision(NamedTuple):
+    """:meth:`SpeakingTest.decide_all`: ``speaking`` (N,) bool, ``probability`` (N,) above 0.5 exactly when
+    speaking, ``tau_a`` = K / (N + 2), ``rescued`` (N,) bool: speaking by the single frames', bands' or bins' looks
+    where the windows' test alone says silent (never with the paper's test, which has no such look)."""
+
+    speaking: np.ndarray
+    probability: np.ndarray
+    tau_a: float
+    rescued: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -142,7 +155,16 @@ class SpeakingTest:
                supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
                band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, float]:
-        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A.
+        """Speaking states (N,), a probability in [0, 1] that is above 0.5 exactly when speaking, and tau_A:
+        :meth:`decide_all` without saying which calls the rescues alone made."""
+        d = self.decide_all(beta, itds, means, variances, supports, present, frame_itds, band_itds, bin_share)
+        return d.speaking, d.probability, d.tau_a
+
+    def decide_all(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray, variances: np.ndarray,
+                   supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
+                   band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None) -> Decision:
+        """The :class:`Decision`: speaking states (N,), a probability in [0, 1] above 0.5 exactly when speaking,
+        tau_A, and ``rescued``, the calls that the windows' test did not make and the later looks did.
 
         One microphone pair is an array of one pair: ITDs are vectors, one value per pair.
         beta : (K, N) the auditory posteriors of the N persons (eq. beta_kn, outlier column dropped).
@@ -175,7 +197,7 @@ class SpeakingTest:
         prob = np.divide(beta_counts, denominator, out=np.zeros(n), where=denominator > 0)
         speaking = beta_counts > tau
         if not (self.outlier_aware and n):
-            return speaking, prob, tau
+            return Decision(speaking, prob, tau, np.zeros(n, dtype=bool))
         u = 1.0 / (supports[:, 1] - supports[:, 0])
         half = self.window_sd * np.maximum(np.sqrt(variances), self.min_sd_s)  # (N, P)
         counts, lam = np.zeros(n), np.zeros(n)
@@ -193,6 +215,7 @@ class SpeakingTest:
             counts += (share * inside).sum(axis=0)
             lam += self.outlier_share * len(xr) * np.minimum(2.0 * half[:, pairs] * u[pairs], 1.0).min(axis=1)
         speaking, prob = self._count_test(counts, lam)
+        by_windows = speaking
         if self.frame_rescue and frame_itds is not None and len(frame_itds):
             speaking, prob = self._rescue(speaking, prob, np.asarray(frame_itds, dtype=np.float64), means, u,
                                           self.frame_spread_s)
@@ -213,7 +236,7 @@ class SpeakingTest:
             prob = np.where(between, prob, found_prob)
         if bin_share is not None:
             speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n))
-        return speaking, prob, tau
+        return Decision(speaking, prob, tau, speaking & ~by_windows)
 
     def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share``. Where it changes a
@@ -257,6 +280,49 @@ class SpeakingTest:
             lam += lam_g
         thr = np.maximum(_poisson_quantile(self.frame_quantile, lam) + 1.0, self.frame_min) - 1e-9
         return speaking | (counts > thr), np.maximum(prob, counts / (counts + thr))
+
+
+@dataclass(eq=False)
+class RescueContinuity:
+    """The weaker looks may carry a person's speech on, not start it (hysteresis in time, as Canny's on edges).
+
+    The windows' outlier-aware test is rarely wrong; the single frames', bands' and bins' looks
+    (:meth:`SpeakingTest.decide_all` ``rescued``) hear the talker a louder one masks while two talk at once, but a
+    lone talker's reverberation and spread put the same evidence on a silent neighbour some 15 degrees away. In a
+    conversation the masked talker was heard on their own just before (turns overlap at their ends), or is heard
+    again within a moment. So a rescued call stands only while the same person's last call that stood is at most
+    ``gap_s`` old: a call of the windows' test always stands, and a chain of rescued calls may follow it. The others
+    become silent, their probability at most 0.5. Causal: it adds no wait. Keyed by the people's ids
+    (:mod:`avcore.tracking`); an id unseen for ``memory_s`` is forgotten.
+
+    ``update(stamp_s, ids, speaking, probability, rescued)`` -> ``(speaking, probability)``, once per result, in
+    stamp order.
+    """
+
+    gap_s: float = 0.1
+    memory_s: float = 10.0
+    _last: dict[int, float] = field(default_factory=dict, init=False, repr=False)  # id -> stamp of its last call
+
+    def update(self, stamp_s: float, ids: np.ndarray, speaking: np.ndarray, probability: np.ndarray,
+               rescued: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ids = np.asarray(ids).reshape(-1)
+        speaking = np.asarray(speaking, dtype=bool).reshape(-1).copy()
+        probability = np.asarray(probability, dtype=np.float64).reshape(-1).copy()
+        rescued = np.asarray(rescued, dtype=bool).reshape(-1)
+        if not ids.shape == speaking.shape == probability.shape == rescued.shape:
+            raise ValueError(f"ids, speaking, probability and rescued must have one entry per person, got "
+                             f"{ids.shape}, {speaking.shape}, {probability.shape} and {rescued.shape}")
+        stamp = float(stamp_s)
+        for k, pid in enumerate(ids.tolist()):
+            if not speaking[k]:
+                continue
+            if rescued[k] and not stamp - self._last.get(pid, -np.inf) <= self.gap_s + 1e-6:  # stamps' rounding
+                speaking[k] = False
+                probability[k] = min(probability[k], 0.5)
+                continue
+            self._last[pid] = stamp
+        self._last = {i: t for i, t in self._last.items() if stamp - t <= self.memory_s}
+        return speaking, probability
 
 
 def _groups(x: np.ndarray) -> list[tuple[np.ndarray | slice, np.ndarray | slice]]:

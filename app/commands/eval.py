@@ -114,8 +114,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     rooms.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="SECONDS",
                        help="seconds of each room (default 30)")
     rooms.add_argument("--method", nargs="+", choices=_room_methods(), default=None, metavar="METHOD",
-                       help="avhear (the options given) and/or paper (Algorithm 2 as written: free means, tau_A, the "
-                            "correlogram's ITDs, no vote); default both")
+                       help="avhear (the options given), paper (Algorithm 2 as written: free means, tau_A, the "
+                            "correlogram's ITDs, no vote), all-rescues (avhear with every call of the speaking "
+                            "test's later looks standing); default avhear and paper")
     add_method_arguments(rooms)
     add_mics_argument(rooms)
     add_lips_argument(rooms)
@@ -289,7 +290,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
 
 
 def run_rooms(args: argparse.Namespace) -> int:
-    from app.eval.rooms import METHODS, RoomScore, evaluate_room
+    from app.eval.rooms import DEFAULT_METHODS, RoomScore, evaluate_room
     from app.eval.tables import format_room_table
 
     if args.motion:
@@ -299,7 +300,7 @@ def run_rooms(args: argparse.Namespace) -> int:
     config = pipeline_config(args)
     start = time.perf_counter()
     scores: list[RoomScore] = []
-    for method in args.method or METHODS:
+    for method in args.method or DEFAULT_METHODS:
         runs: list[RoomScore] = []
         for seed in args.seed:
             _progress(f"room {seed}, {method}: simulating and running the pipeline ...")

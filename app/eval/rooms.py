@@ -6,9 +6,10 @@ replayed as fast as possible through :class:`~app.pipeline.Pipeline`; its result
 and person (plain, and with the edges of each person's speech forgiven by 0.3 s), utterances heard, and false
 speaking stretches per utterance.
 
-Methods: ``"avhear"`` (the configuration as given) and ``"paper"`` (Algorithm 2 as written: free means and
+Methods: ``"avhear"`` (the configuration as given), ``"paper"`` (Algorithm 2 as written: free means and
 variances, tau_A = K / (N + 2), the correlogram's ITDs, no single frames' looks, no vote), so that every default is
-read beside the paper's method.
+read beside the paper's method, and ``"all-rescues"`` (the configuration with every call of the speaking test's later
+looks standing, as before :class:`avcore.speaking.RescueContinuity`).
 """
 from __future__ import annotations
 
@@ -27,19 +28,23 @@ from app.sources.sim import SimSource
 from avcore.evaluation import TAU_LOC_M, match_clusters
 from sim.rooms import overlap_share
 
-__all__ = ["METHODS", "RoomScore", "evaluate_room", "method_config"]
+__all__ = ["DEFAULT_METHODS", "METHODS", "RoomScore", "evaluate_room", "method_config"]
 
-METHODS: tuple[str, ...] = ("avhear", "paper")
+METHODS: tuple[str, ...] = ("avhear", "paper", "all-rescues")
+DEFAULT_METHODS: tuple[str, ...] = ("avhear", "paper")
 Progress = Callable[[str], None]
 
 
 def method_config(config: PipelineConfig, method: str) -> PipelineConfig:
-    """``config`` for ``method``: as it is for "avhear"; Algorithm 2 as written for "paper"."""
+    """``config`` for ``method``: as it is for "avhear"; Algorithm 2 as written for "paper"; every rescued call
+    standing for "all-rescues"."""
     if method == "avhear":
         return config
     if method == "paper":
         return replace(config, inference="face", face_variant="paper", itd_method="correlogram", frame_itds=False,
-                       vote_frames=1, lips=False)
+                       vote_frames=1, lips=False, rescue_gap_s=None)
+    if method == "all-rescues":
+        return replace(config, rescue_gap_s=None)
     raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
 
 

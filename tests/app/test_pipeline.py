@@ -306,6 +306,9 @@ def test_vote_fills_a_gap_and_emits_every_frame(monkeypatch: pytest.MonkeyPatch)
     for bad in (0, 4, 2.0):
         with pytest.raises(ValueError, match="vote_frames"):
             PipelineConfig(vote_frames=bad)  # type: ignore[arg-type]
+    for bad_gap in (-0.1, 10.0):
+        with pytest.raises(ValueError, match="rescue_gap_s"):
+            PipelineConfig(rescue_gap_s=bad_gap)
 
 
 def test_a_stop_loses_no_fused_frame() -> None:

@@ -24,6 +24,8 @@ def test_the_papers_method_is_algorithm_2_as_written() -> None:
     assert (cfg.face_variant, cfg.itd_method, cfg.frame_itds, cfg.vote_frames, cfg.lips) == \
         ("paper", "correlogram", False, 1, False)
     assert method_config(PipelineConfig(), "avhear") == PipelineConfig()
+    assert PipelineConfig().rescue_gap_s == 0.1 and method_config(PipelineConfig(), "all-rescues") == \
+        PipelineConfig(rescue_gap_s=None)
     with pytest.raises(ValueError, match="method must be one of"):
         method_config(PipelineConfig(), "mine")
 

@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from scipy import stats
 
 from avcore.mixture import Mixture1D
-from avcore.speaking import SpeakingTest, SpeakingVote, _poisson_quantile, speaking_threshold, vote_speaking
+from avcore.speaking import (RescueContinuity, SpeakingTest, SpeakingVote, _poisson_quantile, speaking_threshold,
+                             vote_speaking)
 
 SUPPORT = (-350e-6, 350e-6)
 MODEL = Mixture1D(np.array([0.3, 0.3, 0.4]), np.array([-100e-6, 100e-6]), np.array([4e-10, 4e-10]), SUPPORT)
@@ -105,6 +106,57 @@ def test_frame_rescue_finds_a_talker_masked_in_every_window() -> None:
     chance = np.concatenate([np.full(30, -100e-6), np.full(3, 104e-6), np.linspace(-340e-6, 340e-6, 12)[::3]])
     speaking, prob, _ = _decide(SpeakingTest(), _beta(itds), itds, MODEL, frame_itds=chance)
     assert speaking.tolist() == [True, False] and prob[1] < 0.5
+
+
+def test_decide_all_says_which_calls_only_the_later_looks_made() -> None:
+    """The masked talker of the test above is called by the frames alone: ``rescued`` says so, and not of the
+    talker the windows hear; the paper's test has no later look, so it rescues nobody."""
+    itds = np.full(20, -100e-6) + np.linspace(-5e-6, 5e-6, 20)
+    rng = np.random.default_rng(0)
+    frame_itds = np.concatenate([np.full(30, -100e-6), np.full(10, 104e-6), rng.uniform(-350e-6, 350e-6, 5)])
+    d = SpeakingTest().decide_all(_beta(itds), itds[:, None], MODEL.means[:, None], MODEL.variances[:, None],
+                                  np.array([MODEL.support]), frame_itds=frame_itds[:, None])
+    assert d.speaking.tolist() == [True, True] and d.rescued.tolist() == [False, True]
+    speaking, prob, tau = _decide(SpeakingTest(), _beta(itds), itds, MODEL, frame_itds=frame_itds)
+    np.testing.assert_array_equal(d.speaking, speaking)
+    np.testing.assert_array_equal(d.probability, prob)
+    assert d.tau_a == tau
+    paper = SpeakingTest(outlier_aware=False).decide_all(_beta(itds), itds[:, None], MODEL.means[:, None],
+                                                         MODEL.variances[:, None], np.array([MODEL.support]))
+    assert paper.rescued.tolist() == [False, False] and paper.speaking.tolist() == [True, False]
+
+
+def test_rescue_continuity_carries_speech_on_and_never_starts_it() -> None:
+    """Person 7 is heard by the windows at 0.0 s; rescued calls carry them on in steps of 0.1 s (each within the
+    gap of the last call that stood) until a 0.2 s hole breaks the chain; person 9, rescued from the start and
+    never heard by the windows, is never called. A call dropped keeps a probability of at most 0.5; a call of the
+    windows always stands."""
+    c = RescueContinuity(gap_s=0.1)
+    ids = np.array([7, 9])
+    states = []
+    for stamp, windows_7, rescued in [(0.0, True, (False, True)), (0.1, False, (True, True)),
+                                      (0.2, False, (True, True)), (0.4, False, (True, True)),
+                                      (0.5, True, (False, True))]:
+        speaking = np.array([True, True])
+        probability = np.array([0.9 if windows_7 else 0.7, 0.8])
+        out, prob = c.update(stamp, ids, speaking, probability, np.array(rescued))
+        np.testing.assert_array_equal(prob > 0.5, out)
+        states.append(out.tolist())
+    assert states == [[True, False], [True, False], [True, False], [False, False], [True, False]]
+    # silent people and people the windows hear are passed through as they are
+    out, prob = c.update(0.6, ids, np.array([False, True]), np.array([0.2, 0.9]), np.array([False, False]))
+    assert out.tolist() == [False, True] and prob.tolist() == [0.2, 0.9]
+
+
+def test_rescue_continuity_forgets_and_checks_its_input() -> None:
+    """An id unseen for ``memory_s`` is forgotten; mismatched lengths are refused."""
+    c = RescueContinuity(gap_s=1.0, memory_s=2.0)
+    c.update(0.0, np.array([1]), np.array([True]), np.array([0.9]), np.array([False]))
+    assert c.update(0.5, np.array([1]), np.array([True]), np.array([0.6]), np.array([True]))[0].tolist() == [True]
+    c.update(3.0, np.array([2]), np.array([False]), np.array([0.1]), np.array([False]))
+    assert 1 not in c._last
+    with pytest.raises(ValueError, match="one entry per person"):
+        c.update(3.1, np.array([1, 2]), np.array([True]), np.array([0.9]), np.array([False]))
 
 
 def test_frame_rescue_expects_a_talkers_frames_to_spill_over_to_a_neighbour() -> None:
