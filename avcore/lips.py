@@ -22,9 +22,10 @@ its own still and moving levels (:attr:`LipTracks.relative`), since a distant fa
 one's and a face's range depends on its photograph.
 
 Still lips are not always silent ones: a hand over the mouth, a mask or a mesh that has lost the lips read as a
-closed mouth. :class:`HiddenLips` drops the opinion of a face whose lips have stayed still through a second or more
-of its own voice, heard alone (:meth:`HiddenLips.update`), so that the veto only takes the brief calls of a listener;
-and :func:`voice_without_lips` at once while a voice is heard, on that face alone, that no lips in view make.
+closed mouth. :class:`HiddenLips` gives a face's lips an opinion only once they have moved with its own voice, heard
+alone for a second (:meth:`HiddenLips.update`), and drops it while they stay still through a second of that voice, so
+that the veto only takes the brief calls of a listener whose lips are known to show speech; and
+:func:`voice_without_lips` drops it at once while a voice is heard, on that face alone, that no lips in view make.
 """
 from __future__ import annotations
 
@@ -188,22 +189,31 @@ def lip_synchrony(series: list[np.ndarray], envelope: SoundEnvelope, lead_s: flo
 
 @dataclass(eq=False)
 class HiddenLips:
-    """Which faces' still lips say nothing: those heard speaking alone (no other face heard then) for at least
-    ``heard_s`` (first to last) of the last ``window_s`` with a median lip activity over those moments under
-    ``moving_factor`` times the veto's threshold.
+    """Which faces' still lips say nothing. A face is judged by its own voice: the moments it is heard speaking
+    alone (no other face heard then), once they span ``heard_s`` (first to last) of the last ``window_s``. Lips whose
+    median activity over those moments reaches ``moving_factor`` times the veto's threshold have shown that they move
+    with this face's speech: the face is trusted, and its still lips may say "silent" later. Lips that stay near
+    still through that second of their own voice are not seen (a photograph, a hand, a mask, a face too far or too
+    small for the mesh, a mesh that has lost them): their stillness is no evidence. The verdict stands until the
+    face's own voice says otherwise again, however long it then listens.
 
-    A talker's lips move while they speak (at 3-8 syllables a second), so lips that stay near still through a second
-    of the face's own voice are not seen (a hand, a mask, a mesh that has lost them), and their stillness is no
-    evidence; a listener called speaking by a neighbour's spill is still vetoed: heard beside the talker, those
-    moments do not count, however often they come. The median, not each moment: a hand's mesh jitters about the
-    veto's threshold. ``update`` is called once per result; tracks without a moment heard in ``window_s`` are
-    forgotten.
+    With ``earn_trust`` (the default) a face that has not yet been judged gives no opinion either: abstaining never
+    takes a person's words away, and a still face whose voice is heard only beside another's never earns the right
+    to veto. Without it (avhear before wave 4) an unjudged face's still lips veto, and a face is hidden only while
+    the moments in the window show its lips still.
+
+    A talker's lips move while they speak (3-8 syllables a second). A listener called speaking by a neighbour's
+    spill is heard beside the talker: those moments do not count, however often they come. The median, not each
+    moment: a hand's mesh jitters about the veto's threshold. ``update`` is called once per result; a track absent
+    from the result without a moment in ``window_s`` is forgotten.
     """
 
     window_s: float = 3.0
     heard_s: float = 1.0
     moving_factor: float = 2.0
+    earn_trust: bool = True
     _marks: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [(t, activity)] while heard
+    _trusted: dict = field(default_factory=dict, init=False, repr=False)  # track id -> its lips moved with its voice
 
     def update(self, stamp_s: float, ids: np.ndarray, speaking: np.ndarray, activity: np.ndarray,
                still_below: float) -> np.ndarray:
@@ -213,14 +223,18 @@ class HiddenLips:
         since, now = stamp_s - self.window_s, set(np.asarray(ids).tolist())
         self._marks = {k: [m for m in v if m[0] > since] for k, v in self._marks.items()}
         self._marks = {k: v for k, v in self._marks.items() if v or k in now}
+        self._trusted = {k: v for k, v in self._trusted.items() if k in self._marks}
         hidden = np.zeros(len(ids), dtype=bool)
         alone = int(np.count_nonzero(speaking)) == 1
         for i, k in enumerate(np.asarray(ids).tolist()):
             marks = self._marks.setdefault(k, [])
             if speaking[i] and alone and np.isfinite(activity[i]):
                 marks.append((float(stamp_s), float(activity[i])))
-            hidden[i] = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s \
-                and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
+            judged = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s
+            still = judged and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
+            if judged:
+                self._trusted[k] = not still
+            hidden[i] = not self._trusted.get(k, False) if self.earn_trust else still
         return hidden
 
 

@@ -46,12 +46,25 @@ class _Hearing:
 def test_still_lips_silence_a_face_the_itds_call_speaking(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))  # no mesh runs in this test
     monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
-    mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
+    mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012, lip_earn_trust=False))
     apart = np.array([[-0.8, 0.0, 2.0], [0.0, 0.0, 2.0], [0.8, 0.0, 2.0]])  # directions the ITDs tell apart
     vision = Vision(1.0, None, np.zeros((3, 4)), apart, np.array([0.004, 0.05, 0.004]))
     out = mode.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
     assert out.speaking.tolist() == [False, True, False]
     assert out.probability.tolist() == [0.5, 0.8, 0.1]
+    # earning trust (the default): lips never seen moving with their own voice say nothing yet
+    trusting = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
+    out = trusting.step(_Hearing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    assert out.speaking.tolist() == [True, True, False]
+    # face 0 heard alone for a second with its lips moving: trusted; then its still lips silence the spill on it
+    vision_ids = np.array([0, 1, 2])
+    for t in np.arange(0.0, 1.06, 0.05):
+        moving = Vision(float(t), None, np.zeros((3, 4)), apart, np.array([0.05, 0.004, 0.004]), lip_ids=vision_ids)
+        trusting.step(_Hearing((True, False, False)), moving, np.zeros((0, 1)), np.zeros(0),
+                      lambda: (None, None, None))
+    still = Vision(1.2, None, np.zeros((3, 4)), apart, np.array([0.004, 0.05, 0.004]), lip_ids=vision_ids)
+    out = trusting.step(_Hearing(), still, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    assert out.speaking.tolist() == [False, True, False]
     # without the cue the hearing's answer stands
     plain = FaceGuided(PipelineConfig()).step(_Hearing(), Vision(1.0, None, np.zeros((3, 4)), np.zeros((3, 3))),
                                               np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
@@ -65,7 +78,7 @@ def test_lips_still_through_a_second_of_their_own_voice_give_no_opinion(monkeypa
     heard, stay silent whatever their lips do, and a listener heard for 0.4 s is still vetoed."""
     monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
     monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
-    mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
+    mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012, lip_earn_trust=False))
     apart = np.array([[-0.8, 0.0, 2.0], [0.0, 0.0, 2.0], [0.8, 0.0, 2.0]])
     said = []
     for k, t in enumerate(np.arange(0.0, 1.6, 1 / 30)):
@@ -80,7 +93,7 @@ def test_lips_still_through_a_second_of_their_own_voice_give_no_opinion(monkeypa
     assert not said[(t > 0.1) & (t < 0.95), 0].any() and said[t > 1.05, 0].all()
     assert not said[:, 1:].any()  # moving lips alone make no speaker
     # a listener heard for 0.4 s with still lips: vetoed throughout
-    fresh = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012))
+    fresh = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012, lip_earn_trust=False))
     for t in np.arange(0.0, 0.4, 1 / 30):
         vision = Vision(float(t), None, np.zeros((3, 4)), apart, np.array([0.004, 0.05, 0.004]), None,
                         np.array([1, 2, 3]))
@@ -99,7 +112,8 @@ def test_a_hand_over_a_lone_talkers_mouth_gives_no_opinion_at_once_while_a_voice
     frames = np.arange(0.005, 2.0, 0.01)
 
     def said(loud: tuple[float, float], others: float, latency: str = "default") -> np.ndarray:
-        mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012, latency=latency))
+        mode = FaceGuided(PipelineConfig(lips=True, lip_still_below=0.012, latency=latency,
+                                         lip_earn_trust=False))
         assert mode.envelope is not None
         mode.envelope.push(frames, np.where((frames > loud[0]) & (frames < loud[1]), 1e-3, 1e-6))
         out = []
@@ -126,6 +140,7 @@ class _GroupOutput:  # the fields of FaceGuidedOutput that follow each face
     itd_counts: np.ndarray
     pair_itd_means: np.ndarray
     model: Mixture1D
+    rescued: np.ndarray | None = None
 
 
 class _EveryoneSpeaks:
@@ -139,14 +154,14 @@ class _EveryoneSpeaks:
         n = len(xyz)
         model = Mixture1D(np.full(n + 1, 1 / (n + 1)), np.arange(n) * 1e-4, np.full(n, 1e-9), (-8e-4, 8e-4))
         return _GroupOutput(np.ones(n, bool), np.full(n, 0.9), np.arange(n) * 1e-4, np.full(n, 5.0),
-                            np.arange(n)[:, None] * 1e-4, model)
+                            np.arange(n)[:, None] * 1e-4, model, np.arange(n) == 1)
 
 
 def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_lips(
         monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
     monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
-    mode = FaceGuided(PipelineConfig(lips=True))
+    mode = FaceGuided(PipelineConfig(lips=True, lip_earn_trust=False))
     # one behind the other on one ray from the microphones (the same ITD), and a third 0.8 m to the left
     xyz = np.array([[0.3, 0.0, 1.3], [0.6, 0.0, 2.6], [-0.8, 0.0, 2.0]])
     hearing = _EveryoneSpeaks()
@@ -157,6 +172,7 @@ def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_li
     assert out.speaking.tolist() == [False, True, True]  # the far face's lips move: the words are its
     assert out.probability.tolist() == [0.5, 0.9, 0.9]
     assert out.itd_means.tolist() == [0.0, 0.0, 1e-4] and out.pair_itd_means.shape == (3, 1)
+    assert out.rescued.tolist() == [False, False, True]  # each face takes its object's: the third's was rescued
     # the model too, one component a face (what the console draws), the group's weight shared by its faces
     assert out.model.means.tolist() == [0.0, 0.0, 1e-4]
     np.testing.assert_allclose(out.model.weights, [1 / 6, 1 / 6, 1 / 3, 1 / 3])
@@ -223,7 +239,8 @@ def test_algorithm_1_silences_a_person_whose_face_s_lips_are_still(monkeypatch: 
 
     monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))  # no mesh runs in this test
     monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
-    mode = MotionGuided(PipelineConfig(inference="motion", lips=True, lip_still_below=0.012))
+    mode = MotionGuided(PipelineConfig(inference="motion", lips=True, lip_still_below=0.012,
+                                      lip_earn_trust=False))
     faces = np.array([[-0.8, -0.2, 2.0], [0.05, -0.2, 2.5]])  # above the first two bodies
     for still, expected in ((0.004, [False, True, False]), (0.05, [True, True, False])):
         vision = Vision(1.0, None, None, np.zeros((0, 3)), np.array([still, 0.05]), None, np.array([7, 8]), faces)

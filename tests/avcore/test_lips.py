@@ -119,9 +119,10 @@ def test_a_groups_words_go_to_the_face_whose_lips_move() -> None:
 
 
 def test_hidden_lips_are_still_through_a_second_of_their_own_voice() -> None:
-    """Marks are kept only while a face is heard alone; hidden needs a second from the first mark to the last and a
-    median activity under twice the veto's threshold; a face not heard for the window is forgotten."""
-    hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0)
+    """Without earning trust (before wave 4): marks are kept only while a face is heard alone; hidden needs a second
+    from the first mark to the last and a median activity under twice the veto's threshold; a face not heard for
+    the window is forgotten."""
+    hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0, earn_trust=False)
     ids = np.array([4, 5])
     turns = [np.array([True, False]), np.array([False, True])]  # heard alone in turn, every 50 ms
     for k, t in enumerate(np.arange(0.0, 0.99, 0.05)):  # face 4 from 0.0 to 0.9 s, face 5 from 0.05 to 0.95 s
@@ -143,7 +144,7 @@ def test_hidden_lips_are_still_through_a_second_of_their_own_voice() -> None:
 def test_a_listener_heard_beside_the_talker_is_never_hidden() -> None:
     """A neighbour's spill calls the listener speaking with the talker, for seconds on end: those moments are not
     the listener's own voice, so their still lips keep their opinion (the veto still takes them)."""
-    hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0)
+    hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0, earn_trust=False)
     ids = np.array([1, 2])  # the talker (lips moving), the listener (still)
     for t in np.arange(0.0, 3.0, 0.05):
         out = hidden.update(float(t), ids, np.array([True, True]), np.array([0.08, 0.008]), 0.012)
@@ -152,6 +153,29 @@ def test_a_listener_heard_beside_the_talker_is_never_hidden() -> None:
     for t in np.arange(3.0, 4.12, 0.05):
         out = hidden.update(float(t), ids, np.array([False, True]), np.array([0.08, 0.008]), 0.012)
     assert out.tolist() == [False, True]
+
+
+def test_lips_earn_the_right_to_veto_with_their_own_voice() -> None:
+    """Earning trust (the default): no face's lips say anything until judged by a second of its own voice heard
+    alone. The talker's lips move with it (trusted: from then on its still lips may veto, even after the window has
+    passed while it listens); a photograph's stay still (hidden), and so does a face only ever heard beside
+    another. A second of still lips with its own voice takes a trusted face's opinion away again."""
+    hidden = HiddenLips(window_s=3.0, heard_s=1.0, moving_factor=2.0)
+    ids = np.array([1, 2, 3])  # the talker (lips move), a photograph (still), a listener heard only beside 1
+    for t in np.arange(0.0, 1.12, 0.05):
+        out = hidden.update(float(t), ids, np.array([True, False, False]), np.array([0.08, 0.008, 0.008]), 0.012)
+    assert out.tolist() == [False, True, True]  # 1 trusted after a second; 2 and 3 unjudged: no opinion
+    for t in np.arange(1.2, 2.32, 0.05):
+        out = hidden.update(float(t), ids, np.array([False, True, False]), np.array([0.008, 0.008, 0.008]), 0.012)
+    assert out.tolist() == [False, True, True]  # the photograph's voice with still lips: hidden, now judged so
+    for t in np.arange(2.4, 8.0, 0.05):  # 1 and 3 heard together (a spill on 3); 1 listens with its lips still
+        out = hidden.update(float(t), ids, np.array([True, False, True]), np.array([0.008, 0.008, 0.008]), 0.012)
+    assert out.tolist() == [False, True, True]  # 1 keeps its trust beyond the window; 3 never earned any
+    for t in np.arange(8.0, 9.12, 0.05):  # 1's own voice, heard alone, with still lips (a hand): trust lost
+        out = hidden.update(float(t), ids, np.array([True, False, False]), np.array([0.008, 0.008, 0.008]), 0.012)
+    assert out.tolist() == [True, True, True]
+    hidden.update(20.0, np.array([2]), np.array([False]), np.array([0.008]), 0.012)
+    assert set(hidden._trusted) == {2}  # the tracks gone from view without a moment in the window are forgotten
 
 
 def test_each_followed_face_keeps_its_track_number() -> None:
