@@ -112,7 +112,9 @@ class SimAudio:
         them (full scale 32768);
     dry : (N, n) float32 -- what each actor emits (speech, claps, loudspeaker noise), at the source, by actor;
     measured_rt60_s : the reverberation time measured on the simulated responses; n_sources : how many responses
-    were computed; clipped : samples that hit full scale.
+    were computed; clipped : samples that hit full scale; images : (N, Q, n) float32 or None -- what each actor
+    alone puts on every microphone (reverberation included, in the samples' full-scale units: ``samples / 32768``
+    is their sum plus the noises), with ``render_audio(images=True)``: the truth a voice's separation is scored on.
     """
 
     samples: np.ndarray
@@ -121,6 +123,7 @@ class SimAudio:
     measured_rt60_s: float
     n_sources: int
     clipped: int = 0
+    images: np.ndarray | None = None
 
 
 def _clap(rng: np.random.Generator, n: int, fs: int) -> np.ndarray:
@@ -149,14 +152,14 @@ def _anchors(scenario: Scenario, start_s: float, end_s: float, actor: int, max_s
 
 
 def _source_pieces(scenario: Scenario, bank: ClipBank, n: int, fs: int, max_step_m: float
-                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, int, np.ndarray]]]:
-    """What each actor emits (``dry``, (N, n)) and the pieces to convolve: (source position, first sample, signal),
-    a moving source cut into triangular cross-fades between anchors at most ``max_step_m`` apart."""
+                   ) -> tuple[np.ndarray, list[tuple[np.ndarray, int, np.ndarray, int]]]:
+    """What each actor emits (``dry``, (N, n)) and the pieces to convolve: (source position, first sample, signal,
+    actor), a moving source cut into triangular cross-fades between anchors at most ``max_step_m`` apart."""
     n_actors = len(scenario.actors)
     dry = np.zeros((n_actors, n), dtype=np.float64)
 
-    # pieces: (anchor position, first sample, signal)
-    pieces: list[tuple[np.ndarray, int, np.ndarray]] = []
+    # pieces: (anchor position, first sample, signal, actor)
+    pieces: list[tuple[np.ndarray, int, np.ndarray, int]] = []
     for e in scenario.events:
         s0 = round(e.start_s * fs)
         if s0 >= n:
@@ -173,7 +176,7 @@ def _source_pieces(scenario: Scenario, bank: ClipBank, n: int, fs: int, max_step
         anchors = _anchors(scenario, s0 / fs, t_end, e.actor, max_step_m)
         offset = np.asarray(SOURCE_OFFSETS_M[e.kind])
         if anchors.size == 1:
-            pieces.append((scenario.actors[e.actor].path.at(anchors[0]) + offset, s0, sig))
+            pieces.append((scenario.actors[e.actor].path.at(anchors[0]) + offset, s0, sig, e.actor))
             continue
         t = (s0 + np.arange(sig.size)) / fs
         hop = anchors[1] - anchors[0]
@@ -182,13 +185,13 @@ def _source_pieces(scenario: Scenario, bank: ClipBank, n: int, fs: int, max_step
             nz = np.flatnonzero(w)
             if nz.size:
                 pieces.append((scenario.actors[e.actor].path.at(c) + offset, s0 + int(nz[0]),
-                               (sig * w)[nz[0]:nz[-1] + 1]))
+                               (sig * w)[nz[0]:nz[-1] + 1], e.actor))
     return dry, pieces
 
 
 def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float = 0.1, fan_snr_db: float = 25.0,
                  sensor_noise_rms: float = 1e-4, max_step_m: float = 0.08, background: Background | None = None,
-                 progress: Callable[[str], None] | None = None) -> SimAudio:
+                 images: bool = False, progress: Callable[[str], None] | None = None) -> SimAudio:
     """The microphones' signals of ``scenario`` (paper section 7.3's room: reverberation, the robot's fan), one
     channel per microphone of ``scenario.room`` (two for the default pair).
 
@@ -199,7 +202,7 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
     speech_level_rms : RMS of active speech at the microphones from a talker 1 m away (direct sound; farther talkers
         are quieter, 1/r); fan_snr_db : the fan this far below that level at the left microphone;
     sensor_noise_rms : white noise of the converter; background : a noise from a point in the room, at its SNR
-    under the speech (:class:`Background`).
+    under the speech (:class:`Background`); images : keep each actor's own signals too (:attr:`SimAudio.images`).
     """
     room = scenario.room
     fs = room.samplerate_hz
@@ -211,7 +214,7 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
 
     # one impulse response per distinct position (millimetres), plus the fan
     keys: dict[tuple[int, int, int], int] = {}
-    for pos, _, _ in pieces:
+    for pos, _, _, _ in pieces:
         keys.setdefault(tuple(int(v) for v in np.round(pos * 1000)), len(keys))
     extra = [] if background is None else [background.position_m]
     positions = np.array([np.array(k) / 1000.0 for k in keys] + extra + [FAN_POSITION_M], dtype=np.float64)
@@ -226,10 +229,11 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
     length = n + rirs.shape[2]
     n_mics = rirs.shape[1]
     out = np.zeros((n_mics, length))
-    by_source: dict[int, list[tuple[int, np.ndarray]]] = {}
-    for pos, s0, sig in pieces:
-        by_source.setdefault(keys[tuple(int(v) for v in np.round(pos * 1000))], []).append((s0, sig))
-    for src, items in by_source.items():
+    kept = np.zeros((len(scenario.actors), n_mics, length), dtype=np.float32) if images else None
+    by_source: dict[tuple[int, int], list[tuple[int, np.ndarray]]] = {}  # (response, actor) -> pieces
+    for pos, s0, sig, actor in pieces:
+        by_source.setdefault((keys[tuple(int(v) for v in np.round(pos * 1000))], actor), []).append((s0, sig))
+    for (src, actor), items in by_source.items():
         lo = min(s0 for s0, _ in items)
         hi = max(s0 + sig.size for s0, sig in items)
         track = np.zeros(hi - lo)
@@ -238,6 +242,8 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
         for m in range(n_mics):
             y = fftconvolve(track, rirs[src, m])
             out[m, lo:lo + y.size] += gain * y
+            if kept is not None:
+                kept[actor, m, lo:lo + y.size] += gain * y
     out = out[:, :n]
     if background is not None:  # scaled against the speech's RMS at the first microphone where someone speaks
         talking = np.zeros(n, dtype=bool)
@@ -261,7 +267,8 @@ def render_audio(scenario: Scenario, bank: ClipBank, *, speech_level_rms: float 
     if clipped:
         log.warning("%d samples clipped at full scale; lower speech_level_rms", clipped)
     samples = np.clip(scaled, -32768, 32767).astype(np.int16)
-    return SimAudio(samples, fs, dry.astype(np.float32), rt60, int(positions.shape[0]), clipped)
+    return SimAudio(samples, fs, dry.astype(np.float32), rt60, int(positions.shape[0]), clipped,
+                    None if kept is None else kept[:, :, :n])
 
 
 def _impulse_responses(room: AcousticRoom, positions: np.ndarray) -> tuple[np.ndarray, float]:
