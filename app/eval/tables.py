@@ -371,3 +371,21 @@ def format_room_table(scores: list[RoomScore]) -> str:
     lines += ["", "Targets (issue 55, held-out seeds 100-119, still faces): precision and recall (forgiven) >= 0.95, "
                   "false stretches <= 0.1 per utterance."]
     return "\n".join(lines)
+
+
+def format_voice_table(mics: str, seeds: list[int], summary: dict[str, dict[str, float]]) -> str:
+    """Each voice candidate's SI-SDR improvement (dB, mean over the seconds, and the worst person's), alone and in
+    overlap (:func:`app.eval.voices.summarise`)."""
+    from app.eval.voices import CANDIDATES
+
+    lines = [f"Each person's voice, rooms {', '.join(str(s) for s in seeds)} ({mics}): SI-SDR improvement over the "
+             "reference microphone, dB (against the dry speech; mean over the seconds / worst person)", "",
+             f"{'candidate':<14}" + "".join(f"{kind + ' (' + _num(summary[kind]['seconds'], '.0f') + ' s)':>22}"
+                                            for kind in summary)]
+    for name in CANDIDATES:
+        cells = [f"{_num(summary[kind][name], '+.1f')} / {_num(summary[kind][name + ' worst'], '+.1f')}"
+                 for kind in summary]
+        lines.append(f"{name:<14}" + "".join(f"{c:>22}" for c in cells))
+    lines += ["", "Targets (issue 59, held-out rooms): in overlap >= +6 dB with four or more microphones (>= +4 dB with "
+                  "the pair) and 3 dB more than delay-and-sum; alone never under +1 dB."]
+    return "\n".join(lines)

@@ -1,0 +1,135 @@
+"""Each person's voice scored where the truth is known (issue 59's candidates, before any is built in).
+
+A room of :mod:`sim.rooms` is rendered with each talker's own signals kept (``render_audio(images=True)``); every
+person's voice is then taken from all the microphones by each candidate of :mod:`avcore.beamform`, steered at the
+person's face (the truth's, which the cameras find within a centimetre or two) and told when the person is silent by
+the truth's speaking states (what a perfect speaking state would give):
+
+* ``ds``: delay-and-sum (ODAS's default, the baseline); ``mvdr``: MVDR, the covariance of the frames where the
+  person is silent; ``ds+mask``, ``mvdr+mask``: either, with the bins another visible person's direction explains
+  better kept at -20 dB (:func:`avcore.beamform.direction_mask`);
+* ``oracle-mask``: the reference microphone under the ideal ratio mask of the person's own image (the upper bound
+  of a mask on one microphone).
+
+Each is scored by SI-SDR (``fast_bss_eval``) against the person's dry speech delayed by the direct path to the
+reference microphone (the speech a recogniser wants: reverberation counts against every candidate, as the noise and
+the other voices do), as its improvement over the reference microphone itself, separately where the person talks
+alone and where another talks at once (each at least a second of speech).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from avcore import beamform as bf
+
+__all__ = ["CANDIDATES", "VoiceRow", "evaluate_voices", "summarise"]
+
+CANDIDATES: tuple[str, ...] = ("ds", "mvdr", "ds+mask", "mvdr+mask", "oracle-mask")
+_FS, _NFFT, _HOP, _GRID = 16000, 512, 256, 160  # Hz, STFT frame and hop (samples), the segments' grid (10 ms)
+_MIN_SECONDS = 1.0
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class VoiceRow:
+    """One person of one room, alone or in overlap: the reference microphone's SI-SDR (dB) and each candidate's
+    improvement over it (dB)."""
+
+    seed: int
+    mics: str
+    person: int
+    kind: str  # "alone" or "overlap"
+    seconds: float
+    reference_db: float
+    improvement_db: dict[str, float]
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"seed": self.seed, "mics": self.mics, "person": self.person, "kind": self.kind,
+                "seconds": round(self.seconds, 1), "reference_db": round(self.reference_db, 2),
+                "improvement_db": {k: round(v, 2) for k, v in self.improvement_db.items()}}
+
+
+def _si_sdr(reference: np.ndarray, estimate: np.ndarray) -> float:
+    import fast_bss_eval.numpy as fbe
+
+    return float(fbe.si_sdr(reference[None], estimate[None], zero_mean=True)[0])
+
+
+def _delayed(signal: np.ndarray, delay_s: float) -> np.ndarray:
+    """``signal`` delayed by ``delay_s`` (a fractional delay, by the Fourier transform; zero-padded, no wrap)."""
+    n = signal.size
+    spec = np.fft.rfft(signal, 2 * n) * np.exp(-2j * np.pi * np.fft.rfftfreq(2 * n, 1 / _FS) * delay_s)
+    return np.fft.irfft(spec, 2 * n)[:n]
+
+
+def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | None = None,
+                    data_dir: str | None = None, progress: Progress | None = None) -> list[VoiceRow]:
+    """Room ``seed`` with ``mic_array``: every person's rows (module docstring)."""
+    from scipy.signal import istft, stft
+
+    from sim.audio import SOURCE_OFFSETS_M, load_background, load_sentence_bank, render_audio
+    from sim.rooms import ROOM_DURATION_S, make_room
+
+    bank = load_sentence_bank(_FS, data_dir, seed=seed)
+    scenario, draw = make_room(seed, clip_durations_s=bank.durations_s, mics=mic_array,
+                               duration_s=ROOM_DURATION_S if duration_s is None else duration_s)
+    background = load_background(draw.noise_position_m, draw.noise_snr_db, _FS, data_dir, seed=seed)
+    audio = render_audio(scenario, bank, background=background, images=True, progress=progress)
+    assert audio.images is not None
+    x = audio.samples.T.astype(np.float64) / 32768.0  # (Q, n)
+    n = x.shape[1]
+    freqs, frames, spec = stft(x, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)  # (Q, F, T)
+    mics = np.asarray(scenario.array.positions, dtype=np.float64)
+    faces = scenario.positions(0.0)  # the rooms' people stay where they are
+    steers = np.stack([bf.steering(mics, p, freqs, scenario.array.speed_of_sound) for p in faces])
+    talking_frames = scenario.speaking_at(frames)  # (T, N)
+    talking = scenario.speaking_at(np.arange(0, n, _GRID) / _FS)  # (n / 10 ms, N)
+
+    def wave(y: np.ndarray) -> np.ndarray:
+        return istft(y, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[1][:n]
+
+    rows: list[VoiceRow] = []
+    for k in range(len(faces)):
+        mouth = faces[k] + np.asarray(SOURCE_OFFSETS_M["speech"])
+        reference = _delayed(audio.dry[k].astype(np.float64),
+                             float(np.linalg.norm(mouth - mics[0])) / scenario.array.speed_of_sound)
+        own = stft(audio.images[k, 0].astype(np.float64), fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[2]
+        rest = spec[0] - own
+        ideal = np.abs(own) ** 2 / np.maximum(np.abs(own) ** 2 + np.abs(rest) ** 2, 1e-20)
+        weights = bf.mvdr_weights(bf.covariance(spec, ~talking_frames[:, k]), steers[k])
+        mask = bf.direction_mask(spec, steers, k)
+        ds, mvdr = bf.delay_and_sum(spec, steers[k]), bf.apply(weights, spec)
+        outputs = {"ds": ds, "mvdr": mvdr, "ds+mask": ds * mask, "mvdr+mask": mvdr * mask,
+                   "oracle-mask": spec[0] * ideal}
+        waves = {name: wave(y) for name, y in outputs.items()}
+        mixture = x[0]
+        others = np.delete(talking, k, axis=1).any(axis=1)
+        for kind, where in (("alone", talking[:, k] & ~others), ("overlap", talking[:, k] & others)):
+            samples = np.repeat(where, _GRID)[:n]
+            if samples.sum() < _MIN_SECONDS * _FS:
+                continue
+            base = _si_sdr(reference[samples], mixture[samples])
+            rows.append(VoiceRow(seed, mic_array, k, kind, float(samples.sum()) / _FS, base,
+                                 {name: _si_sdr(reference[samples], w[samples]) - base for name, w in waves.items()}))
+    return rows
+
+
+def summarise(rows: list[VoiceRow]) -> dict[str, dict[str, float]]:
+    """Per kind ("alone", "overlap"): each candidate's mean improvement (dB) weighted by seconds, and the worst
+    row's."""
+    out: dict[str, dict[str, float]] = {}
+    for kind in ("alone", "overlap"):
+        chosen = [r for r in rows if r.kind == kind]
+        if not chosen:
+            continue
+        seconds = np.array([r.seconds for r in chosen])
+        for name in CANDIDATES:
+            values = np.array([r.improvement_db[name] for r in chosen])
+            out.setdefault(kind, {})[name] = float(np.sum(values * seconds) / np.sum(seconds))
+            out[kind][f"{name} worst"] = float(values.min())
+        out[kind]["seconds"] = float(seconds.sum())
+    return out
