@@ -110,10 +110,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "heard and the false speaking stretches per utterance. Seeds below 100 are for choosing defaults; 100-119 "
         "are held out.",
     )
-    rooms.add_argument("--seed", nargs="+", type=count(0), default=[0], metavar="N",
-                       help="seeds of the rooms; counts are summed over them (default: 0)")
-    rooms.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="SECONDS",
-                       help="seconds of each room (default 30)")
+    _add_room_arguments(rooms)
     rooms.add_argument("--method", nargs="+", choices=_room_methods(), default=None, metavar="METHOD",
                        help="avhear (the options given), paper (Algorithm 2 as written: free means, tau_A, the "
                             "correlogram's ITDs, no vote), all-rescues (avhear with every call of the speaking "
@@ -133,13 +130,18 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "they are silent by the truth. Prints each candidate's SI-SDR improvement over the reference microphone "
         "against the person's dry speech, where they talk alone and where another talks at once.",
     )
-    voices.add_argument("--seed", nargs="+", type=count(0), default=[0], metavar="N",
-                        help="seeds of the rooms (default: 0)")
-    voices.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="SECONDS",
-                        help="seconds of each room (default 30)")
+    _add_room_arguments(voices)
     add_mics_argument(voices)
     voices.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
     voices.set_defaults(func=run_voices)
+
+
+def _add_room_arguments(parser: argparse.ArgumentParser) -> None:
+    """--seed and --duration of the drawn rooms (eval rooms, eval voices)."""
+    parser.add_argument("--seed", nargs="+", type=count(0), default=[0], metavar="N",
+                        help="seeds of the rooms; counts are summed over them (default: 0)")
+    parser.add_argument("--duration", type=duration(MAX_SIMULATED_S), default=None, metavar="SECONDS",
+                        help="seconds of each room (default 30)")
 
 
 def _merged(runs: list):  # noqa: ANN202 - ScenarioScore or RoomScore
