@@ -29,6 +29,7 @@ from avcore.lips import (
     SoundEnvelope,
     choose_by_lips,
     lip_synchrony,
+    lips_move_with_the_sound,
     lips_with_the_words,
     same_direction_groups,
     veto_still_lips,
@@ -128,10 +129,15 @@ class LipReader:
 
     def join(self, output: Any, activity: np.ndarray, relative: np.ndarray, series: list[np.ndarray]) -> Any:
         """``output`` with the faces whose lips move with the sound speaking too while another is heard
-        (:func:`avcore.lips.lips_with_the_words`)."""
+        (:func:`avcore.lips.lips_with_the_words`), and a call of the speaking test's later looks on lips that move
+        with the sound no longer a rescue (:class:`avcore.speaking.RescueContinuity`: the lips may start speech)."""
         synchrony = lip_synchrony(series, self.envelope)
         speaking, probability = lips_with_the_words(output.speaking, output.probability, activity, relative,
                                                     synchrony)
+        rescued = getattr(output, "rescued", None)
+        if rescued is not None:
+            rescued = rescued & ~lips_move_with_the_sound(activity, relative, synchrony)
+            return replace(output, speaking=speaking, probability=probability, rescued=rescued)
         return replace(output, speaking=speaking, probability=probability)
 
 

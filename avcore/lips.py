@@ -34,7 +34,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["HiddenLips", "LipTracks", "SoundEnvelope", "choose_by_lips", "frame_powers", "lip_synchrony",
-           "lips_with_the_words", "same_direction_groups", "veto_still_lips", "voice_without_lips"]
+           "lips_move_with_the_sound", "lips_with_the_words", "same_direction_groups", "veto_still_lips",
+           "voice_without_lips"]
 
 ENVELOPE_HOP_S = 0.01
 
@@ -314,6 +315,19 @@ def choose_by_lips(speaking: np.ndarray, probability: np.ndarray, relative: np.n
     return speaking, probability
 
 
+def lips_move_with_the_sound(activity: np.ndarray, relative: np.ndarray, synchrony: np.ndarray, *,
+                             moving_above: float = 0.05, relative_above: float = 0.6,
+                             synchrony_above: float = 0.3) -> np.ndarray:
+    """(N,) bool: lips that move plainly (``activity`` above ``moving_above``, ``relative`` at least
+    ``relative_above`` of their own range) and with the sound (``synchrony`` at least ``synchrony_above``):
+    :func:`lips_with_the_words`' evidence of a voice, which also makes a call of the speaking test's later looks a
+    call that may start speech (:class:`avcore.speaking.RescueContinuity`). NaN: False."""
+    with np.errstate(invalid="ignore"):
+        return ((np.asarray(activity, dtype=np.float64) > moving_above)
+                & (np.asarray(relative, dtype=np.float64) >= relative_above)
+                & (np.asarray(synchrony, dtype=np.float64) >= synchrony_above))
+
+
 def lips_with_the_words(speaking: np.ndarray, probability: np.ndarray, activity: np.ndarray, relative: np.ndarray,
                         synchrony: np.ndarray, *, least_probability: float = 0.2, moving_above: float = 0.05,
                         relative_above: float = 0.6, synchrony_above: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
@@ -327,8 +341,9 @@ def lips_with_the_words(speaking: np.ndarray, probability: np.ndarray, activity:
     probability = np.asarray(probability, dtype=np.float64).copy()
     others = np.count_nonzero(speaking) - speaking.astype(int)
     with np.errstate(invalid="ignore"):
-        join = (~speaking & (others >= 1) & (probability >= least_probability) & (activity > moving_above)
-                & (relative >= relative_above) & (synchrony >= synchrony_above))
+        join = (~speaking & (others >= 1) & (probability >= least_probability)
+                & lips_move_with_the_sound(activity, relative, synchrony, moving_above=moving_above,
+                                           relative_above=relative_above, synchrony_above=synchrony_above))
     speaking[join] = True
     probability[join] = np.maximum(probability[join], np.nextafter(0.5, 1.0))
     return speaking, probability

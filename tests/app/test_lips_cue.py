@@ -324,6 +324,44 @@ def test_a_face_whose_lips_move_with_the_sound_speaks_beside_the_one_heard(monke
     assert step([with_sound, against, against]).tolist() == [True, False, False]
 
 
+@dataclass(frozen=True)
+class _RescuedOutput:
+    speaking: np.ndarray
+    probability: np.ndarray
+    rescued: np.ndarray
+
+
+def test_lips_that_move_with_the_sound_make_a_rescued_call_one_that_may_start_speech(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The second face is called by the speaking test's later looks alone (rescued): with lips that open with the
+    sound it is no longer a rescue (the continuity will not drop it); with lips out of step it still is."""
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    mode = FaceGuided(PipelineConfig(lips=True))
+    frames = np.arange(0.005, 3.0, 0.01)
+    mode.envelope.push(frames, 1e-3 * (0.05 + 0.5 + 0.5 * np.sin(2 * np.pi * 4.0 * frames)) ** 2)
+    video = np.arange(2.4, 3.0, 1 / 30)
+    with_sound = np.stack([video, 0.2 + 0.1 * np.sin(2 * np.pi * 4.0 * (video + 0.075))], axis=1)
+    against = np.stack([video, 0.2 - 0.1 * np.sin(2 * np.pi * 4.0 * (video + 0.075))], axis=1)
+    apart = np.array([[-0.8, 0.0, 2.0], [0.8, 0.0, 2.0]])
+
+    class Rescuing:
+        array = MicArray.from_pair(MicPair())
+
+        def step(self, *args: object) -> _RescuedOutput:
+            return _RescuedOutput(np.array([True, True]), np.array([0.9, 0.7]), np.array([False, True]))
+
+    def rescued(series: list[np.ndarray]) -> list[bool]:
+        vision = Vision(2.95, None, np.zeros((2, 4)), apart, np.array([0.06, 0.07]), np.array([0.9, 0.8]),
+                        np.array([1, 2]), lip_series=series)
+        out = mode.step(Rescuing(), vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+        assert out.speaking.tolist() == [True, True]
+        return out.rescued.tolist()
+
+    assert rescued([with_sound, with_sound]) == [False, False]
+    assert rescued([with_sound, against]) == [False, True]
+
+
 def test_the_pipeline_feeds_the_lips_the_sound_it_hears(monkeypatch: pytest.MonkeyPatch) -> None:
     pytest.importorskip("pyroomacoustics")
     from avcore.lips import SoundEnvelope
