@@ -7,8 +7,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["COUNT_BY", "Decision", "RescueContinuity", "SpeakingTest", "SpeakingVote", "bin_shares", "speaking_threshold",
-           "vote_speaking"]
+__all__ = ["COUNT_BY", "Decision", "RescueContinuity", "SpeakingTest", "SpeakingVote", "bin_shares",
+           "speaking_threshold", "vote_speaking"]
 
 
 def speaking_threshold(n_itds: int, n_objects: int) -> float:

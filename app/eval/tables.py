@@ -386,6 +386,6 @@ def format_voice_table(mics: str, seeds: list[int], summary: dict[str, dict[str,
         cells = [f"{_num(summary[kind][name], '+.1f')} / {_num(summary[kind][name + ' worst'], '+.1f')}"
                  for kind in summary]
         lines.append(f"{name:<14}" + "".join(f"{c:>22}" for c in cells))
-    lines += ["", "Targets (issue 59, held-out rooms): in overlap >= +6 dB with four or more microphones (>= +4 dB with "
-                  "the pair) and 3 dB more than delay-and-sum; alone never under +1 dB."]
+    lines += ["", "Targets (issue 59, held-out rooms): in overlap >= +6 dB with four or more microphones (>= +4 dB "
+                  "with the pair) and 3 dB more than delay-and-sum; alone never under +1 dB."]
     return "\n".join(lines)
