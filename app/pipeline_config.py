@@ -15,52 +15,41 @@ paper's is ``"correlogram"``, the default of :func:`avcore.itd.extract_itds`."""
 
 @dataclass(frozen=True)
 class PipelineConfig:
-    """Settings of the process; defaults are the paper's implementation details (section 6).
+    """Settings of the process; defaults are the paper's implementation details (section 6). Each setting's why:
+    docs/method.md and docs/architecture.md.
 
     inference : "face" (Algorithm 2, the default, as on NAO) or "motion" (Algorithm 1 on HM3D points).
     itd_method, window_s, hop_s, energy_threshold : the ITD extraction (W = 150 ms, f = 20 ms, E_A = 0.001);
-        "gcc-phat-robust" by default (the most accurate in reverberant rooms, benchmarks/itd_accuracy.py), the
-        paper's "correlogram" selectable. Lags are searched within 1.2 times the pair's free-field maximum.
+        "gcc-phat-robust" by default, the paper's "correlogram" selectable. Lags are searched within 1.2 times the
+        pair's free-field maximum.
     frame_window_s : face-guided: each vision result collects the ITDs within +- this of its stamp.
     decision_window_s : face-guided: decide on the ITDs within +- this of the stamp only (EM still fits on the
         whole time frame; :class:`avcore.inference.FaceGuidedParams`); None: on all of them, as the paper.
-    frame_itds : face-guided with "gcc-phat-robust": the ITD worker also passes the single 32 ms frames' ITDs,
-        and the speaking test takes a second look at those of the time frame (:class:`avcore.speaking.SpeakingTest`
-        ``frame_rescue``: a talker that a louder one masks in every 150 ms window still wins some frames), and
-        the peaks of the frames' frequency bands (``band_itds``: where two talk at once, some bands are the
-        quieter one's); with a microphone array also the frames' bins on every pair, the fourth look
-        (:func:`avcore.speaking.bin_shares`).
-    vote_frames : face-guided: each person's speaking state is the majority of their states over this many
-        consecutive results centred on it (:func:`avcore.speaking.vote_speaking`), so results leave the fusion
-        thread ``vote_frames // 2`` frames later (133 ms at 30 FPS for the default 9); 1: no vote.
-    rescue_gap_s : face-guided: a call that only the speaking test's later looks make (single frames, bands, bins)
-        stands while the same person's last call that stood is at most this old
-        (:class:`avcore.speaking.RescueContinuity`: they carry a person's speech on, not start it); None: every
-        such call stands (avhear before wave 4).
+    frame_itds : face-guided with "gcc-phat-robust": the speaking test's later looks, at the single 32 ms frames'
+        ITDs, their frequency bands' peaks and, with an array, their bins (:class:`avcore.speaking.SpeakingTest`).
+    vote_frames : face-guided: each person's state is the majority over this many results centred on it
+        (:func:`avcore.speaking.vote_speaking`): results leave ``vote_frames // 2`` frames later; 1: no vote.
+    rescue_gap_s : face-guided: a call only the later looks make stands while the person's last call that stood is
+        at most this old (:class:`avcore.speaking.RescueContinuity`); None: every such call stands.
     interval_s : motion-guided: Delta t = 0.4 s of frames per HM3D interval (section 7). motion_variant,
         face_variant : "avhear" (the default) or "paper" (Algorithm 1, or 2's EM and eq. audio_act, as written).
     *_queue : queue lengths (items); a full queue drops its oldest item (in real time; a replay as fast as
-        possible waits for room instead). Motion-guided, the frames' queue holds at least one interval at 60 FPS:
-        HM3D runs once per interval, all at once, and the next interval's frames arrive meanwhile.
-    max_audio_lead_s : a replay as fast as possible: the ITD worker waits while the audio it extracts is more than
-        this far ahead of the last frame vision took, so that no buffer downstream has to drop what vision has not
-        used yet (ITDs run far faster than vision). Must exceed the time frame, a window and the vote's wait.
-    latency : "default" (each result collects the ITDs of +- its time frame and its vote is centred on it: the
-        method's own wait, about 0.43 s) or "low" (the past only: the time frame ends at the stamp and the vote
-        trails, so a result leaves once its last ITD is extracted).
-    face_detector : "auto" (the default: BlazeFace when its model is installed, else Haar's cascade with a notice),
-        "blazeface" (MediaPipe's BlazeFace, :mod:`avcore.blazeface`) or "haar" (OpenCV's cascade, tracked; OpenCV 4
-        only); face_model : the BlazeFace model file (default: the installed package's); tflite_runtime : what runs
-        the face models, "opencv" (OpenCV's DNN) or "litert" (:mod:`avcore.tflite`).
-    self_calibrate : face-guided: learn the correction c1, c0 of every pair while running, from people talking
-        alone in view (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
-    lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): a face whose lips
-        are still (under ``lip_still_below``) is not speaking; faces within ``lip_same_direction_s`` on every pair
-        are heard as one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its
-        own range). ``lip_earn_trust``: a face's still lips veto only once its lips have moved with its own voice
-        (:class:`avcore.lips.HiddenLips`); False: from the start, until they stay still through its voice.
-        Motion-guided, a person's face is the one within ``lip_face_within_m`` of them horizontally
-        (:func:`app.hearing.faces_of_people`), and the veto applies to the person.
+        possible waits for room instead). Motion-guided, the frames' queue holds at least one interval at 60 FPS.
+    max_audio_lead_s : a replay as fast as possible: the ITD worker waits while its audio is more than this far
+        ahead of the last frame vision took. Must exceed the time frame, a window and the vote's wait.
+    latency : "default" (the time frame and the vote centred on each result: the method's own wait, about
+        0.43 s) or "low" (the past only: a result leaves once its last ITD is extracted).
+    face_detector : "auto" (BlazeFace when its model is installed, else Haar's cascade with a notice),
+        "blazeface" (:mod:`avcore.blazeface`) or "haar" (OpenCV 4 only); face_model : the BlazeFace model file
+        (default: the installed package's); tflite_runtime : "opencv" (OpenCV's DNN) or "litert".
+    self_calibrate : face-guided: learn the correction c1, c0 of every pair while running
+        (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
+    lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): still lips (under
+        ``lip_still_below``) are not speaking; faces within ``lip_same_direction_s`` on every pair are heard as
+        one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its range);
+        ``lip_earn_trust``: still lips veto only once they have moved with their own voice
+        (:class:`avcore.lips.HiddenLips`). Motion-guided, a person's face is the one within
+        ``lip_face_within_m`` of them horizontally, and the veto applies to the person.
     """
 
     inference: Literal["face", "motion"] = "face"
