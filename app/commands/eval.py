@@ -144,6 +144,13 @@ def _add_room_arguments(parser: argparse.ArgumentParser) -> None:
                         help="seconds of each room (default 30)")
 
 
+def _needs_the_simulator(command: str, *modules: str) -> None:
+    """One line, before any work, when the simulator's extra (``.[sim]``) is not installed."""
+    missing = [m for m in modules if importlib.util.find_spec(m) is None]
+    if missing:
+        raise UserError(f"avhear {command} needs {', '.join(missing)}: pip install -e '.[sim]'")
+
+
 def _merged(runs: list):  # noqa: ANN202 - ScenarioScore or RoomScore
     """The first run with every other run's figures added (each score type's own ``merge``)."""
     first, *rest = runs
@@ -314,6 +321,7 @@ def run_rooms(args: argparse.Namespace) -> int:
 
     if args.motion:
         raise UserError("avhear eval rooms scores face-guided hearing; leave out --motion")
+    _needs_the_simulator("eval rooms", "pyroomacoustics")
     if args.duration is not None and not (5.0 <= args.duration <= 3600.0):
         raise UserError(f"--duration must be between 5 and 3600 seconds, got {args.duration}")
     config = pipeline_config(args)
@@ -348,8 +356,7 @@ def run_voices(args: argparse.Namespace) -> int:
     from app.eval.tables import format_voice_table
     from app.eval.voices import evaluate_voices, summarise
 
-    if importlib.util.find_spec("fast_bss_eval") is None:
-        raise UserError("avhear eval voices scores with fast-bss-eval: pip install fast-bss-eval")
+    _needs_the_simulator("eval voices", "pyroomacoustics", "fast_bss_eval")
     if args.duration is not None and not (5.0 <= args.duration <= 3600.0):
         raise UserError(f"--duration must be between 5 and 3600 seconds, got {args.duration}")
     start = time.perf_counter()

@@ -33,3 +33,18 @@ def test_eval_voices_refuses_a_short_room_in_one_line(capsys: pytest.CaptureFixt
     assert main(["eval", "voices", "--duration", "3"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--duration" in err[0]
+
+
+def test_eval_voices_without_the_simulators_extra_is_one_line(capsys: pytest.CaptureFixture[str],
+                                                               monkeypatch: pytest.MonkeyPatch) -> None:
+    import importlib.util
+
+    real = importlib.util.find_spec
+
+    def without_fast_bss_eval(name: str, *args: object) -> object:
+        return None if name == "fast_bss_eval" else real(name, *args)
+
+    monkeypatch.setattr(importlib.util, "find_spec", without_fast_bss_eval)
+    assert main(["eval", "voices"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "fast_bss_eval" in err[0] and ".[sim]" in err[0]
