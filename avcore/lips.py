@@ -200,7 +200,7 @@ class HiddenLips:
 
     With ``earn_trust`` (the default) a face that has not yet been judged gives no opinion either: abstaining never
     takes a person's words away, and a still face whose voice is heard only beside another's never earns the right
-    to veto. Without it (avhear before wave 4) an unjudged face's still lips veto, and a face is hidden only while
+    to veto. Without it an unjudged face's still lips veto, and a face is hidden only while
     the moments in the window show its lips still.
 
     A talker's lips move while they speak (3-8 syllables a second). A listener called speaking by a neighbour's
