@@ -299,12 +299,23 @@ class AcousticRoom:
         Returns ``(S, Q, L)`` responses (pyroomacoustics' global delay of 40 samples included, the same for both
         microphones) and the RT60 measured on them, seconds.
         """
-        pra = _pyroomacoustics()
         src = as_points(sources_scene, "sources_scene", allow_empty=False)
         room_src = self.scene_to_room(src)
         for i, p in enumerate(room_src):
             self._check_inside(p, f"source {i}")
         mics = self.scene_to_room(self.mic_positions()).T  # (3, Q)
+        key = (tuple(self.dims_m), self.samplerate_hz, self.rt60_s, self.match_rt60, room_src.tobytes(),
+               mics.tobytes())
+        found = _RIRS.get(key)
+        if found is None:
+            found = _RIRS[key] = self._impulse_responses(room_src, mics)
+            while len(_RIRS) > _RIRS_KEPT:
+                _RIRS.pop(next(iter(_RIRS)))
+        rirs, measured = found
+        return rirs.copy(), measured
+
+    def _impulse_responses(self, room_src: np.ndarray, mics: np.ndarray) -> tuple[np.ndarray, float]:
+        pra = _pyroomacoustics()
 
         def build(rt60: float):
             e_absorption, max_order = pra.inverse_sabine(rt60, list(self.dims_m))
@@ -329,6 +340,10 @@ class AcousticRoom:
                 r = room.rir[m][s]
                 rirs[s, m, :len(r)] = r
         return rirs, measured
+
+
+_RIRS: dict[tuple, tuple[np.ndarray, float]] = {}  # the rooms computed in this process (the same room, twice: once)
+_RIRS_KEPT = 16
 
 
 @dataclass(frozen=True)
