@@ -28,6 +28,7 @@ COMMAND_MODULES: tuple[str, ...] = (
     "app.commands.simulate",
     "app.commands.run",
     "app.commands.record",
+    "app.commands.transcribe",
     "app.commands.sensors",
     "app.commands.devices",
 )

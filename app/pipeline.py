@@ -6,10 +6,14 @@ source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] (--q--> [
                                                                                          +--q--> [fusion: TimeFrame
 source.audio()  --> [audio]   --q--> [ITD worker: PairsItdStream] -----------------------+   -> inference]
                                                                                                 --> on_result
+         [audio] --q--> [voices: VoiceSeparator] <--q-- the results' people (their places, who speaks) --> on_voice
 ```
 
 With the lips' cue (face-guided), the face mesh reads the lips in a thread of its own after vision's, so that the
 mesh of one frame runs while the next frame's faces are found (OpenCV's DNN lets go of the GIL).
+
+With ``voices`` on, every audio block and every result's people also go to the voices thread, which steers a
+stream at each person (:mod:`avcore.separation`) and hands its chunks to ``on_voice``.
 
 Every queue is a :class:`~app.queues.DropOldestQueue`: producers never block (a slow consumer loses the oldest
 items, counted in the stats). The fusion thread alone owns the TimeFrame synchroniser (RSB's strategy, section 6:
@@ -42,10 +46,12 @@ from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.lips import frame_powers
 from avcore.mic_check import MicCheck
+from avcore.separation import VoiceChunk, VoiceSeparator
 from avcore.speaking import RescueContinuity
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
 from avcore.tracking import NearestTracker
+from avcore.voices import direction_vector
 
 log = logging.getLogger(__name__)
 
@@ -89,6 +95,19 @@ class ClockMessage:
     stamp_s: float
 
 
+@dataclass(frozen=True, eq=False)
+class PeopleMessage:
+    """A result's people for the voices thread: ids (N,), places (N, 3) metres, speaking (N,) bool; the voices out
+    of view among them, put :data:`UNSEEN_VOICE_M` along their direction."""
+
+    stamp_s: float
+    ids: np.ndarray
+    positions_m: np.ndarray
+    speaking: np.ndarray
+
+
+UNSEEN_VOICE_M = 2.0  # a voice out of view is steered at this distance along its direction (far field beyond it)
+
 FusionMessage = Vision | ItdMessage | FrameItdsMessage | EnvelopeMessage | ClockMessage
 
 
@@ -129,6 +148,8 @@ class PipelineStats:
     interrupted: bool = False
     self_calibration: list[dict[str, Any]] | None = None  # per pair, at the end of a self-calibrating run
     microphones: list[str] = field(default_factory=list)  # what the sound says of the rig file's microphones
+    voice_chunks: int = 0  # chunks of the people's voices handed out (config.voices)
+    voice_latencies_s: list[float] = field(default_factory=list)  # real time: out minus its first sample's capture
 
     @property
     def duration_s(self) -> float:
@@ -157,6 +178,9 @@ class PipelineStats:
             "interrupted": self.interrupted,
             "self_calibration": self.self_calibration,
             "microphones": list(self.microphones),
+            "voice_chunks": self.voice_chunks,
+            "voice_latency_ms_p95": (round(float(np.percentile(self.voice_latencies_s[-10_000:], 95)) * 1e3, 2)
+                                     if self.voice_latencies_s else None),
         }
 
     def summary(self) -> str:
@@ -175,17 +199,19 @@ class _Stop(Exception):
 
 class Pipeline:
     """Runs a :class:`Source` through vision, ITD extraction and fusion in threads; calls ``on_result`` from the
-    fusion thread for every fused result (so that all Rerun logging happens in one thread).
+    fusion thread for every fused result (so that all Rerun logging happens in one thread), and with
+    ``config.voices`` ``on_voice`` from the voices thread for every :class:`avcore.separation.VoiceChunk`.
 
     ``clock`` is the clock of the source's stamps (default the source's own ``clock``).
     """
 
     def __init__(self, source: Source, config: PipelineConfig | None = None,
                  on_result: Callable[[Result], None] | None = None, *,
-                 detector: FaceDetector | None = None, clock: Callable[[], float] | None = None) -> None:
+                 detector: FaceDetector | None = None, clock: Callable[[], float] | None = None,
+                 on_voice: Callable[[VoiceChunk], None] | None = None) -> None:
         self.source = source
         self.config = config if config is not None else PipelineConfig()
-        self.on_result = on_result
+        self.on_result, self.on_voice = on_result, on_voice
         self.clock = clock if clock is not None else getattr(source, "clock", time.monotonic)
         self.stats = PipelineStats()
         self._stop = threading.Event()
@@ -201,7 +227,11 @@ class Pipeline:
         self._q_lips: DropOldestQueue[Vision] | None = (
             DropOldestQueue(c.frame_queue, "lips") if self.mode.reads_lips else None)
         self._seen = "vision" if self._q_lips is None else "lips"  # the stage whose results the fusion takes
-        self._done = {name: threading.Event() for name in ("grabber", "audio", "vision", "lips", "itd", "fusion")}
+        # the audio and the results' people, to the voices thread (never dropped there: see _voices_loop)
+        self._q_voices: DropOldestQueue[AudioBlock | PeopleMessage] | None = (
+            DropOldestQueue(c.audio_queue + c.fusion_queue, "voices") if c.voices else None)
+        self._done = {name: threading.Event()
+                      for name in ("grabber", "audio", "vision", "lips", "itd", "fusion", "voices")}
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
         self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
         self._vote = self.mode.vote()
@@ -223,7 +253,8 @@ class Pipeline:
         return {q.name: len(q) for q in self._queues()}
 
     def _queues(self) -> list[DropOldestQueue]:
-        return [q for q in (self._q_frames, self._q_lips, self._q_audio, self._q_fusion) if q is not None]
+        return [q for q in (self._q_frames, self._q_lips, self._q_audio, self._q_fusion, self._q_voices)
+                if q is not None]
 
     def self_calibration_state(self) -> list[dict[str, Any]] | None:
         """Where the self-calibration stands, per pair (:meth:`app.hearing.SelfCalibrating.state`); None without
@@ -241,11 +272,14 @@ class Pipeline:
         Re-raises the first exception of a worker thread after all threads have been joined.
         """
         workers = [
-            ("fusion", self._fusion_loop), ("itd", self._itd_loop), ("lips", self._lips_loop),
-            ("vision", self._vision_loop), ("audio", self._audio_loop), ("grabber", self._grab_loop),
+            ("voices", self._voices_loop), ("fusion", self._fusion_loop), ("itd", self._itd_loop),
+            ("lips", self._lips_loop), ("vision", self._vision_loop), ("audio", self._audio_loop),
+            ("grabber", self._grab_loop),
         ]
         if self._q_lips is None:
             workers.remove(("lips", self._lips_loop))
+        if self._q_voices is None:
+            workers.remove(("voices", self._voices_loop))
         threads = [threading.Thread(target=self._guard, args=(name, fn), name=f"avhear-{name}", daemon=True)
                    for name, fn in workers]
         self.stats.started_s = time.perf_counter()
@@ -253,7 +287,8 @@ class Pipeline:
             for t in threads:
                 t.start()
             deadline = None if duration_s is None else time.perf_counter() + duration_s
-            while not self._done["fusion"].wait(0.05):
+            last = "fusion" if self._q_voices is None else "voices"
+            while not self._done[last].wait(0.05):
                 if self._stop.is_set() or (deadline is not None and time.perf_counter() >= deadline):
                     break
         except KeyboardInterrupt:
@@ -329,6 +364,8 @@ class Pipeline:
             if self._stop.is_set():
                 return
             self._offer(self._q_audio, block)
+            if self._q_voices is not None:
+                self._offer(self._q_voices, block)
 
     def _vision_loop(self) -> None:
         rig = self.source.rig
@@ -546,6 +583,64 @@ class Pipeline:
         if self.on_result is not None:
             self.on_result(result)
         self.stats.results += 1
+        if self._q_voices is not None:
+            self._offer(self._q_voices, _people(result))
+
+    def _voices_loop(self) -> None:
+        """Each person's voice (:class:`avcore.separation.VoiceSeparator`). Everything queued is taken at once into
+        the separator, which holds the audio until the people of ``voice_delay_s`` earlier are known: the thread
+        never holds up the audio or the fusion (in a replay as fast as possible, the audio runs ahead of the
+        results by up to ``max_audio_lead_s``; in real time a frame waits at most a second more for them). A stop
+        waits for the fusion's last results, then ends every stream."""
+        assert self._q_voices is not None
+        array = _array(self.source)
+        separator = VoiceSeparator(array.positions, self.source.samplerate_hz, learn_delay_s=self.config.voice_delay_s,
+                                   max_wait_s=None if self._backpressure else self.config.voice_delay_s + 1.0,
+                                   speed_of_sound=array.speed_of_sound)
+        channels = list(array.channels)
+        while True:
+            item = self._q_voices.get(timeout=0.05)
+            if item is None:
+                upstream_done = self._done["audio"].is_set() and self._done["fusion"].is_set()
+                if (upstream_done or self._stop.is_set()) and len(self._q_voices) == 0:
+                    if self._stop.is_set() and not upstream_done:
+                        self._done["fusion"].wait(self.config.join_timeout_s / 2)
+                        if len(self._q_voices):
+                            continue
+                    for chunk in separator.flush():
+                        self._emit_voice(chunk)
+                    return
+                continue
+            if isinstance(item, PeopleMessage):
+                separator.push_people(item.stamp_s, item.ids, item.positions_m, item.speaking)
+            else:
+                samples = np.asarray(item.samples)
+                if samples.ndim != 2 or samples.shape[1] <= max(channels):
+                    continue  # counted by the ITD worker
+                separator.push_audio(item.stamp_s, samples[:, channels])
+            for chunk in separator.pop():
+                self._emit_voice(chunk)
+
+    def _emit_voice(self, chunk: VoiceChunk) -> None:
+        if not self._backpressure:
+            self.stats.voice_latencies_s.append(self.clock() - chunk.stamp_s)
+            if len(self.stats.voice_latencies_s) > 100_000:
+                del self.stats.voice_latencies_s[:50_000]
+        if self.on_voice is not None:
+            self.on_voice(chunk)
+        self.stats.voice_chunks += 1
+
+
+def _people(result: Result) -> PeopleMessage:
+    """The people of ``result`` and its voices out of view, for the voices thread."""
+    ids, positions, speaking = list(result.person_ids), list(result.positions), list(result.speaking)
+    for voice in result.voices or ():
+        ids.append(voice.id)
+        elevation = 0.0 if voice.elevation_rad is None else voice.elevation_rad
+        positions.append(UNSEEN_VOICE_M * direction_vector(np.array(voice.azimuth_rad), np.array(elevation)))
+        speaking.append(True)
+    return PeopleMessage(result.stamp_s, np.asarray(ids, dtype=np.int64),
+                         np.asarray(positions, dtype=np.float64).reshape(-1, 3), np.asarray(speaking, dtype=bool))
 
 
 def _far_from_the_rig(state: list[dict[str, Any]], turn_deg: float = 15.0,

@@ -50,6 +50,8 @@ class PipelineConfig:
         ``lip_earn_trust``: still lips veto only once they have moved with their own voice
         (:class:`avcore.lips.HiddenLips`). Motion-guided, a person's face is the one within
         ``lip_face_within_m`` of them horizontally, and the veto applies to the person.
+    voices : each person's voice as a 16 kHz stream, MVDR steered at them (:class:`avcore.separation.
+        VoiceSeparator`), from the people ``voice_delay_s`` old (the results' own wait, 0.43 s, fits within it).
     """
 
     inference: Literal["face", "motion"] = "face"
@@ -73,6 +75,8 @@ class PipelineConfig:
     lip_both_above: float = 0.5
     lip_face_within_m: float = 0.35
     lip_earn_trust: bool = True
+    voices: bool = False
+    voice_delay_s: float = 0.6
     interval_s: float = 0.4
     motion_variant: Literal["avhear", "paper"] = "avhear"
     face_variant: Literal["avhear", "paper"] = "avhear"
@@ -116,6 +120,8 @@ class PipelineConfig:
         if self.max_audio_lead_s <= least:
             raise ValueError(f"max_audio_lead_s must exceed the time frame plus a window ({least:g} s), got "
                              f"{self.max_audio_lead_s!r}")
+        if not 0 <= self.voice_delay_s <= 5:
+            raise ValueError(f"voice_delay_s must be a time in [0, 5] seconds, got {self.voice_delay_s!r}")
         if self.rescue_gap_s is not None and not 0 <= self.rescue_gap_s < 10:
             raise ValueError(f"rescue_gap_s must be None or a time in [0, 10) seconds, got {self.rescue_gap_s!r}")
         if not (isinstance(self.vote_frames, int) and self.vote_frames >= 1 and self.vote_frames % 2 == 1):

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Person", "Result"]
+__all__ = ["Person", "Result", "voice_id"]
 
 _NO_IMAGE = np.zeros((0, 0), dtype=np.uint8)
 
@@ -120,6 +120,11 @@ class Result:
         return _record(self)
 
 
+def voice_id(person: int) -> str:
+    """The voice of person ``person``: ``v<N>`` (ROS4HRI's voice id on the bus; its stream with the voices on)."""
+    return f"v{int(person)}"
+
+
 def _num(x: Any) -> float | None:
     x = float(x)
     return x if math.isfinite(x) else None
@@ -150,11 +155,13 @@ def _record(result: Result) -> dict[str, Any]:
             person["box_px"] = list(p.box_px)
         if p.lip_activity is not None:
             person["lip_activity"] = None if p.lip_activity != p.lip_activity else round(float(p.lip_activity), 4)
+        person["voice_id"] = voice_id(p.id)  # fields are added at the end
         people.append(person)
     for v in result.voices or ():  # a voice out of view: a person without a face or position
         people.append({"id": v.id, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
                        "azimuth_deg": round(math.degrees(v.azimuth_rad), 1),
-                       "elevation_deg": None if v.elevation_rad is None else round(math.degrees(v.elevation_rad), 1)})
+                       "elevation_deg": None if v.elevation_rad is None else round(math.degrees(v.elevation_rad), 1),
+                       "voice_id": voice_id(v.id)})
     record = {
         "stamp_s": round(float(result.stamp_s), 6),
         "index": int(result.index),

@@ -130,19 +130,31 @@ class MemoryMonitor:
 
 def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, sample_s: float = 2.0,
         progress_s: float = 30.0, trace: bool = False, part_s: float | None = 60.0,
-        frame_itds: bool = True, vote_frames: int = 9, mics: str = "pair", read_lips: bool = False
-        ) -> dict[str, Any]:
+        frame_itds: bool = True, vote_frames: int = 9, mics: str = "pair", read_lips: bool = False,
+        voices: bool = False, transcribe: bool = False) -> dict[str, Any]:
     """One run of ``scenario``: the pipeline with the console logging to ``rrd`` (None: no Rerun at all), in parts
     of ``part_s`` seconds as ``avhear run`` writes them (None: one file); ``read_lips``: the simulated mouths move
     and the face mesh reads every face (``avhear run --lips --read-lips``)."""
     source = open_source(f"sim:{scenario}", realtime=realtime, duration_s=duration_s, mics=mics, lips=read_lips,
                          progress=lambda m: _say(f"  {m}"))
-    config = PipelineConfig(frame_itds=frame_itds, vote_frames=vote_frames, lips=read_lips)
+    voices = voices or transcribe
+    config = PipelineConfig(frame_itds=frame_itds, vote_frames=vote_frames, lips=read_lips, voices=voices)
+    transcriber = None
+    if transcribe:
+        from app.speech.transcriber import Transcriber
+        from sim.audio import DIGIT_WORDS
+
+        transcriber = Transcriber(list(DIGIT_WORDS) if scenario != "room" else None)
+        transcriber.wait_ready()
+    final_lags: list[float] = []  # each utterance's final words out minus its end, on the source's clock
     session = ViewerSession(ViewerTarget(save=rrd, part_s=part_s)) if rrd is not None else None
     console = (Console(source.rig, source.mics, recording=session.recording, array=source.array)
                if session is not None else None)
 
     def on_result(r: Result) -> None:
+        if transcriber is not None:
+            transcriber.result(r.stamp_s, [(p.id, p.speaking) for p in r.people])
+            final_lags.extend(source.clock() - w.end_s for w in transcriber.events() if w.final)
         if console is not None:
             assert session is not None
             if session.part_due():
@@ -150,13 +162,22 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
                 console.new_part()
             console.log(ConsoleFrame.from_result(r))
 
-    pipeline = Pipeline(source, config, on_result)
+    voice_s = [0.0]
+
+    def on_voice(chunk: Any) -> None:  # what --voices-dir would write, counted
+        voice_s[0] += chunk.samples.size / chunk.samplerate_hz
+        if transcriber is not None:
+            transcriber.voice(chunk)
+
+    pipeline = Pipeline(source, config, on_result, on_voice=on_voice if voices else None)
     monitor = MemoryMonitor(duration_s, pipeline, every_s=sample_s, progress_s=progress_s, trace=trace)
     monitor.start()
     try:
         stats = pipeline.run()
     finally:
         monitor.stop()
+        if transcriber is not None:
+            transcriber.close()
         if session is not None:
             session.close(keep_serving=False)
     d = stats.as_dict()
@@ -174,7 +195,16 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
         "top_growth": monitor.top_growth(),
         "rrd_mb": sum(p.stat().st_size for p in session.parts) / 2**20 if session is not None else 0.0,
         "rrd_parts": len(session.parts) if session is not None else 0, "stage_ms": d["stage_ms_per_item"],
+        "voice_s": voice_s[0], "voice_latency_p50_ms": _pct(stats.voice_latencies_s, 50),
+        "voice_latency_p95_ms": _pct(stats.voice_latencies_s, 95),
+        "voice_latency_max_ms": _pct(stats.voice_latencies_s, 100),
+        "finals": len(final_lags), "final_lag_p50_s": _pct(final_lags, 50) / 1e3,
+        "final_lag_max_s": _pct(final_lags, 100) / 1e3,
     }
+
+
+def _pct(values_s: list[float], q: float) -> float:
+    return float(np.percentile(np.asarray(values_s) * 1e3, q)) if values_s else float("nan")
 
 
 def main() -> None:
@@ -195,19 +225,26 @@ def main() -> None:
     parser.add_argument("--mics", default="pair", help="the simulated microphones (an array preset, e.g. nao, uma8)")
     parser.add_argument("--read-lips", action="store_true",
                         help="moving mouths and the face mesh on every face (avhear run --lips --read-lips)")
+    parser.add_argument("--voices", action="store_true",
+                        help="each person's voice too (avhear run --voices-dir): its latency from capture to out")
+    parser.add_argument("--transcribe", action="store_true",
+                        help="each person's words too (avhear run --transcribe, the digits' grammar): how soon after "
+                             "an utterance ends its final words come")
     parser.add_argument("--tracemalloc", action="store_true",
                         help="trace Python allocations: lines that grew from the first quarter to the end")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         sink = "console to an .rrd file" if args.sink == "file" else "no Rerun"
-        lips = ", the lips read" if args.read_lips else ""
+        lips = ((", the lips read" if args.read_lips else "") + (", each person's voice" if args.voices else "")
+                + (", their words" if args.transcribe else ""))
         print(f"{args.scenario}, {args.duration:.0f} s in real time, {sink}, microphones {args.mics}{lips} ...",
               flush=True)
         rrd = Path(tmp) / "rt.rrd" if args.sink == "file" else None
         part_s = args.part_s or None
         r = run(args.scenario, args.duration, True, rrd, sample_s=args.sample_s, progress_s=args.progress_s,
                 trace=args.tracemalloc, part_s=part_s, frame_itds=args.frame_itds,
-                vote_frames=args.vote_frames, mics=args.mics, read_lips=args.read_lips)
+                vote_frames=args.vote_frames, mics=args.mics, read_lips=args.read_lips, voices=args.voices,
+                transcribe=args.transcribe)
         print(f"  results per second {r['fps']:.1f} (target >= 30; the paper 17), {r['results']} results in "
               f"{r['duration_s']:.0f} s, {r['late_frames']} late frames skipped by the source, drops {r['drops']}, "
               f"audio blocks {r['audio_blocks']} (gaps {r['audio_gaps']})")
@@ -218,6 +255,13 @@ def main() -> None:
               f"quarter), growth {r['growth_mb']:+.0f} MB (target <= 50 over 10 min); second half "
               f"{r['slope_mb_per_min']:+.2f} MB/min; peak {r['peak_mb']:.0f} MB; {r['n_samples']} samples; .rrd "
               f"{r['rrd_mb']:.0f} MB in {r['rrd_parts']} part(s)")
+        if args.voices:
+            print(f"  voices: {r['voice_s']:.0f} s of people's voices; each chunk out after its first sample's "
+                  f"capture: p50 {r['voice_latency_p50_ms']:.1f} ms, p95 {r['voice_latency_p95_ms']:.1f} ms, max "
+                  f"{r['voice_latency_max_ms']:.1f} ms (target <= 100)")
+        if args.transcribe:
+            print(f"  words: {r['finals']} utterances final, each after its end: p50 {r['final_lag_p50_s']:.2f} s, "
+                  f"max {r['final_lag_max_s']:.2f} s (target <= 1.5 s)")
         print(f"  RSS (MB) along the run: {r['trajectory']}")
         print(f"  per item: {r['stage_ms']} ms")
         if r["top_growth"]:

@@ -81,6 +81,7 @@ def default_blueprint(several_pairs: bool = False) -> rrb.Blueprint:
                                  name="Self-calibration (--self-calibrate: c1, c0 in us, inliers per pair)",
                                  time_ranges=_recent())
     events = rrb.TextLogView(origin="events", name="Events")
+    transcript = rrb.TextLogView(origin="transcript", name="Transcript (--transcribe: who said what)")
 
     paper = rrb.Vertical(
         rrb.Horizontal(image, birdseye, column_shares=[4, 3]),
@@ -93,7 +94,7 @@ def default_blueprint(several_pairs: bool = False) -> rrb.Blueprint:
         legend,
         scene,
         rrb.Tabs(counts, fps, latency, queues, selfcal, active_tab=0),
-        events,
+        rrb.Tabs(transcript, events, active_tab=0),
         row_shares=[2, 3, 2, 1],
         name="Scene and diagnostics",
     )

@@ -78,6 +78,33 @@ def load_sentence_bank(samplerate_hz: int = 16000, data_dir: str | Path | None =
     return ClipBank(samplerate_hz, tuple(voices), "synthetic", tuple(f"synthetic{v}" for v in range(3)))
 
 
+# What each shipped ARCTIC excerpt says: the CMU ARCTIC prompts (festvox.org/cmu_arctic, cmuarctic.data), in words
+# as a recogniser writes them (lower case, no punctuation): the truth the words are scored against.
+ARCTIC_PROMPTS = {
+    "a0001": "author of the danger trail philip steels etc",
+    "a0002": "not at this particular case tom apologized whittemore",
+    "a0003": "for the twentieth time that evening the two men shook hands",
+    "a0004": "lord but i'm glad to see you again phil",
+    "a0005": "will we ever forget it",
+    "a0006": "god bless 'em i hope i'll go on seeing them forever",
+    "a0010": "i'm playing a single hand in what looks like a losing game",
+}
+DIGIT_WORDS = ("zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine")
+
+
+def spoken_words(bank: ClipBank, voice: int, clip: int, label: str) -> str:
+    """What a speech event says: the digit's word (the scenarios' counting, ``label`` the digit), or the ARCTIC
+    prompt of the sentence ``clip`` of ``voice`` (the rooms); "" where it is not known (synthetic speech)."""
+    if bank.source == "digits" or label.isdigit():
+        return " ".join(DIGIT_WORDS[int(c)] for c in label) if label.isdigit() else ""
+    if bank.source != "arctic":
+        return ""
+    speaker = bank.speakers[voice]
+    names = sorted(p.name for p in data_path("speech/arctic", None).glob("*.wav"))
+    mine = [n for n in names if (n.split("_")[3] if n.startswith("cmu_") else n[:-4]) == speaker]
+    return ARCTIC_PROMPTS.get(mine[clip][:-4].split("_")[-1], "") if clip < len(mine) else ""
+
+
 @dataclass(frozen=True, eq=False)
 class Background:
     """A noise in the room besides the robot's fan: ``signal`` (any length, looped) played from ``position_m``

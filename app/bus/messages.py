@@ -7,7 +7,9 @@ definitions, no ROS installation needed), which also gives each type's REP-2011 
 
 ROS4HRI (REP-155) as avhear publishes it (the README's table): faces (``humans/faces/tracked``, each face's
 ``roi``, and with the lips read its ``lip_activity``, an avhear topic), voices (``humans/voices/tracked``, each
-voice's ``is_speaking``), persons (``humans/persons/tracked`` and ``known``; each person's ``anonymous``,
+voice's ``is_speaking`` and, with the voices on, its ``audio``: REP-155's one required topic of a voice, the
+person's stream of :mod:`avcore.separation` as ``audio_common_msgs/AudioData`` bytes, 16 kHz mono S16LE, no stamp
+in the message: chunks in order, about 30 ms each), persons (``humans/persons/tracked`` and ``known``; each person's ``anonymous``,
 ``face_id``, ``voice_id`` and ``location_confidence``: 1 while seen, then down to 0 over :data:`PERSON_MEMORY_S`,
 REP-155's "Person frame" case 2), ``humans/candidate_matches`` (PERSON = 1, FACE = 2, VOICE = 4) and TF frames on
 ``tf``. Topics REP-155 latches are sent with every result instead. Where the camera's own frame is known (a ROS
@@ -33,6 +35,9 @@ Message definitions not in rosbags' ROS 2 Jazzy store are declared here from the
 - ``audio_common_msgs/msg/AudioData``, ``AudioDataStamped`` and ``AudioInfo``: github.com/ros-drivers/audio_common,
   branch ros2, commit 06c280a79859 (2024-03-07), ``audio_common_msgs/msg/*.msg`` (comments left out), what its
   ``audio_capture`` node publishes (``audio_stamped`` and ``audio_info``, the latter every 5 s);
+- ``hri_msgs/msg/LiveSpeech``: github.com/ros4hri/hri_msgs, release 2.0.0 (commit 5d52c81, 2023-11-13),
+  ``msg/LiveSpeech.msg`` (comments left out): each voice's ``speech``, incremental words while the person speaks
+  and the final words (with their confidence) when the utterance ends (``avhear run --transcribe``);
 - ``avhear_msgs/msg/AudioBlock``: avhear's own, for the sensor stream (see its definition below).
 """
 from __future__ import annotations
@@ -45,6 +50,7 @@ import numpy as np
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from app.bus.drivers import RosTopics
+from app.result import voice_id
 from avcore.tracking import PERSON_MEMORY_S  # as long as the tracker keeps a person's id
 
 __all__ = [
@@ -59,6 +65,7 @@ PERSON, FACE, VOICE = 1, 2, 4  # hri_msgs/IdsMatch id types
 
 IDS_LIST = "hri_msgs/msg/IdsList"
 IDS_MATCH = "hri_msgs/msg/IdsMatch"
+LIVE_SPEECH = "hri_msgs/msg/LiveSpeech"
 AUDIO_BLOCK = "avhear_msgs/msg/AudioBlock"
 AUDIO_DATA = "audio_common_msgs/msg/AudioData"
 AUDIO_STAMPED = "audio_common_msgs/msg/AudioDataStamped"
@@ -75,6 +82,7 @@ COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 _DEFINITIONS = {
     IDS_LIST: "std_msgs/Header header\nstring[] ids\n",
     AUDIO_DATA: "uint8[] data\n",
+    LIVE_SPEECH: "std_msgs/Header header\nstring incremental\nstring final\nfloat64 confidence\nstring language\n",
     AUDIO_STAMPED: "std_msgs/Header header\naudio_common_msgs/AudioData audio\n",
     AUDIO_INFO: "uint8 channels\nuint32 sample_rate\nstring sample_format\nuint32 bitrate\nstring coding_format\n",
     IDS_MATCH: ("int8 UNSET=0\nint8 PERSON=1\nint8 FACE=2\nint8 BODY=3\nint8 VOICE=4\n"
@@ -127,10 +135,6 @@ def face_id(person: int) -> str:
     return f"f{int(person)}"
 
 
-def voice_id(person: int) -> str:
-    return f"v{int(person)}"
-
-
 # a voice out of view has a direction and no distance: its voice_<id> frame is put this far along its ray, a unit
 # distance that says "direction only" (REP-155 gives voices no distance field)
 UNSEEN_VOICE_RANGE_M = 1.0
@@ -162,6 +166,21 @@ class Topics:
         header = make_header(stamp_s, camera_frame)
         transform = self._transform(header, RIG_FRAME, list(rig_in_camera_m))
         return "tf_static", TF, encode(self._t[TF](transforms=[transform]), TF)
+
+    def voice_audio(self, person_id: int, samples: np.ndarray) -> tuple[str, str, bytes]:
+        """A chunk of person ``person_id``'s voice (float samples in [-1, 1], 16 kHz) on its voice's ``audio``."""
+        pcm = np.clip(np.round(np.asarray(samples, dtype=np.float64) * 32767.0), -32768, 32767).astype("<i2")
+        message = self._t[AUDIO_DATA](data=np.frombuffer(pcm.tobytes(), dtype=np.uint8))
+        return f"humans/voices/{voice_id(person_id)}/audio", AUDIO_DATA, encode(message, AUDIO_DATA)
+
+    def speech(self, stamp_s: float, person_id: int, text: str, final: bool, confidence: float | None
+               ) -> tuple[str, str, bytes]:
+        """Person ``person_id``'s words on its voice's ``speech`` (hri_msgs/LiveSpeech, US English): ``incremental``
+        while they speak, ``final`` with its confidence when the utterance ends; stamped at ``stamp_s``."""
+        message = self._t[LIVE_SPEECH](header=make_header(stamp_s), incremental="" if final else text,
+                                       final=text if final else "", confidence=float(confidence or 0.0),
+                                       language="en-US")
+        return f"humans/voices/{voice_id(person_id)}/speech", LIVE_SPEECH, encode(message, LIVE_SPEECH)
 
     def messages(self, record: dict[str, Any]) -> list[tuple[str, str | None, bytes]]:
         """Every message of one result, given as its :meth:`app.result.Result.as_dict`."""

@@ -254,7 +254,9 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
                                 latency=args.latency, face_model=args.face_model,
                                 tflite_runtime=args.tflite_runtime,
-                                self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False))
+                                self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False),
+                                voices=(getattr(args, "voices_dir", None) is not None or getattr(args, "publish", False)
+                                        or getattr(args, "transcribe", False)))
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if config.self_calibrate and config.inference == "motion":

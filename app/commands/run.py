@@ -20,7 +20,7 @@ from app.commands.options import (MAX_DURATION_S, MAX_SIMULATED_S, add_bodies_ar
                                   add_bus_arguments, add_device_arguments, add_method_arguments, add_mics_argument,
                                   bus_options, bus_source, count, duration, live_config, pipeline_config, port,
                                   face_detector_name, positive, wants_bodies)
-from app.commands.paths import distinct_outputs, output_file
+from app.commands.paths import distinct_outputs, output_dir, output_file
 from app.sources.limits import DEFAULT_FOV_DEG
 from sim.presets import PRESETS
 
@@ -31,7 +31,9 @@ if TYPE_CHECKING:  # the run's parts are imported when it runs: `avhear --help` 
     from app.sinks import Sinks
     from app.sinks.bus import ResultPublisher
     from app.sinks.results_file import ResultsWriter
+    from app.sinks.voices_dir import VoicesWriter
     from app.sources.live import LiveConfig
+    from app.speech.transcriber import Transcriber
 
 DEMO_RRD = Path("recordings/demo.rrd")
 
@@ -63,8 +65,18 @@ def _common(p: argparse.ArgumentParser, *, duration_help: str, max_duration_s: f
     p.add_argument("--fast", action="store_true", help="as fast as possible instead of in real time")
     p.add_argument("--results-jsonl", type=Path, default=None, metavar="FILE",
                    help="write every fused result to FILE as one JSON line, as it is produced (schema: README)")
+    p.add_argument("--voices-dir", type=Path, default=None, metavar="DIR",
+                   help="write each person's voice (steered at them by all the microphones) to DIR/person_<id>.wav, "
+                        "16 kHz mono, with DIR/voices.json giving each file's start on the results' clock")
+    p.add_argument("--transcribe", action="store_true",
+                   help="who said what: each person's words (pocketsphinx, US English) as subtitles in the console, "
+                        "in the results file (utterances) and on the bus (humans/voices/<id>/speech)")
+    p.add_argument("--words", type=Path, default=None, metavar="FILE",
+                   help="with --transcribe: recognise only the words of FILE (whitespace or commas between them, "
+                        "e.g. the ten digits for the scenarios' counting); default the general language model")
     p.add_argument("--publish", action="store_true",
-                   help="publish every result on the bus (Zenoh) as ROS4HRI messages and JSON (README: the bus)")
+                   help="publish every result on the bus (Zenoh) as ROS4HRI messages and JSON, and each person's "
+                        "voice on humans/voices/<id>/audio (README: the bus)")
     add_bus_arguments(p)
 
 
@@ -186,6 +198,10 @@ def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) ->
                      ("--stats-json", args.stats_json), ("--save-rig", args.save_rig))
     if target.save is not None:
         output_file(target.save, "--save")
+    if args.voices_dir is not None:
+        output_dir(args.voices_dir, "--voices-dir")
+    if args.words is not None and not args.transcribe:
+        raise UserError("--words chooses the words --transcribe recognises: give both")
     if args.stats_json is not None:
         output_file(args.stats_json, "--stats-json")
     if target.connect is not None:
@@ -196,12 +212,19 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
     from app.bus.session import open_session
     from app.sinks.bus import ResultPublisher
     from app.sinks.results_file import ResultsWriter
+    from app.sinks.voices_dir import VoicesWriter
     from app.sources.open import open_source
+    from app.speech.open import open_transcriber
 
     config = pipeline_config(args)
     _check_outputs(spec, args, target)
     with ExitStack() as stack:
         results = stack.enter_context(ResultsWriter(args.results_jsonl)) if args.results_jsonl is not None else None
+        voices = stack.enter_context(VoicesWriter(args.voices_dir)) if args.voices_dir is not None else None
+        transcriber = None
+        if args.transcribe:
+            transcriber = open_transcriber(args.words)
+            stack.callback(transcriber.close, 2.0)
         publisher = session = None
         options = bus_options(args)
         if args.publish or spec in ("bus", "ros"):
@@ -227,7 +250,7 @@ def _run(spec: str, args: argparse.Namespace, target: ViewerTarget, live: LiveCo
         stack.enter_context(source)
         if publisher is not None and hasattr(source, "camera_frame"):  # a ROS robot's camera: link the rig to it
             publisher.link_rig(lambda: source.camera_frame, (0.5 * source.rig.baseline_m, 0.0, 0.0))
-        return _run_checked(spec, args, target, config, source, results, publisher,
+        return _run_checked(spec, args, target, config, source, results, publisher, voices, transcriber,
                             wall_time=live is not None or spec in ("bus", "ros"))
 
 
@@ -242,6 +265,10 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
         args.stats_json.write_text(json.dumps(stats.as_dict(), indent=2))
     if sinks.results is not None:
         print(f"avhear: {sinks.results.written} results in {sinks.results.path}")
+    if sinks.voices is not None:
+        sinks.voices.close()
+        print(f"avhear: each person's voice in {sinks.voices.folder} ({sinks.voices.written_s:.1f} s of voices; "
+              f"voices.json says when each starts)")
     if sinks.publisher is not None:
         sinks.publisher.close()
         print(f"avhear: {sinks.publisher.published} results published on the bus ({sinks.publisher.dropped} dropped "
@@ -295,7 +322,8 @@ def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> N
 
 
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
-                 results: ResultsWriter | None, publisher: ResultPublisher | None, *, wall_time: bool) -> int:
+                 results: ResultsWriter | None, publisher: ResultPublisher | None, voices: VoicesWriter | None,
+                 transcriber: Transcriber | None, *, wall_time: bool) -> int:
     from app.console import Console
     from app.console.viewer import ViewerSession
     from app.pipeline import Pipeline
@@ -317,8 +345,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
     rec = session.recording
     console = (Console(source.rig, source.mics, recording=rec, array=array)
                if rec is not None else None)
-    sinks = Sinks(session, console, results, publisher)
-    pipeline = sinks.pipeline = Pipeline(source, config, sinks)
+    sinks = Sinks(session, console, results, publisher, voices, transcriber)
+    pipeline = sinks.pipeline = Pipeline(source, config, sinks, on_voice=sinks.voice if config.voices else None)
     terminated = threading.Event()
 
     def on_sigterm(*_: object) -> None:
@@ -341,6 +369,7 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
         if threading.current_thread() is threading.main_thread():
             signal.signal(signal.SIGTERM, previous)
     stats.interrupted = stats.interrupted or terminated.is_set()
+    sinks.finish()
     _report(spec, args, target, stats, source, sinks)
     if args.save_rig is not None and stats.self_calibration:
         _save_learned_rig(args.save_rig, source, stats.self_calibration)

@@ -62,6 +62,7 @@ from app.console.entities import (
     WIREFRAME,
 )
 from app.console.frame import ConsoleFrame
+from app.console.words import WordsDisplay
 from avcore.depth import depth_millimetres
 from avcore.geometry import MicArray, MicPair
 from avcore.stereo import StereoRig
@@ -173,7 +174,12 @@ class Console:
         self._pair_panes = ([geo.ItdPane.for_mics(array.pair(k), bin_s=itd_bin_s) for k in range(array.n_pairs)]
                             if self.array is not None else [])
         self.frames_logged = 0
+        self.words = WordsDisplay()  # with --transcribe: the subtitles and the transcript
         self.new_part()
+
+    def log_words(self, words: list) -> None:
+        """Words (:class:`app.speech.transcriber.Words`) to show from the next :meth:`log` on."""
+        self.words.take(words)
 
     def new_part(self) -> None:
         """Start afresh in a new .rrd part (:meth:`app.console.viewer.ViewerSession.next_part`): the static data again,
@@ -294,6 +300,7 @@ class Console:
         self._log_series(frame, ids, colors)
         self._log_legend(frame, colors)
         self._log_voices(frame.voices)
+        self.words.log(self._log, frame.stamp_s, ids, frame.boxes, colors)
         self._log_points(frame.points_xyz)
         self.frames_logged += 1
 

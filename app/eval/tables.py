@@ -379,13 +379,27 @@ def format_voice_table(mics: str, seeds: list[int], summary: dict[str, dict[str,
     from app.eval.voices import CANDIDATES
 
     lines = [f"Each person's voice, rooms {', '.join(str(s) for s in seeds)} ({mics}): SI-SDR improvement over the "
-             "reference microphone, dB (against the dry speech; mean over the seconds / worst person)", "",
+             "reference microphone, dB (against the dry speech; mean over the seconds / worst person), and STOI", "",
              f"{'candidate':<14}" + "".join(f"{kind + ' (' + _num(summary[kind]['seconds'], '.0f') + ' s)':>22}"
-                                            for kind in summary)]
-    for name in CANDIDATES:
-        cells = [f"{_num(summary[kind][name], '+.1f')} / {_num(summary[kind][name + ' worst'], '+.1f')}"
-                 for kind in summary]
-        lines.append(f"{name:<14}" + "".join(f"{c:>22}" for c in cells))
+                                            f"{'STOI':>7}" for kind in summary)]
+    for name in ("reference", *CANDIDATES):
+        cells = [(f"{_num(summary[kind][name], '+.1f')} / {_num(summary[kind][name + ' worst'], '+.1f')}"
+                  if name != "reference" else "", _num(summary[kind][name + " stoi"], ".2f")) for kind in summary]
+        lines.append(f"{name:<14}" + "".join(f"{c:>22}{s:>7}" for c, s in cells))
     lines += ["", "Targets (issue 59, held-out rooms): in overlap >= +6 dB with four or more microphones (>= +4 dB "
                   "with the pair) and 3 dB more than delay-and-sum; alone never under +1 dB."]
+    return "\n".join(lines)
+
+
+def format_words_table(rows: list) -> str:
+    """cpWER of avhear's words, the reference microphone's and the dry speech's, per run
+    (:func:`app.eval.words.evaluate_words`)."""
+    lines = ["Who said what: cpWER (speaker-attributed word error rate, meeteval), lower is better", "",
+             f"{'run':<14}{'words':>7}{'avhear':>9}{'ref. mic':>10}{'dry':>7}{'utterances':>12}"]
+    for r in rows:
+        name = f"{r.name} {r.seed}" if r.name == "room" else f"{r.name} seed {r.seed}"
+        lines.append(f"{name:<14}{r.reference_words:>7}{r.cpwer('avhear'):>9.2f}{r.cpwer('reference-mic'):>10.2f}"
+                     f"{r.cpwer('dry'):>7.2f}{r.utterances:>12}")
+    lines += ["", "Targets (issue 60): where one talks (S1-S4) within 1.3 times the dry speech's; where two talk at "
+                  "once (S5, the rooms) at most half the reference microphone's."]
     return "\n".join(lines)

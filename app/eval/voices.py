@@ -8,10 +8,13 @@ the truth's speaking states (what a perfect speaking state would give):
 * ``ds``: delay-and-sum (ODAS's default, the baseline); ``mvdr``: MVDR, the covariance of the frames where the
   person is silent; ``ds+mask``, ``mvdr+mask``: either, with the bins another visible person's direction explains
   better kept at -20 dB (:func:`avcore.beamform.direction_mask`);
+* ``stream``: what the pipeline hands out (:class:`avcore.separation.VoiceSeparator`: MVDR learned online, from
+  the people of ``voice_delay_s`` earlier, resampled and overlap-added), fed the truth's places and states;
 * ``oracle-mask``: the reference microphone under the ideal ratio mask of the person's own image (the upper bound
   of a mask on one microphone).
 
-Each is scored by SI-SDR (``fast_bss_eval``) against the person's dry speech delayed by the direct path to the
+Each is scored by SI-SDR (``fast_bss_eval``) and STOI (``pystoi``, Taal et al. 2011: the intelligibility a listener
+or a recogniser would find, 0-1) against the person's dry speech delayed by the direct path to the
 reference microphone (the speech a recogniser wants: reverberation counts against every candidate, as the noise and
 the other voices do), as its improvement over the reference microphone itself, separately where the person talks
 alone and where another talks at once (each at least a second of speech).
@@ -28,7 +31,7 @@ from avcore import beamform as bf
 
 __all__ = ["CANDIDATES", "VoiceRow", "evaluate_voices", "summarise"]
 
-CANDIDATES: tuple[str, ...] = ("ds", "mvdr", "ds+mask", "mvdr+mask", "oracle-mask")
+CANDIDATES: tuple[str, ...] = ("ds", "mvdr", "ds+mask", "mvdr+mask", "stream", "oracle-mask")
 _FS, _NFFT, _HOP, _GRID = 16000, 512, 256, 160  # Hz, STFT frame and hop (samples), the segments' grid (10 ms)
 _MIN_SECONDS = 1.0
 Progress = Callable[[str], None]
@@ -46,17 +49,25 @@ class VoiceRow:
     seconds: float
     reference_db: float
     improvement_db: dict[str, float]
+    stoi: dict[str, float]  # the reference microphone's ("reference") and each candidate's
 
     def as_dict(self) -> dict[str, Any]:
         return {"seed": self.seed, "mics": self.mics, "person": self.person, "kind": self.kind,
                 "seconds": round(self.seconds, 1), "reference_db": round(self.reference_db, 2),
-                "improvement_db": {k: round(v, 2) for k, v in self.improvement_db.items()}}
+                "improvement_db": {k: round(v, 2) for k, v in self.improvement_db.items()},
+                "stoi": {k: round(v, 3) for k, v in self.stoi.items()}}
 
 
 def _si_sdr(reference: np.ndarray, estimate: np.ndarray) -> float:
     import fast_bss_eval.numpy as fbe
 
     return float(fbe.si_sdr(reference[None], estimate[None], zero_mean=True)[0])
+
+
+def _stoi(reference: np.ndarray, estimate: np.ndarray) -> float:
+    from pystoi import stoi
+
+    return float(stoi(reference, estimate, _FS, extended=False))
 
 
 def _delayed(signal: np.ndarray, delay_s: float) -> np.ndarray:
@@ -92,6 +103,7 @@ def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | N
     def wave(y: np.ndarray) -> np.ndarray:
         return istft(y, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[1][:n]
 
+    streams = _streams(x, mics, faces, scenario, n)
     rows: list[VoiceRow] = []
     for k in range(len(faces)):
         mouth = faces[k] + np.asarray(SOURCE_OFFSETS_M["speech"])
@@ -106,6 +118,7 @@ def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | N
         outputs = {"ds": ds, "mvdr": mvdr, "ds+mask": ds * mask, "mvdr+mask": mvdr * mask,
                    "oracle-mask": spec[0] * ideal}
         waves = {name: wave(y) for name, y in outputs.items()}
+        waves["stream"] = streams[k]
         mixture = x[0]
         others = np.delete(talking, k, axis=1).any(axis=1)
         for kind, where in (("alone", talking[:, k] & ~others), ("overlap", talking[:, k] & others)):
@@ -113,9 +126,39 @@ def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | N
             if samples.sum() < _MIN_SECONDS * _FS:
                 continue
             base = _si_sdr(reference[samples], mixture[samples])
+            stois = {"reference": _stoi(reference[samples], mixture[samples])}
+            stois.update({name: _stoi(reference[samples], w[samples]) for name, w in waves.items()})
             rows.append(VoiceRow(seed, mic_array, k, kind, float(samples.sum()) / _FS, base,
-                                 {name: _si_sdr(reference[samples], w[samples]) - base for name, w in waves.items()}))
+                                 {name: _si_sdr(reference[samples], w[samples]) - base for name, w in waves.items()},
+                                 stois))
     return rows
+
+
+def _streams(x: np.ndarray, mics: np.ndarray, faces: np.ndarray, scenario: Any, n: int,
+             block: int = 512, result_every_s: float = 1 / 30) -> list[np.ndarray]:
+    """Each person's stream as the pipeline makes it, fed the truth (a result every ``result_every_s``), on the
+    samples' own grid (zeros before it starts)."""
+    from avcore.separation import VoiceSeparator
+
+    separator = VoiceSeparator(mics, _FS, speed_of_sound=scenario.array.speed_of_sound)
+    out = np.zeros((len(faces), n), dtype=np.float64)
+    ids = np.arange(len(faces))
+    next_result = 0.0
+
+    def take(chunks: list) -> None:
+        for c in chunks:
+            start = int(round(c.stamp_s * _FS))
+            end = min(start + c.samples.size, n)
+            out[c.person_id, start:end] += c.samples[: end - start]
+
+    for start in range(0, n, block):
+        while next_result <= (start + block) / _FS:
+            separator.push_people(next_result, ids, faces, scenario.speaking_at(np.array([next_result]))[0])
+            next_result += result_every_s
+        separator.push_audio(start / _FS, x[:, start:start + block].T)
+        take(separator.pop())
+    take(separator.flush())
+    return list(out)
 
 
 def summarise(rows: list[VoiceRow]) -> dict[str, dict[str, float]]:
@@ -131,5 +174,8 @@ def summarise(rows: list[VoiceRow]) -> dict[str, dict[str, float]]:
             values = np.array([r.improvement_db[name] for r in chosen])
             out.setdefault(kind, {})[name] = float(np.sum(values * seconds) / np.sum(seconds))
             out[kind][f"{name} worst"] = float(values.min())
+        for name in ("reference", *CANDIDATES):
+            stois = np.array([r.stoi[name] for r in chosen])
+            out[kind][f"{name} stoi"] = float(np.sum(stois * seconds) / np.sum(seconds))
         out[kind]["seconds"] = float(seconds.sum())
     return out

@@ -17,6 +17,8 @@ Schema of one line (one fused result; fields may be added, never renamed):
              "box_px": [x, y, w, h],    # face-guided only: the face box in the left image, pixels
              "lip_activity": float | null  # with --read-lips only: how much the lips moved over 0.4 s (the
                                            # spread of the mouth's opening); null: no opinion (face just seen)
+             "voice_id": "v<id>"        # the person's voice: on the bus humans/voices/v<id>/, with --voices-dir
+                                        # its stream in person_<id>.wav
             },
             {"id": int,                 # several microphone pairs, face-guided only: a voice no visible person
              "position_m": null,        # explains, heard now (speaking) from a direction: a person without a face
@@ -24,8 +26,15 @@ Schema of one line (one fused result; fields may be added, never renamed):
              "probability": null,       # person's, and kept while the voice is heard about the same way
              "itd_mean_s": null,
              "azimuth_deg": float,      # from straight ahead, positive to the right
-             "elevation_deg": float | null  # up (null: the array cannot tell); its distance is unknown
-            }, ...]}
+             "elevation_deg": float | null,  # up (null: the array cannot tell); its distance is unknown
+             "voice_id": "v<id>"
+            }, ...],
+ "utterances": [{"person_id": int,      # --transcribe only, on the line after the words became final: each
+                 "utterance": int,      # utterance once (its number in the run)
+                 "start_s": float, "end_s": float,   # when it was said, the source's clock
+                 "text": str,           # the words (pocketsphinx, US English)
+                 "confidence": float    # the words' mean posterior probability, 0-1
+                }, ...]}
 ```
 
 Readers that want the people in view only keep those whose ``position_m`` is not null.
@@ -58,10 +67,14 @@ class ResultsWriter:
                             "choose another --results-jsonl path") from exc
         self.written = 0
 
-    def write(self, result: Any) -> None:
+    def write(self, result: Any, utterances: list[dict[str, Any]] | None = None) -> None:
+        """One result's line; ``utterances``: the words that became final since the last line (``--transcribe``)."""
         if self._file is None:
             raise ValueError(f"the results file {self.path} is closed")
-        self._file.write(json.dumps(result.as_dict(), separators=(",", ":")) + "\n")
+        record = result.as_dict()
+        if utterances:
+            record["utterances"] = utterances
+        self._file.write(json.dumps(record, separators=(",", ":")) + "\n")
         self._file.flush()
         self.written += 1
 

@@ -13,6 +13,7 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from app.bus.messages import FACE, VOICE, Topics, decode
@@ -175,6 +176,13 @@ def test_publish_between_two_processes_with_the_bridges_keys() -> None:
     assert {f"lab/humans/voices/v{i}/is_speaking" for i in ids} == set(speaking)
     assert any(any(v) for v in speaking.values())  # somebody speaks in S2's first two seconds
     assert all(len(t.transforms) >= 3 * len(r["people"]) for t, r in zip(tf, results))  # voice, face, person
+    # each voice's audio (REP-155's required topic): 16 kHz S16LE bytes in audio_common_msgs/AudioData, from the
+    # voices' delay (0.6 s) on: most of the 1.4 s left of the run (the last chunks may be in flight at the end)
+    audio = {k: b"".join(bytes(decode(p, "audio_common_msgs/msg/AudioData").data) for p, _ in v)
+             for k, v in received.items() if k.endswith("/audio")}
+    assert set(audio) == {f"lab/humans/voices/v{i}/audio" for i in ids}
+    assert all(1.0 * 16000 * 2 <= len(b) <= 1.45 * 16000 * 2 and len(b) % 2 == 0 for b in audio.values())
+    assert all(np.abs(np.frombuffer(b, dtype="<i2")).max() > 100 for b in audio.values())
 
 
 # REP-2011 hashes as ROS 2 Jazzy computes them (ros-z's regression table, checked there against rmw_zenoh_cpp:

@@ -629,19 +629,35 @@ def test_every_pair_gets_its_histogram_and_the_people_on_it(recorded_pairs: dict
 
 @pytest.fixture(scope="module")
 def recorded_lips(tmp_path_factory: pytest.TempPathFactory) -> Rrd:
-    """Four frames of two people with the lips' cue (person 5 has no opinion at first, then moving lips) and a
-    self-calibration's state among the diagnostics."""
+    """Four frames of two people with the lips' cue (person 5 has no opinion at first, then moving lips), a
+    self-calibration's state among the diagnostics, and person 5's words (partial at frame 1, final at frame 2)."""
+    from app.speech.transcriber import Words
+
     path = tmp_path_factory.mktemp("console") / "lips.rrd"
     rec = rr.RecordingStream(APPLICATION_ID)
     rec.save(path)
     console = Console(RIG, MICS, recording=rec)
+    words = {1: [Words(5, 0, 0.0, None, "one two", None, False)],
+             2: [Words(5, 0, 0.0, 0.1, "one two three", 0.8, True)]}
     for i, lips in enumerate(([np.nan, 0.003], [np.nan, 0.004], [0.04, 0.002], [0.05, 0.003])):
+        console.log_words(words.get(i, []))
         console.log(_frame(frame=i, stamp_s=i / 30, boxes=np.array([[10.0, 10, 50, 50], [200.0, 10, 50, 50]]),
                            faces_xyz=np.array([[-0.5, 0.0, 2.0], [0.5, 0.0, 2.0]]), speaking=np.array([True, False]),
                            probability=np.array([0.9, 0.1]), person_ids=np.array([5, 6]), lip_activity=lips,
                            diagnostics={"self_calibration/pair0/c1": 0.9 + 0.01 * i}))
     rec.disconnect()
     return Rrd(path)
+
+
+def test_each_persons_words_are_a_subtitle_under_the_face_and_a_line_of_the_transcript(recorded_lips: Rrd) -> None:
+    """--transcribe: the partial words under person 5's face (box 10, 10, 50, 50), then the final ones, held; one
+    transcript line per final utterance, in the person's colour."""
+    labels = recorded_lips.values("/scene/cameras/left/words", "Points2D:labels")
+    assert labels[:2] == [["one two"], ["one two three"]]
+    at = recorded_lips.values("/scene/cameras/left/words", "Points2D:positions")[0]
+    assert at[0] == pytest.approx([35.0, 74.0])
+    lines = recorded_lips.values("/transcript", "TextLog:text")
+    assert lines == [["person 5 (0.0-0.1 s): one two three"]]
 
 
 def test_each_persons_lip_activity_is_a_series_with_gaps_for_no_opinion(recorded_lips: Rrd) -> None:

@@ -59,7 +59,7 @@ def test_one_results_line_holds_the_results_values(tmp_path) -> None:  # noqa: A
     assert record["n_itds"] == 7 and record["latency_s"] is None
     first = record["people"][0]
     assert first == {"id": 7, "position_m": [-0.5123, 0.0, 2.0], "speaking": True, "probability": 0.8334,
-                     "itd_mean_s": -1.2e-4, "box_px": [10, 20, 30, 30]}
+                     "itd_mean_s": -1.2e-4, "box_px": [10, 20, 30, 30], "voice_id": "v7"}
     path = tmp_path / "a" / "b" / "r.jsonl"  # folders created, however deep
     writer = ResultsWriter(path)
     writer.write(result)
@@ -105,5 +105,5 @@ def test_a_voice_out_of_view_is_a_person_of_the_line_without_a_face_or_position(
     people = result.as_dict()["people"]
     assert [p["id"] for p in people] == [7, 3, 9, 11] and len(result.people) == 2  # the API's people are in view
     assert people[2] == {"id": 9, "position_m": None, "speaking": True, "probability": None, "itd_mean_s": None,
-                         "azimuth_deg": -53.0, "elevation_deg": None}
+                         "azimuth_deg": -53.0, "elevation_deg": None, "voice_id": "v9"}
     assert (people[3]["azimuth_deg"], people[3]["elevation_deg"]) == (80.3, 12.3)

@@ -20,7 +20,8 @@ def test_eval_voices_scores_every_candidate_alone_and_in_overlap(capsys: pytest.
     out = json.loads(capsys.readouterr().out)
     rows = out["rows"]
     assert rows and {r["kind"] for r in rows} <= {"alone", "overlap"}
-    assert all(set(r["improvement_db"]) == {"ds", "mvdr", "ds+mask", "mvdr+mask", "oracle-mask"} for r in rows)
+    assert all(set(r["improvement_db"]) == {"ds", "mvdr", "ds+mask", "mvdr+mask", "stream", "oracle-mask"}
+               for r in rows)
     over = [r for r in rows if r["kind"] == "overlap"]
     alone = [r for r in rows if r["kind"] == "alone"]
     assert over and alone
