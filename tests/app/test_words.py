@@ -138,3 +138,18 @@ def test_transcribe_writes_a_webvtt_transcript(tmp_path: Path, capsys: pytest.Ca
     assert "utterances of" in capsys.readouterr().out
     assert main(["transcribe", str(tmp_path / "nowhere"), "-o", str(out)]) == 2
     assert "is not a recording folder" in capsys.readouterr().err
+
+
+def test_eval_words_scores_avhear_beside_the_reference_microphone_and_the_dry_speech(
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """S1 (one person counting), 6 s: the reference is the digits said in order; each transcript's cpWER is its
+    errors over those words; the dry speech, cut by the truth, misses fewer than it hears."""
+    pytest.importorskip("meeteval")
+    assert main(["eval", "words", "--scenario", "S1", "--duration", "6", "--json"]) == 0
+    row = json.loads(capsys.readouterr().out)["rows"][0]
+    said = row["reference"]["person 0"].split()
+    assert row["name"] == "S1" and row["reference_words"] == len(said) >= 4
+    assert set(said) <= {"zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine"}
+    assert set(row["cpwer"]) == {"avhear", "reference-mic", "dry"}
+    assert all(row["cpwer"][k] == pytest.approx(row["errors"][k] / len(said), abs=1e-4) for k in row["cpwer"])
+    assert row["cpwer"]["dry"] < 1.0 and row["utterances"] >= 1
