@@ -66,8 +66,10 @@ def _decode(recogniser: Any, samples: np.ndarray) -> str:
 
 
 def evaluate_words(name: str, *, seed: int = 0, mics: str = "pair", duration_s: float | None = None,
-                   data_dir: str | None = None, progress: Progress | None = None) -> WordsRow:
-    """``name``: a scenario ("S1".."S5") or "room" (room ``seed`` of :mod:`sim.rooms`)."""
+                   data_dir: str | None = None, progress: Progress | None = None,
+                   word_penalty: float | None = None) -> WordsRow:
+    """``name``: a scenario ("S1".."S5") or "room" (room ``seed`` of :mod:`sim.rooms`); ``word_penalty``: the
+    recogniser's for all three transcripts (None: :func:`app.speech.recogniser.default_word_penalty`)."""
     from scipy.signal import resample_poly
 
     from app.pipeline import Pipeline, PipelineConfig
@@ -91,7 +93,7 @@ def evaluate_words(name: str, *, seed: int = 0, mics: str = "pair", duration_s: 
     reference = {k: v for k, v in reference.items() if v}
 
     say(f"{name} seed {seed}: the pipeline with each person's voice and words ...")
-    transcriber = Transcriber(grammar)
+    transcriber = Transcriber(grammar, word_penalty=word_penalty)
     transcriber.wait_ready()
     finals: list = []
     places: dict[int, list[tuple[float, np.ndarray]]] = {}
@@ -118,7 +120,7 @@ def evaluate_words(name: str, *, seed: int = 0, mics: str = "pair", duration_s: 
         avhear[key] = (avhear.get(key, "") + " " + w.text).strip()
 
     say(f"{name} seed {seed}: the reference microphone and the dry speech ...")
-    recogniser = Recogniser(grammar)
+    recogniser = Recogniser(grammar, word_penalty)
     fs = int(source.samplerate_hz)
     mic = source.audio.samples[:, 0].astype(np.float64) / 32768.0
     mic16 = resample_poly(mic, _RATE, fs) if fs != _RATE else mic

@@ -5,14 +5,24 @@ English acoustic model, dictionary and language model, so nothing is downloaded 
 far) and ends with :meth:`end` (the words and a confidence: the mean posterior probability of the words,
 pocketsphinx's ``Segment.prob``). With ``words`` (a list, e.g. the ten digits of the scenarios' counting) it
 recognises only sequences of those words (a JSGF grammar ``<word>+``); otherwise the general language model.
+``word_penalty`` is pocketsphinx's word insertion probability (``wip``): lower, fewer words are written where
+there are none (noise, another voice) and more are missed. Its default (:func:`default_word_penalty`) is 0.01 with a
+word list, whose ``<word>+`` otherwise turns every sound into words (the scenarios' digits: cpWER 0.70 against 1.15
+at pocketsphinx's 0.65, seed 1 of S1-S5, docs/experiments.md), and pocketsphinx's 0.65 with the general model, whose
+language model already weighs words (lower was worse on two of three tuning rooms).
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
 
-__all__ = ["Recogniser", "read_word_list"]
+__all__ = ["Recogniser", "default_word_penalty", "read_word_list"]
 
 _NOT_WORDS = {"<s>", "</s>", "<sil>"}  # pocketsphinx's marks; fillers are in brackets ([NOISE], ...)
+
+
+def default_word_penalty(words: Sequence[str] | None) -> float:
+    """0.01 with a word list, pocketsphinx's own 0.65 with the general model (see the module docstring)."""
+    return 0.01 if words else 0.65
 
 
 def read_word_list(text: str) -> list[str]:
@@ -28,10 +38,14 @@ def read_word_list(text: str) -> list[str]:
 class Recogniser:
     """One pocketsphinx decoder; :meth:`start`, :meth:`feed` any number of times, :meth:`end`."""
 
-    def __init__(self, words: Sequence[str] | None = None) -> None:
+    def __init__(self, words: Sequence[str] | None = None, word_penalty: float | None = None) -> None:
         from pocketsphinx import Decoder
 
-        self._decoder = Decoder(samprate=16000, logfn="/dev/null")
+        if word_penalty is None:
+            word_penalty = default_word_penalty(words)
+        if not 0 < word_penalty <= 1:
+            raise ValueError(f"word_penalty must be a probability in (0, 1], got {word_penalty!r}")
+        self._decoder = Decoder(samprate=16000, logfn="/dev/null", wip=float(word_penalty))
         if words:
             unknown = [w for w in words if self._decoder.lookup_word(w) is None]
             if unknown:

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from app.speech.recogniser import default_word_penalty
 from app.speech.worker import read_message, write_message
 from avcore.separation import VoiceChunk
 
@@ -67,9 +68,10 @@ class Transcriber:
     """See the module docstring. ``words``: recognise only these words (None: the general model)."""
 
     def __init__(self, words: Sequence[str] | None = None, *, preroll_s: float = 0.3, postroll_s: float = 0.3,
-                 hangover_s: float = 0.4) -> None:
+                 hangover_s: float = 0.4, word_penalty: float | None = None) -> None:
         self.preroll_s, self.postroll_s, self.hangover_s = preroll_s, postroll_s, hangover_s
-        self._process = subprocess.Popen([sys.executable, "-m", "app.speech.worker", *(words or ())],
+        penalty = default_word_penalty(words) if word_penalty is None else word_penalty
+        self._process = subprocess.Popen([sys.executable, "-m", "app.speech.worker", repr(float(penalty)), *(words or ())],
                                          stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
         self._jobs: queue.Queue = queue.Queue()  # the pipeline's threads never wait on the pipe: a writer does
         self._writer = threading.Thread(target=self._write, name="avhear-words-writer", daemon=True)

@@ -1,4 +1,5 @@
-"""The recognising process of :class:`app.speech.transcriber.Transcriber`: ``python -m app.speech.worker [WORD ...]``.
+"""The recognising process of :class:`app.speech.transcriber.Transcriber`:
+``python -m app.speech.worker WORD_PENALTY [WORD ...]``.
 
 It reads jobs from its standard input and writes answers to its standard output, each a pickled tuple behind its
 length (4 bytes, little-endian): ("audio", person, utterance, pcm) and ("end", person, utterance) in; ("ready",),
@@ -32,19 +33,19 @@ def read_message(stream: BinaryIO) -> Any:
     return pickle.loads(data) if len(data) == size else None
 
 
-def main(words: list[str]) -> int:
+def main(penalty: float, words: list[str]) -> int:
     from app.speech.recogniser import Recogniser
 
     source, sink = sys.stdin.buffer, sys.stdout.buffer
     try:
-        decoders: dict[int, Recogniser] = {-1: Recogniser(words or None)}  # the model loaded before "ready"
+        decoders: dict[int, Recogniser] = {-1: Recogniser(words or None, penalty)}  # the model loaded before "ready"
         current: dict[int, int] = {}
         write_message(sink, ("ready",))
         while (job := read_message(source)) is not None:
             kind, person, utterance = job[0], job[1], job[2]
             rec = decoders.get(person)
             if rec is None:
-                rec = decoders[person] = decoders.pop(-1) if -1 in decoders else Recogniser(words or None)
+                rec = decoders[person] = decoders.pop(-1) if -1 in decoders else Recogniser(words or None, penalty)
             if current.get(person) != utterance:
                 rec.start()
                 current[person] = utterance
@@ -61,4 +62,4 @@ def main(words: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    sys.exit(main(float(sys.argv[1]), sys.argv[2:]))

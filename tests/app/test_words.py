@@ -30,6 +30,35 @@ def _shared_words(said: str, heard: str) -> float:
     return sum(w in b for w in a) / len(a)
 
 
+def test_a_word_lists_default_penalty_writes_fewer_wrong_words_than_pocketsphinxs_own() -> None:
+    """Each shipped FSDD digit followed, 0.2 s after it, by another speaker's digit 20 dB quieter (what a person's
+    stream keeps of a neighbour), the ten digits' grammar: the default word penalty (0.01 with a word list) makes
+    fewer errors (words missed, wrong or written over the other voice) than pocketsphinx's own 0.65."""
+    from scipy.signal import resample_poly
+
+    from app.speech.recogniser import default_word_penalty
+
+    digits = ["zero", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine"]
+    assert default_word_penalty(digits) == 0.01 and default_word_penalty(None) == 0.65
+    paths = sorted((ARCTIC.parents[1] / "speech" / "digits").glob("*.wav"))
+    said = []
+    for path in paths:
+        with wave.open(str(path)) as f:
+            x = np.frombuffer(f.readframes(f.getnframes()), dtype="<i2").astype(np.float64)
+            said.append(resample_poly(x, 16000, f.getframerate()) / np.abs(x).max())
+    errors = {}
+    for penalty in (None, 0.65):
+        recogniser, errors[penalty] = Recogniser(digits, penalty), 0
+        for i, path in enumerate(paths):
+            other = said[(i + 7) % len(said)] * 0.1
+            y = 0.3 * np.concatenate([np.zeros(4800), said[i], np.zeros(3200), other, np.zeros(4800)])
+            recogniser.start()
+            recogniser.feed((y * 32767).astype("<i2").tobytes())
+            heard, digit = recogniser.end()[0].split(), digits[int(path.name[0])]
+            errors[penalty] += len(heard) - 1 + (digit not in heard) if heard else 1
+    assert errors[None] < 0.85 * errors[0.65], errors
+
+
 def test_the_recogniser_hears_a_read_sentence_and_keeps_to_a_word_list() -> None:
     """ARCTIC a0001 with the general model: most of its words; with a word list, only those words come out; a word
     the dictionary lacks is named."""
@@ -46,6 +75,8 @@ def test_the_recogniser_hears_a_read_sentence_and_keeps_to_a_word_list() -> None
     assert set(text.split()) <= {"one", "two", "three"}
     with pytest.raises(ValueError, match="xqzzy"):
         Recogniser(["one", "xqzzy"])
+    with pytest.raises(ValueError, match="word_penalty"):
+        Recogniser(word_penalty=0.0)
     assert read_word_list("one, two  # a comment\nThree two\n") == ["one", "two", "three"]
 
 
