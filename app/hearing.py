@@ -86,6 +86,7 @@ class LipReader:
 
     runtime: str = "opencv"
     earn_trust: bool = True
+    synced_s: float | None = None
     tracks: LipTracks = field(default_factory=LipTracks, init=False, repr=False)
     hidden: HiddenLips = field(init=False, repr=False)
     envelope: SoundEnvelope = field(default_factory=SoundEnvelope, init=False, repr=False)
@@ -96,7 +97,7 @@ class LipReader:
         from avcore.facemesh import FaceMesh
 
         self._mesh = FaceMesh(facemesh_model(), runtime=self.runtime)
-        self.hidden = HiddenLips(earn_trust=self.earn_trust)
+        self.hidden = HiddenLips(earn_trust=self.earn_trust, synced_s=self.synced_s)
 
     def landmarks(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> np.ndarray:
         """The mesh's landmarks (n, 468, 3) on ``boxes``, its crops levelled by ``eyes`` (the detector's) when given."""
@@ -111,15 +112,22 @@ class LipReader:
         activity = self.tracks.update(stamp_s, boxes, mouth_opening(landmarks))
         return activity, self.tracks.relative, self.tracks.ids, self.tracks.series()
 
+    def synchrony(self, series: list[np.ndarray]) -> np.ndarray:
+        """Each face's lips against the sound (:func:`avcore.lips.lip_synchrony`)."""
+        return lip_synchrony(series, self.envelope)
+
     def veto(self, stamp_s: float, ids: np.ndarray, output: Any, activity: np.ndarray, still_below: float,
              alone: np.ndarray | None = None, relative: np.ndarray | None = None,
-             frame_s: tuple[float, float] | None = None) -> Any:
+             frame_s: tuple[float, float] | None = None, synchrony: np.ndarray | None = None) -> Any:
         """``output`` with the people whose lips are still (under ``still_below``, or with ``relative`` within
-        their own still level) not speaking, but those whose lips have stayed still through a second of their own
-        voice (hidden), the one heard alone while the sound is loud through the result's time frame ``frame_s``
-        (start, end) and no lips in view move (:func:`avcore.lips.voice_without_lips`), and those not ``alone`` (a
-        group the lips already chose within)."""
-        hidden = self.hidden.update(stamp_s, ids, output.speaking, activity, still_below)
+        their own still level) not speaking, but those whose lips have not earned trust (hidden: see
+        :class:`avcore.lips.HiddenLips`; with ``relative`` and ``synchrony``, lips moving with the sound earn it),
+        the one heard alone while the sound is loud through the result's time frame ``frame_s`` (start, end) and
+        no lips in view move (:func:`avcore.lips.voice_without_lips`), and those not ``alone`` (a group the lips
+        already chose within)."""
+        moving = None if relative is None or synchrony is None else \
+            lips_move_with_the_sound(activity, relative, synchrony)
+        hidden = self.hidden.update(stamp_s, ids, output.speaking, activity, still_below, moving)
         if frame_s is not None:
             hidden |= voice_without_lips(output.speaking, activity, still_below, self.envelope.loud_share(*frame_s))
         keep = ~hidden if alone is None else alone & ~hidden
@@ -127,11 +135,11 @@ class LipReader:
                                                 still_below, relative)
         return replace(output, speaking=speaking, probability=probability)
 
-    def join(self, output: Any, activity: np.ndarray, relative: np.ndarray, series: list[np.ndarray]) -> Any:
-        """``output`` with the faces whose lips move with the sound speaking too while another is heard
-        (:func:`avcore.lips.lips_with_the_words`), and a call of the speaking test's later looks on lips that move
-        with the sound no longer a rescue (:class:`avcore.speaking.RescueContinuity`: the lips may start speech)."""
-        synchrony = lip_synchrony(series, self.envelope)
+    def join(self, output: Any, activity: np.ndarray, relative: np.ndarray, synchrony: np.ndarray) -> Any:
+        """``output`` with the faces whose lips move with the sound (``synchrony``: :meth:`synchrony`) speaking too
+        while another is heard (:func:`avcore.lips.lips_with_the_words`), and a call of the speaking test's later
+        looks on lips that move with the sound no longer a rescue (:class:`avcore.speaking.RescueContinuity`: the
+        lips may start speech)."""
         speaking, probability = lips_with_the_words(output.speaking, output.probability, activity, relative,
                                                     synchrony)
         rescued = getattr(output, "rescued", None)
@@ -153,7 +161,7 @@ class FaceGuided:
 
     def __post_init__(self) -> None:
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
-            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust)
+            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s)
 
     @property
     def frame_capacity(self) -> int:
@@ -259,11 +267,12 @@ class FaceGuided:
         ids = np.arange(len(lips)) if vision.lip_ids is None else vision.lip_ids
         assert self._lips is not None
         before, after = _frame_span(self.config, self.config.frame_window_s)
+        synchrony = None if vision.lip_series is None else self._lips.synchrony(vision.lip_series)
         out = self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone, vision.lip_relative,
-                              (vision.stamp_s - before, vision.stamp_s + after))
-        if vision.lip_relative is None or vision.lip_series is None:
+                              (vision.stamp_s - before, vision.stamp_s + after), synchrony)
+        if vision.lip_relative is None or synchrony is None:
             return out
-        return self._lips.join(out, lips, vision.lip_relative, vision.lip_series)
+        return self._lips.join(out, lips, vision.lip_relative, synchrony)
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return vision.xyz
@@ -311,7 +320,7 @@ class MotionGuided:
 
     def __post_init__(self) -> None:
         if self.config.lips:
-            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust)
+            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s)
 
     @property
     def frame_capacity(self) -> int:

@@ -47,9 +47,9 @@ class PipelineConfig:
     lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): still lips (under
         ``lip_still_below``) are not speaking; faces within ``lip_same_direction_s`` on every pair are heard as
         one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its range);
-        ``lip_earn_trust``: still lips veto only once they have moved with their own voice
-        (:class:`avcore.lips.HiddenLips`). Motion-guided, a person's face is the one within
-        ``lip_face_within_m`` of them horizontally, and the veto applies to the person.
+        ``lip_earn_trust``: still lips veto only once they have moved with their own voice, or for
+        ``lip_synced_s`` with the sound (:class:`avcore.lips.HiddenLips`). Motion-guided, a person's face is the
+        one within ``lip_face_within_m`` of them horizontally, and the veto applies to the person.
     voices : each person's voice as a 16 kHz stream, MVDR steered at them (:class:`avcore.separation.
         VoiceSeparator`), from the people ``voice_delay_s`` old (the results' own wait, 0.43 s, fits within it).
     """
@@ -75,6 +75,7 @@ class PipelineConfig:
     lip_both_above: float = 0.5
     lip_face_within_m: float = 0.35
     lip_earn_trust: bool = True
+    lip_synced_s: float | None = None
     voices: bool = False
     voice_delay_s: float = 0.6
     interval_s: float = 0.4
@@ -107,6 +108,8 @@ class PipelineConfig:
         if not 0 <= self.lip_same_direction_s < 1e-3:
             raise ValueError(f"lip_same_direction_s must be an ITD in [0, 1 ms) seconds, got "
                              f"{self.lip_same_direction_s!r}")
+        if self.lip_synced_s is not None and not 0 < self.lip_synced_s <= 3.0:
+            raise ValueError(f"lip_synced_s must be None or in (0, 3] seconds, got {self.lip_synced_s!r}")
         if not 0 < self.lip_face_within_m < 2:
             raise ValueError(f"lip_face_within_m must be a horizontal distance in (0, 2) metres, got "
                              f"{self.lip_face_within_m!r}")

@@ -201,7 +201,10 @@ class HiddenLips:
     With ``earn_trust`` (the default) a face that has not yet been judged gives no opinion either: abstaining never
     takes a person's words away, and a still face whose voice is heard only beside another's never earns the right
     to veto. Without it an unjudged face's still lips veto, and a face is hidden only while
-    the moments in the window show its lips still.
+    the moments in the window show its lips still. With ``synced_s``, lips seen moving with the sound
+    (``moving_with_sound``, :func:`lips_move_with_the_sound`) in moments spanning that long of the window earn
+    trust too, whoever else is heard: a photograph or a hand does not move with the sound, and a face that talks
+    only beside others is judged sooner. A later second of its own voice with still lips takes the trust back.
 
     A talker's lips move while they speak (3-8 syllables a second). A listener called speaking by a neighbour's
     spill is heard beside the talker: those moments do not count, however often they come. The median, not each
@@ -213,17 +216,20 @@ class HiddenLips:
     heard_s: float = 1.0
     moving_factor: float = 2.0
     earn_trust: bool = True
+    synced_s: float | None = None
     _marks: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [(t, activity)] while heard
+    _synced: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [t] lips moving with the sound
     _trusted: dict = field(default_factory=dict, init=False, repr=False)  # track id -> its lips moved with its voice
 
     def update(self, stamp_s: float, ids: np.ndarray, speaking: np.ndarray, activity: np.ndarray,
-               still_below: float) -> np.ndarray:
+               still_below: float, moving_with_sound: np.ndarray | None = None) -> np.ndarray:
         """ids (N,) the faces' tracks (:attr:`LipTracks.ids`); speaking (N,) heard speaking; activity (N,) their lip
-        activity (NaN: no opinion); still_below : the veto's threshold. Returns (N,) bool: the faces whose lips are
-        hidden."""
+        activity (NaN: no opinion); still_below : the veto's threshold; moving_with_sound (N,) bool, read only
+        with ``synced_s``. Returns (N,) bool: the faces whose lips are hidden."""
         since, now = stamp_s - self.window_s, set(np.asarray(ids).tolist())
         self._marks = {k: [m for m in v if m[0] > since] for k, v in self._marks.items()}
         self._marks = {k: v for k, v in self._marks.items() if v or k in now}
+        self._synced = {k: [t for t in v if t > since] for k, v in self._synced.items() if k in self._marks}
         self._trusted = {k: v for k, v in self._trusted.items() if k in self._marks}
         hidden = np.zeros(len(ids), dtype=bool)
         alone = int(np.count_nonzero(speaking)) == 1
@@ -231,6 +237,11 @@ class HiddenLips:
             marks = self._marks.setdefault(k, [])
             if speaking[i] and alone and np.isfinite(activity[i]):
                 marks.append((float(stamp_s), float(activity[i])))
+            if self.synced_s is not None and moving_with_sound is not None and moving_with_sound[i]:
+                synced = self._synced.setdefault(k, [])
+                synced.append(float(stamp_s))
+                if synced[-1] - synced[0] >= self.synced_s:
+                    self._trusted[k] = True
             judged = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s
             still = judged and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
             if judged:

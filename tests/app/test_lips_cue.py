@@ -284,7 +284,8 @@ def test_the_still_lips_threshold_is_checked(bad: float) -> None:
 
 @pytest.mark.parametrize(("name", "bad"), [("lip_same_direction_s", -1e-6), ("lip_same_direction_s", 1e-3),
                                            ("lip_same_direction_s", float("nan")), ("lip_both_above", 0.0),
-                                           ("lip_both_above", 1.5)])
+                                           ("lip_both_above", 1.5), ("lip_synced_s", 0.0),
+                                           ("lip_synced_s", 4.0), ("lip_synced_s", float("nan"))])
 def test_the_same_direction_settings_are_checked(name: str, bad: float) -> None:
     with pytest.raises(ValueError, match=name):
         PipelineConfig(**{name: bad})

@@ -178,6 +178,27 @@ def test_lips_earn_the_right_to_veto_with_their_own_voice() -> None:
     assert set(hidden._trusted) == {2}  # the tracks gone from view without a moment in the window are forgotten
 
 
+def test_lips_moving_with_the_sound_earn_trust_beside_another_voice() -> None:
+    """With ``synced_s``: a face heard only beside another, whose lips move with the sound for that long, is trusted
+    (its still lips may veto later); a moment is not enough, nor are lips that never move with the sound; without
+    ``synced_s`` the same face stays unjudged. Its own voice heard alone with still lips takes the trust back."""
+    still, loud = np.array([0.008, 0.008]), np.array([True, True])
+    for synced_s, trusted in ((0.3, True), (None, False)):
+        hidden = HiddenLips(window_s=3.0, heard_s=1.0, synced_s=synced_s)
+        ids = np.array([1, 2])  # two talking at once: 1's lips move with the sound, 2's never do
+        out = hidden.update(0.0, ids, loud, np.array([0.08, 0.008]), 0.012, np.array([True, False]))
+        assert out.tolist() == [True, True]  # one moment: no opinion yet
+        for t in np.arange(0.05, 0.4, 0.05):
+            out = hidden.update(float(t), ids, loud, np.array([0.08, 0.008]), 0.012, np.array([True, False]))
+        assert out.tolist() == [not trusted, True]
+        for t in np.arange(0.4, 5.0, 0.05):  # both listen; the window passes
+            out = hidden.update(float(t), ids, np.array([False, False]), still, 0.012, np.array([False, False]))
+        assert out.tolist() == [not trusted, True]
+        for t in np.arange(5.0, 6.12, 0.05):  # 1 heard alone, lips still (a hand): trust taken back
+            out = hidden.update(float(t), ids, np.array([True, False]), still, 0.012, np.array([False, False]))
+        assert out.tolist() == [True, True]
+
+
 def test_each_followed_face_keeps_its_track_number() -> None:
     tracks = LipTracks()
     tracks.update(0.0, np.array([[100, 100, 40, 40], [300, 100, 40, 40]]), np.array([0.1, 0.1]))
