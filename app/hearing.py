@@ -245,6 +245,12 @@ class FaceGuided:
         xyz = np.asarray(vision.xyz, dtype=np.float64).reshape(-1, 3)
         itds_of_faces = hearing.array.itd(xyz).reshape(len(xyz), hearing.array.n_pairs)
         groups = same_direction_groups(itds_of_faces, self.config.lip_same_direction_s)
+        assert self._lips is not None
+        # only lips that have earned trust choose within a group; a face whose lips have not is heard on its own
+        trusted = self._lips.hidden.trusted(np.arange(len(xyz)) if vision.lip_ids is None else vision.lip_ids)
+        groups = [part for g in groups for part in ([g[trusted[g]]] if trusted[g].sum() >= 2 else [])
+                  + [np.array([i]) for i in g if not (trusted[g].sum() >= 2 and trusted[i])]]
+        groups.sort(key=lambda g: int(g[0]))
         ones = np.array([g[np.argmin(xyz[g, 2])] for g in groups], dtype=int)  # each group heard from its nearest
         owner = np.empty(len(xyz), dtype=int)
         for k, g in enumerate(groups):
@@ -265,7 +271,6 @@ class FaceGuided:
         # view make is heard from (hidden: no opinion)
         lips = np.asarray(vision.lip_activity, dtype=np.float64)
         ids = np.arange(len(lips)) if vision.lip_ids is None else vision.lip_ids
-        assert self._lips is not None
         before, after = _frame_span(self.config, self.config.frame_window_s)
         synchrony = None if vision.lip_series is None else self._lips.synchrony(vision.lip_series)
         out = self._lips.veto(vision.stamp_s, ids, out, lips, self.config.lip_still_below, alone, vision.lip_relative,

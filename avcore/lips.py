@@ -250,6 +250,14 @@ class HiddenLips:
         return hidden
 
 
+    def trusted(self, ids: np.ndarray) -> np.ndarray:
+        """(N,) bool: the faces whose lips have an opinion as of the last :meth:`update` (without ``earn_trust``,
+        every face's)."""
+        ids = np.asarray(ids).tolist()
+        return np.array([True] * len(ids) if not self.earn_trust else [self._trusted.get(k, False) for k in ids],
+                        dtype=bool)
+
+
 def voice_without_lips(speaking: np.ndarray, activity: np.ndarray, still_below: float, loud_share: float,
                        share_above: float = 0.35) -> np.ndarray:
     """(N,) bool: the face whose still lips say nothing because a voice is heard that no visible lips make. It is

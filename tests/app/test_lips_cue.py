@@ -3,7 +3,7 @@ activity to the results file, and a face the ITDs call speaking whose lips are s
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -185,6 +185,30 @@ def test_faces_in_one_direction_are_heard_as_one_whose_words_go_to_the_moving_li
     # a frame without faces: nothing to group, nobody to decide
     empty = Vision(1.0, None, np.zeros((0, 4)), np.zeros((0, 3)), np.zeros(0), np.zeros(0))
     assert mode.step(hearing, empty, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None)).speaking.size == 0
+
+
+def test_faces_in_one_direction_are_heard_apart_until_their_lips_earn_trust(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Earning trust (the default): two faces on one ray whose lips have not shown they move with their voice (a
+    photograph's mesh jitters) are heard each on its own, as without the lips, so the jitter never hands one's
+    words to the other; once both are trusted they are one object whose words go to the moving lips."""
+    monkeypatch.setattr("app.models.facemesh_model", lambda: Path(__file__))
+    monkeypatch.setattr("avcore.facemesh.FaceMesh.__post_init__", lambda self: None)
+    mode = FaceGuided(PipelineConfig(lips=True))
+    xyz = np.array([[0.3, 0.0, 1.3], [0.6, 0.0, 2.6], [-0.8, 0.0, 2.0]])
+    hearing = _EveryoneSpeaks()
+    lips = np.array([0.02, 0.02, 0.02])
+    vision = Vision(1.0, None, np.zeros((3, 4)), xyz, lips, np.array([0.1, 0.9, 0.5]))
+    out = mode.step(hearing, vision, np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    np.testing.assert_array_equal(hearing.heard[-1], xyz)  # three objects: nobody's lips chose
+    assert out.speaking.tolist() == [True, True, True]
+    hidden = mode._lips.hidden
+    for face in (0, 1):  # each heard alone for a second, its lips moving
+        for t in np.arange(2.0 + 2 * face, 3.12 + 2 * face, 0.05):
+            hidden.update(float(t), np.arange(3), np.arange(3) == face, np.array([0.08, 0.08, 0.08]), 0.012)
+    assert hidden.trusted(np.arange(3)).tolist() == [True, True, False]
+    out = mode.step(hearing, replace(vision, stamp_s=6.0), np.zeros((0, 1)), np.zeros(0), lambda: (None, None, None))
+    np.testing.assert_array_equal(hearing.heard[-1], xyz[[0, 2]])  # the trusted pair heard as one
+    assert out.speaking.tolist() == [False, True, True]  # the far face's lips move: the words are its
 
 
 def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path) -> None:
