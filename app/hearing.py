@@ -244,13 +244,10 @@ class FaceGuided:
             return hearing.step(vision.xyz, itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
         xyz = np.asarray(vision.xyz, dtype=np.float64).reshape(-1, 3)
         itds_of_faces = hearing.array.itd(xyz).reshape(len(xyz), hearing.array.n_pairs)
-        groups = same_direction_groups(itds_of_faces, self.config.lip_same_direction_s)
         assert self._lips is not None
         # only lips that have earned trust choose within a group; a face whose lips have not is heard on its own
         trusted = self._lips.hidden.trusted(np.arange(len(xyz)) if vision.lip_ids is None else vision.lip_ids)
-        groups = [part for g in groups for part in ([g[trusted[g]]] if trusted[g].sum() >= 2 else [])
-                  + [np.array([i]) for i in g if not (trusted[g].sum() >= 2 and trusted[i])]]
-        groups.sort(key=lambda g: int(g[0]))
+        groups = same_direction_groups(itds_of_faces, self.config.lip_same_direction_s, trusted)
         ones = np.array([g[np.argmin(xyz[g, 2])] for g in groups], dtype=int)  # each group heard from its nearest
         owner = np.empty(len(xyz), dtype=int)
         for k, g in enumerate(groups):

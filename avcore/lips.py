@@ -301,15 +301,17 @@ def veto_still_lips(speaking: np.ndarray, probability: np.ndarray, activity: np.
     return np.asarray(speaking, dtype=bool) & ~veto, np.where(veto, np.minimum(probability, 0.5), probability)
 
 
-def same_direction_groups(itds_s: np.ndarray, within_s: float) -> list[np.ndarray]:
+def same_direction_groups(itds_s: np.ndarray, within_s: float,
+                          linkable: np.ndarray | None = None) -> list[np.ndarray]:
     """The faces that direction cannot tell apart: groups (index arrays, in order) of the rows of ``itds_s`` (N, P),
     each face's ITD on every pair, linked when two rows are within ``within_s`` on every pair. A row with a NaN is
-    alone."""
+    alone, and so is one that ``linkable`` (N,) bool says may not be grouped (lips that cannot choose)."""
     x = np.asarray(itds_s, dtype=np.float64)
     x = x.reshape(len(x), x.size // max(len(x), 1))
+    ok = np.ones(len(x), dtype=bool) if linkable is None else np.asarray(linkable, dtype=bool)
     label = np.arange(len(x))
-    for i in range(len(x)):
-        for j in range(i + 1, len(x)):
+    for i in np.flatnonzero(ok):
+        for j in np.flatnonzero(ok[i + 1:]) + i + 1:
             if np.all(np.abs(x[i] - x[j]) <= within_s):  # False with a NaN
                 label[label == label[j]] = label[i]
     return [np.flatnonzero(label == k) for k in dict.fromkeys(label.tolist())]

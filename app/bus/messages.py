@@ -5,17 +5,13 @@ Zenoh keys in either convention (rmw_zenoh's or zenoh-bridge-ros2dds's). Payload
 serialises them (little-endian, 4-byte encapsulation header), built and read by rosbags' typestore (ROS 2 Jazzy's
 definitions, no ROS installation needed), which also gives each type's REP-2011 hash.
 
-ROS4HRI (REP-155) as avhear publishes it (the README's table): faces (``humans/faces/tracked``, each face's
-``roi``, and with the lips read its ``lip_activity``, an avhear topic), voices (``humans/voices/tracked``, each
-voice's ``is_speaking`` and, with the voices on, its ``audio``: REP-155's one required topic of a voice, the
-person's stream of :mod:`avcore.separation` as ``audio_common_msgs/AudioData`` bytes, 16 kHz mono S16LE, no stamp
-in the message: chunks in order, about 30 ms each), persons (``humans/persons/tracked`` and ``known``; each person's ``anonymous``,
-``face_id``, ``voice_id`` and ``location_confidence``: 1 while seen, then down to 0 over :data:`PERSON_MEMORY_S`,
-REP-155's "Person frame" case 2), ``humans/candidate_matches`` (PERSON = 1, FACE = 2, VOICE = 4) and TF frames on
-``tf``. Topics REP-155 latches are sent with every result instead. Where the camera's own frame is known (a ROS
-robot's CameraInfo, or its images' ``frame_id``), :data:`RIG_FRAME` is linked to it on ``tf_static``
-(:meth:`Topics.rig_link`, sent again every second in place of a latched topic), so that every frame avhear publishes
-resolves in the robot's TF tree.
+ROS4HRI (REP-155) as avhear publishes it (every topic and its type: docs/architecture.md's table): faces, voices
+(each voice's ``is_speaking``; with the voices on its ``audio``, the person's stream of :mod:`avcore.separation` as
+``audio_common_msgs/AudioData``, 16 kHz mono S16LE chunks in order; with the words its ``speech``), persons (each
+person's ``location_confidence``: 1 while seen, then down to 0 over :data:`PERSON_MEMORY_S`, REP-155's "Person
+frame" case 2), ``humans/candidate_matches`` and TF frames on ``tf``. Topics REP-155 latches are sent with every
+result instead. Where the camera's own frame is known, :data:`RIG_FRAME` is linked to it on ``tf_static``
+(:meth:`Topics.rig_link`, sent again every second in place of a latched topic).
 
 avhear's ids: a tracked person ``N`` (:class:`avcore.tracking.NearestTracker`; the results file's ``id``) is the
 person ``pN`` with the face ``fN`` (face-guided runs) and the voice ``vN``, matched with confidence 1.0 (the voice is

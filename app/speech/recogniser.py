@@ -7,9 +7,8 @@ pocketsphinx's ``Segment.prob``). With ``words`` (a list, e.g. the ten digits of
 recognises only sequences of those words (a JSGF grammar ``<word>+``); otherwise the general language model.
 ``word_penalty`` is pocketsphinx's word insertion probability (``wip``): lower, fewer words are written where
 there are none (noise, another voice) and more are missed. Its default (:func:`default_word_penalty`) is 0.01 with a
-word list, whose ``<word>+`` otherwise turns every sound into words (the scenarios' digits: cpWER 0.70 against 1.15
-at pocketsphinx's 0.65, seed 1 of S1-S5, docs/experiments.md), and pocketsphinx's 0.65 with the general model, whose
-language model already weighs words (lower was worse on two of three tuning rooms).
+word list, whose ``<word>+`` otherwise turns every sound of a person's stream into words, and pocketsphinx's 0.65
+with the general model, whose language model already weighs words (the measurements: docs/experiments.md).
 """
 from __future__ import annotations
 

@@ -102,6 +102,8 @@ def test_faces_direction_cannot_tell_apart_are_grouped_on_every_pair() -> None:
     assert [g.tolist() for g in groups] == [[0, 1], [2], [3], [4]]  # 3: near 0 on the first pair, not the second
     chained = same_direction_groups(np.array([[0.0], [30e-6], [60e-6]]), 40e-6)
     assert [g.tolist() for g in chained] == [[0, 1, 2]]  # 0 and 2 are 60 us apart, linked through 1
+    apart = same_direction_groups(np.array([[0.0], [10e-6], [20e-6]]), 40e-6, np.array([True, False, True]))
+    assert [g.tolist() for g in apart] == [[0, 2], [1]]  # 1 may not be grouped: alone, and no link through it
 
 
 def test_a_groups_words_go_to_the_face_whose_lips_move() -> None:
