@@ -363,7 +363,8 @@ def _domain(text: str) -> int:
     return int(text)
 
 
-def add_bus_arguments(p: argparse.ArgumentParser) -> None:
+def add_bus_arguments(p: argparse.ArgumentParser, *, receiver: bool = True) -> None:
+    """The bus's flags; a ``receiver`` (run, record) also waits for a robot: ``--bus-wait``."""
     g = p.add_argument_group("bus (Zenoh)")
     g.add_argument("--bus-listen", type=_endpoint, action="append", metavar="ENDPOINT",
                    help="listen on this Zenoh endpoint (repeatable; default: the loopback rendezvous "
@@ -378,6 +379,10 @@ def add_bus_arguments(p: argparse.ArgumentParser) -> None:
                         "default) or bridge (zenoh-bridge-ros2dds's)")
     g.add_argument("--ros-domain", type=_domain, metavar="ID",
                    help="ROS domain id of rmw_zenoh's keys (default: ROS_DOMAIN_ID, or 0)")
+    if receiver:
+        g.add_argument("--bus-wait", type=duration(600.0), default=10.0, metavar="S",
+                       help="how long to wait for the robot (its rig, camera info and first messages) before saying "
+                            "what is missing (default 10)")
 
 
 def add_ros_topic_arguments(p: argparse.ArgumentParser) -> None:
@@ -410,7 +415,8 @@ def ros_source(session: Any, options: BusOptions, args: argparse.Namespace) -> A
                        args.audio_info_topic)
     from app.bus.session import ros_router
 
-    return RosSource(session, rig, convention=options.convention, topics=topics, router=ros_router(options))
+    return RosSource(session, rig, convention=options.convention, topics=topics, router=ros_router(options),
+                     info_timeout_s=args.bus_wait)
 
 
 def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> Any:
@@ -420,4 +426,5 @@ def bus_source(session: Any, options: BusOptions, args: argparse.Namespace) -> A
 
     rig = require_live_rig(args.rig) if getattr(args, "rig", None) else None
     return BusSource(session, convention=options.convention, rig=rig, left_key=getattr(args, "left_key", None),
-                     right_key=getattr(args, "right_key", None), audio_key=getattr(args, "audio_key", None))
+                     right_key=getattr(args, "right_key", None), audio_key=getattr(args, "audio_key", None),
+                     rig_timeout_s=args.bus_wait)

@@ -118,7 +118,7 @@ def _record_bus(args: argparse.Namespace) -> int:
                 shutil.rmtree(args.output, ignore_errors=True)
             raise
         stack.callback(source.close)
-        samplerate, n_channels = source.audio_format()
+        samplerate, n_channels = source.audio_format(args.bus_wait)
         rig = RigConfig(source.rig, source.mics, getattr(source, "array", None))
         writer = RecordingWriter(args.output, rig=rig, fps=args.fps,
                                  samplerate_hz=int(samplerate), n_channels=n_channels, video=args.video,

@@ -39,7 +39,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     add_mics_argument(p)
     add_lips_argument(p)
     add_device_arguments(p)
-    add_bus_arguments(p)
+    add_bus_arguments(p, receiver=False)
     p.set_defaults(func=run)
 
 

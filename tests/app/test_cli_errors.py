@@ -335,11 +335,12 @@ def test_messages_name_what_was_wrong(argv: list[str], said: str) -> None:
 
 def test_a_wrong_namespace_is_named(tmp_path: Path) -> None:
     env_port = str(_free_port())
+    """No robot answers in that namespace within --bus-wait (10 s unless given): the one line says where it asked."""
     done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "bus", "--bus-namespace", "labo",
-                           "--headless"], capture_output=True, text=True, cwd=ROOT, timeout=120,
+                           "--bus-wait", "2", "--headless"], capture_output=True, text=True, cwd=ROOT, timeout=120,
                           env={**os.environ, "AVHEAR_BUS_PORT": env_port})
     assert done.returncode == 2
-    assert "in the namespace 'labo' (does the robot run with --bus-namespace labo?)" in done.stderr
+    assert "within 2 s in the namespace 'labo' (does the robot run with --bus-namespace labo?)" in done.stderr
 
 
 def test_verbose_after_the_command_and_every_command_described() -> None:

@@ -328,7 +328,8 @@ def test_no_router_is_said_to_be_no_router(tmp_path: Path) -> None:
     one (not a missing camera driver), exit 2."""
     env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()), AVHEAR_ROS_ROUTER=f"tcp/127.0.0.1:{_free_port()}")
     env.pop("ROS_DOMAIN_ID", None)
-    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "3", "--headless"],
+    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "3", "--headless",
+                           "--bus-wait", "2"],
                           capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
     assert done.returncode == 2, done.stderr
     assert "Traceback" not in done.stderr
@@ -363,7 +364,8 @@ def test_a_ros_robot_without_a_rig_is_asked_for_its_microphones(tmp_path: Path, 
     suggested `avhear sensors`, which a ROS robot does not run), exit 2."""
     env = dict(os.environ, AVHEAR_BUS_PORT=str(_free_port()))
     env.pop("ROS_DOMAIN_ID", None)
-    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "2", "--headless"],
+    done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "ros", "--duration", "2", "--headless",
+                           "--bus-wait", "2"],
                           capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
     errors = [line for line in done.stderr.splitlines() if "error" in line]
