@@ -9,7 +9,9 @@ Two signs, per pair, from what the run hears anyway:
 - one-source ITDs that are a steady multiple of what the geometry predicts for the face that talks: a time frame
   whose ITDs on a pair spread less than ``max_spread_s`` (one source, as :mod:`avcore.selfcal` takes them) gives
   the ratio of their median to the raw ITD (eq. itd) of the face that explains it (with one pair: the one face in
-  view; with an array: the face whose ITD vector, scaled, lies closest to the medians), where that face's ITD is
+  view; with an array: the face whose ITD vector, scaled within ``plausible_scale``, lies closest to the medians,
+  and only when it fits ``clear_margin`` times better than the next face: with three people a freely scaled
+  vector of the wrong face, even turned round by a negative scale, often fits best), where that face's ITD is
   at least ``min_itd_s`` off zero. Reverberation pulls measured ITDs towards zero (section 5.3's c1) and a head
   between the microphones lengthens them (NAO's rear pairs: docs/experiments.md), so only a median ratio outside
   ``scale_range`` over ``min_observations`` counts.
@@ -67,6 +69,8 @@ class MicCheck:
     min_itds_total: int = 300
     beyond_share: float = 0.1
     beyond_margin: float = 1.05
+    clear_margin: float = 2.0
+    plausible_scale: tuple[float, float] = (0.4, 2.5)
     _ratios: list[list[float]] = field(init=False, repr=False)
     _counts: np.ndarray = field(init=False, repr=False)
     _beyond: np.ndarray = field(init=False, repr=False)
@@ -111,7 +115,12 @@ class MicCheck:
         else:
             x = raw[:, ok]
             scale = (x @ tau[ok]) / np.maximum((x * x).sum(axis=1), 1e-18)
-            face = int(np.argmin(np.linalg.norm(tau[ok][None] - scale[:, None] * x, axis=1)))
+            scale = np.clip(scale, *self.plausible_scale)
+            residual = np.linalg.norm(tau[ok][None] - scale[:, None] * x, axis=1)
+            order = np.argsort(residual)
+            face = int(order[0])
+            if order.size > 1 and residual[order[1]] < self.clear_margin * residual[face]:
+                return  # two faces explain these ITDs about as well: whose they are is not known
         for p in np.flatnonzero(ok & (np.abs(raw[face]) >= self.min_itd_s)):
             self._ratios[p].append(float(tau[p] / raw[face, p]))
 
