@@ -12,7 +12,8 @@ Two signs, per pair, from what the run hears anyway:
   view; with an array: the face whose ITD vector, scaled within ``plausible_scale``, lies closest to the medians,
   and only when it fits ``clear_margin`` times better than the next face: with three people a freely scaled
   vector of the wrong face, even turned round by a negative scale, often fits best), where that face's ITD is
-  at least ``min_itd_s`` off zero. Reverberation pulls measured ITDs towards zero (section 5.3's c1) and a head
+  at least ``min_itd_s`` off zero and the ratio within ``plausible_scale`` (a face alone in view is not the only
+  possible source: a person the camera missed, the noise behind the robot). Reverberation pulls measured ITDs towards zero (section 5.3's c1) and a head
   between the microphones lengthens them (NAO's rear pairs: docs/experiments.md), so only a median ratio outside
   ``scale_range`` over ``min_observations`` counts.
 
@@ -121,8 +122,11 @@ class MicCheck:
             face = int(order[0])
             if order.size > 1 and residual[order[1]] < self.clear_margin * residual[face]:
                 return  # two faces explain these ITDs about as well: whose they are is not known
+        lo, hi = self.plausible_scale
         for p in np.flatnonzero(ok & (np.abs(raw[face]) >= self.min_itd_s)):
-            self._ratios[p].append(float(tau[p] / raw[face, p]))
+            ratio = float(tau[p] / raw[face, p])
+            if lo <= ratio <= hi:  # else another source spoke (a person the camera missed, the noise behind)
+                self._ratios[p].append(ratio)
 
     def findings(self) -> list[MicFinding]:
         out = []

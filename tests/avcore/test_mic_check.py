@@ -57,3 +57,22 @@ def test_a_preset_larger_than_the_array_is_said_on_each_pair() -> None:
         for f in said:
             assert abs(f.value - PULL * 32.0 / 40.5) < 0.03
             assert f.implied_m < 0.85 * f.declared_m
+
+
+def test_one_face_in_view_is_not_taken_for_a_voice_from_elsewhere() -> None:
+    """One pair, one face found; another person, whom the camera misses, talks more than it: their ITDs are about
+    -2 times the face's, no spacing at all. Only plausible ratios count: nothing said of the right pair, and a
+    pair twice as wide as declared is still said."""
+    pair = MicArray.preset("pair")
+    missed = np.array([[0.7, -0.1, 1.5]])  # 25 degrees to the right; FACES[0] is 12 degrees to the left
+    for factor, expected in ((1.0, None), (2.0, 2.0 * PULL)):
+        heard = _scaled(pair, factor)
+        rng = np.random.default_rng(1)
+        check = MicCheck(pair)
+        for k in range(300):
+            check.push(FACES[:1], _frame(heard, missed[0] if k % 5 < 3 else FACES[0], rng))
+        said = check.findings()
+        if expected is None:
+            assert said == []
+        else:
+            assert len(said) == 1 and said[0].kind == "scale" and abs(said[0].value - expected) < 0.05
