@@ -76,9 +76,11 @@ BODY_HALF_M, BODY_TOP_M, BODY_HEIGHT_M = 0.23, 0.12, 0.7  # a rendered body plan
 COUNT_TO = 16                # the paper's people count from one up to sixteen, then start again
 
 
-def default_rig() -> StereoRig:
-    """The simulated stereo pair: rectified 640x480 cameras, focal 554 px (60 degrees across), baseline 0.12 m."""
-    return StereoRig.ideal(focal_px=554.0, image_size=(640, 480), baseline_m=0.12)
+def default_rig(scale: float = 1.0) -> StereoRig:
+    """The simulated stereo pair: rectified 640x480 cameras, focal 554 px (60 degrees across), baseline 0.12 m;
+    ``scale`` < 1 gives the same view in fewer pixels (every face as small as one ``1 / scale`` times farther)."""
+    return StereoRig.ideal(focal_px=554.0 * scale, image_size=(round(640 * scale), round(480 * scale)),
+                           baseline_m=0.12)
 
 
 def default_acoustic_room(rt60_s: float = 0.4) -> AcousticRoom:

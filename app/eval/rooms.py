@@ -91,15 +91,16 @@ class RoomScore:
 
 def evaluate_room(seed: int, *, method: str = "avhear", config: PipelineConfig | None = None,
                   mic_array: str = "pair", lips: bool = False, camera: str = "stereo",
-                  duration_s: float | None = None, data_dir: str | None = None,
+                  duration_s: float | None = None, data_dir: str | None = None, image_scale: float = 1.0,
                   progress: Progress | None = None) -> RoomScore:
     """Draw room ``seed``, run it through the pipeline with ``method`` and score it (module docstring).
 
     lips : the people's mouths move with their speech (else the faces are still); reading them is the config's
-    ``lips``. mic_array : a name of :data:`avcore.geometry.ARRAY_PRESETS` ("pair": the 12 cm pair)."""
+    ``lips``. mic_array : a name of :data:`avcore.geometry.ARRAY_PRESETS` ("pair": the 12 cm pair). image_scale :
+    the camera's pixels per degree against the default's (0.5: far faces, :meth:`SimSource.from_room`)."""
     cfg = method_config(config or PipelineConfig(), method)
     sim = SimSource.from_room(seed, duration_s=duration_s, mics=mic_array, camera=camera, lips=lips,
-                              data_dir=data_dir, progress=progress)
+                              data_dir=data_dir, image_scale=image_scale, progress=progress)
     source = StreamAdapter(sim, realtime=False)
     fused: list[Result] = []
     Pipeline(source, cfg, lambda r: fused.append(r.without_image())).run()

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from app.cli import main
@@ -42,3 +43,18 @@ def test_eval_rooms_json(capsys: pytest.CaptureFixture[str]) -> None:
     (row,) = out["results"]
     assert row["method"] == "paper" and row["seeds"] == [3] and out["protocol"]["forgive_s"] == 0.3
     assert 0.0 <= row["speaking"]["precision_forgiven"] <= 1.0
+
+
+def test_far_faces_film_the_same_room_in_half_the_pixels() -> None:
+    """`eval rooms --far-faces`: the same room, people and sound, filmed at 320 x 240 with the same view: every face
+    half as wide in pixels (16-45 px, as faces twice as far away in the default camera)."""
+    from app.sources.sim import SimSource
+    from sim.scenario import FACE_WIDTH_M
+
+    full, far = (SimSource.from_room(0, duration_s=5.0, image_scale=s) for s in (1.0, 0.5))
+    assert far.meta["room"] == dict(full.meta["room"], image_size=[320, 240])
+    assert next(iter(far.frames())).left.shape == (240, 320, 3)
+    assert np.array_equal(far.audio.samples, full.audio.samples)
+    for face in far.meta["room"]["faces_m"]:
+        widths = [rig.focal_px * FACE_WIDTH_M / face[2] for rig in (full.stereo, far.stereo)]
+        assert widths[1] == pytest.approx(widths[0] / 2) and 16 <= widths[1] <= 45
