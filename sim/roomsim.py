@@ -27,7 +27,6 @@ from typing import Literal
 
 import numpy as np
 from scipy.io import wavfile
-from scipy.signal import fftconvolve, lfilter, resample_poly
 
 from avcore._validate import as_points
 from avcore.geometry import SPEED_OF_SOUND, MicArray, MicPair
@@ -102,6 +101,8 @@ def read_wav(path: Path, samplerate_hz: int) -> np.ndarray:
     if x.ndim == 2:
         x = x.mean(axis=1)
     if fs != samplerate_hz:
+        from scipy.signal import resample_poly  # SciPy's signal module only where used: it takes seconds to import
+
         g = gcd(int(fs), int(samplerate_hz))
         x = resample_poly(x, samplerate_hz // g, fs // g)
     return x
@@ -119,6 +120,8 @@ def load_speech(samplerate_hz: int, kind: Literal["digits", "arctic"] = "digits"
     files = sorted(folder.glob("*.wav"))
     if not files:
         return None
+    from scipy.signal import lfilter
+
     out = []
     for f in files:
         x = read_wav(f, samplerate_hz)
@@ -169,6 +172,8 @@ def fan_noise(n: int, samplerate_hz: int, rng: np.random.Generator, blade_hz: fl
     jitter = 1.0 + 0.01 * np.cumsum(rng.standard_normal(n)) / np.sqrt(n)
     phase = 2 * np.pi * blade_hz * np.cumsum(jitter) / samplerate_hz
     hum = sum((0.6**k) * np.sin(k * phase + rng.uniform(0, 2 * np.pi)) for k in range(1, 6))
+    from scipy.signal import lfilter
+
     alpha = np.exp(-2 * np.pi * 2000.0 / samplerate_hz)
     broadband = lfilter([1 - alpha], [1, -alpha], rng.standard_normal(n))
     x = hum / np.sqrt(np.mean(hum**2)) + broadband / np.sqrt(np.mean(broadband**2))
@@ -458,6 +463,8 @@ def simulate(room: AcousticRoom, talkers_scene: object, duration_s: float = 10.0
     full = read_wav(noise_file, fs) if used != "synthetic" and noise_file.is_file() else None
     noise_kind = "doing_the_dishes.wav" if full is not None else "pink"
     n_talk = talkers.shape[0]
+
+    from scipy.signal import fftconvolve
 
     def image(signal: np.ndarray, s: int) -> np.ndarray:
         return np.stack([fftconvolve(signal, responses[s, m])[:n] for m in range(responses.shape[1])])

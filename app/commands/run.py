@@ -163,9 +163,10 @@ def _target(args: argparse.Namespace, *, demo: bool) -> ViewerTarget:
 def _check_outputs(spec: str, args: argparse.Namespace, target: ViewerTarget) -> None:
     """Everything the run will write or reach, checked before the (possibly long) preparation and run."""
     from app.console.viewer import check_viewer
-    from app.sources.sim import check_simulated_duration
 
     if spec.startswith("sim:"):
+        from app.sources.sim import check_simulated_duration
+
         check_simulated_duration(args.duration)
     for name in ("bodies", "lips"):
         if getattr(args, name, None) is not None and not spec.startswith("sim:"):
@@ -324,7 +325,6 @@ def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> N
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, voices: VoicesWriter | None,
                  transcriber: Transcriber | None, *, wall_time: bool) -> int:
-    from app.console import Console
     from app.console.viewer import ViewerSession
     from app.pipeline import Pipeline
     from app.sinks import Sinks
@@ -343,8 +343,11 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
     array = getattr(source, "array", None)
     session = ViewerSession(target, several_pairs=array is not None and array.n_pairs > 1)
     rec = session.recording
-    console = (Console(source.rig, source.mics, recording=rec, array=array)
-               if rec is not None else None)
+    console = None
+    if rec is not None:  # the console (and Rerun) only for a viewer or a file
+        from app.console import Console
+
+        console = Console(source.rig, source.mics, recording=rec, array=array)
     sinks = Sinks(session, console, results, publisher, voices, transcriber)
     pipeline = sinks.pipeline = Pipeline(source, config, sinks, on_voice=sinks.voice if config.voices else None)
     terminated = threading.Event()

@@ -7,7 +7,22 @@ In full: docs/architecture.md ("The console").
 """
 from __future__ import annotations
 
-from app.console.console import Console
-from app.console.frame import ConsoleFrame
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from app.console.console import Console
+    from app.console.frame import ConsoleFrame
 
 __all__ = ["Console", "ConsoleFrame"]
+
+
+def __getattr__(name: str) -> Any:
+    """``Console`` and ``ConsoleFrame`` load Rerun when first asked for (PEP 562), not when a headless run imports
+    where the console's data would go (``app.console.viewer``)."""
+    if name == "Console":
+        from app.console.console import Console
+        return Console
+    if name == "ConsoleFrame":
+        from app.console.frame import ConsoleFrame
+        return ConsoleFrame
+    raise AttributeError(f"module 'app.console' has no attribute {name!r}")

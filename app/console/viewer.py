@@ -18,11 +18,12 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-
-import rerun as rr
+from typing import TYPE_CHECKING
 
 from app.errors import UserError
-from layouts.blueprint import APPLICATION_ID, default_blueprint
+
+if TYPE_CHECKING:
+    import rerun as rr
 
 __all__ = ["ViewerSession", "ViewerTarget", "check_viewer", "display_available", "rerun_executable",
            "viewer_abandoned"]
@@ -195,7 +196,11 @@ class ViewerSession:
         if target.part_s is not None and not target.part_s > 0:
             raise ValueError(f"part_s must be > 0 seconds or None, got {target.part_s!r}")
         if not target.logs:
-            return
+            return  # headless: Rerun is not even imported (a second of a run's start)
+        import rerun as rr
+
+        from layouts.blueprint import APPLICATION_ID, default_blueprint
+
         rec = rr.RecordingStream(APPLICATION_ID)
         blueprint = default_blueprint(several_pairs)
         self._blueprint = blueprint
@@ -282,6 +287,8 @@ class ViewerSession:
                 # in its exit hook: give up on the last data rather than hang the user's terminal
                 print(f"avhear: warning: the viewer did not take the last data within {FLUSH_TIMEOUT_S:.0f} s; "
                       "some of it may be missing", file=sys.stderr, flush=True)
+                import rerun as rr
+
                 rr.unregister_shutdown()
                 _ABANDONED.append(self.recording)  # dropping the stream would wait for the viewer too
             self.recording = None

@@ -16,9 +16,7 @@ from app.events import AudioBlock, StereoFrame
 from app.sources.live import DEFAULT_FOV_DEG, LiveConfig, LiveSource, camera_size, webcam_rig
 from app.sources.recording import open_recording
 from app.sources.replay import ReplayStream
-from app.sources.sim import SimSource, check_simulated_duration
 from avcore.geometry import MicArray, MicPair
-from sim.scenario import PRESETS
 
 __all__ = ["StreamAdapter", "open_source"]
 
@@ -109,6 +107,9 @@ def open_source(spec: str, *, realtime: bool, duration_s: float | None = None, s
             importlib.import_module("pyroomacoustics")
         except ImportError as exc:
             raise UserError("the simulated room needs pyroomacoustics: pip install -e '.[sim]'") from exc
+        from app.sources.sim import SimSource, check_simulated_duration  # the simulator only for a simulated room
+        from sim.scenario import PRESETS
+
         preset = arg or "S2"
         if preset not in PRESETS:
             raise UserError(f"unknown scenario {preset!r}; choose one of {', '.join(PRESETS)}")

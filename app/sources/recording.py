@@ -162,6 +162,7 @@ class RecordingWriter:
                 raise ValueError(f"the depth image must be ({h}, {w}) as the rig says, got {frame.depth_m.shape}")
             self._write_png("depth", depth_millimetres(frame.depth_m))
         self._frames.writerow([self.n_frames, repr(float(frame.stamp_s)), repr(float(frame.right_stamp_s))])
+        self._frames_file.flush()  # each frame's row on disk as it comes, not a buffer's worth later: progress shows
         if truth is not None:
             self._write_truth(self.n_frames, frame.stamp_s, truth)
         self.n_frames += 1

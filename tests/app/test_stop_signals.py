@@ -70,9 +70,11 @@ def test_sigterm_during_a_run_keeps_the_results_and_exits_130(tmp_path: Path) ->
 
 
 def test_sigterm_on_record_keeps_the_recording(tmp_path: Path, rig_file: Path, make_video,  # noqa: ANN001
-                                               fake_sounddevice, capsys: pytest.CaptureFixture[str]) -> None:
+                                               fake_sounddevice, paced_cameras,  # noqa: ANN001
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    """SIGTERM a second into a recording of cameras that would deliver 10 s (30 frames a second)."""
     fake_sounddevice.InputStream.n_blocks = 100_000
-    left, right = make_video(tmp_path / "l.avi", 20000, 64, 60), make_video(tmp_path / "r.avi", 20000, 64, 200)
+    left, right = make_video(tmp_path / "l.avi", 300, 64, 60), make_video(tmp_path / "r.avi", 300, 64, 200)
     out = tmp_path / "rec"
     before = signal.getsignal(signal.SIGTERM)
     timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGTERM))
