@@ -8,6 +8,10 @@ import pytest
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
+# The suite starts about fifty `python -m app` processes: with PYTHONDONTWRITEBYTECODE set (as on some CI images)
+# each compiled the whole package again (half a second each); they share the first one's bytecode instead.
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+
 
 @pytest.fixture
 def shared_data() -> Path:
