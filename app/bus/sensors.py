@@ -91,13 +91,23 @@ class SensorPublisher:
         return {"left": (LEFT_KEY, COMPRESSED_IMAGE), "right": (RIGHT_KEY, COMPRESSED_IMAGE),
                 "audio": (AUDIO_KEY, AUDIO_BLOCK)}
 
-    def taken(self, timeout_s: float = 2.0) -> list[str]:
+    def taken(self, timeout_s: float = 2.0, settle_s: float = 0.5, empty_s: float = 2.0,
+              within_s: float = 4.0) -> list[str]:
         """The topics :meth:`run` would publish that another node publishes already, as the graph's liveliness
-        tokens tell (rmw_zenoh's keys; under the bridge's keys nothing can tell: empty)."""
+        tokens tell (rmw_zenoh's keys; under the bridge's keys nothing can tell: empty). A session that has just
+        met the router may not have its declarations yet, so the graph is read until two readings ``settle_s``
+        apart agree, an empty graph only after ``empty_s`` (at most ``within_s`` in all)."""
         convention = self.node.convention
         if not convention.native:
             return []
+        start = time.monotonic()
         there = published_topics(self.session, convention.domain, timeout_s)
+        while time.monotonic() - start < within_s:
+            time.sleep(settle_s)
+            again = published_topics(self.session, convention.domain, timeout_s)
+            if again == there and (there or time.monotonic() - start >= empty_s):
+                break
+            there = again
         return [convention.topic(topic) for topic, _ in self.topics().values() if convention.topic(topic) in there]
 
     def _declare(self) -> None:
