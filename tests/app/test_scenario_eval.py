@@ -487,10 +487,10 @@ def test_reading_the_lips_reports_the_lips_alone(capsys: pytest.CaptureFixture[s
                  "--read-lips", "--json"]) == 0
     lips = json.loads(capsys.readouterr().out)["results"][0]["lip_cue_alone"]
     assert lips["face_results"] > 100 and 0.0 <= lips["auc"] <= 1.0 and lips["still_below"] == 0.012
-    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips"]) == 0
-    assert "The lips alone (no sound)" in capsys.readouterr().out  # read by default (the face mesh is installed)
     assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips",
-                 "--no-read-lips"]) == 0
+                 "--read-lips"]) == 0
+    assert "The lips alone (no sound)" in capsys.readouterr().out
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips"]) == 0
     assert "The lips alone" not in capsys.readouterr().out  # without reading them, no such table
 
 
