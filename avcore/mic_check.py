@@ -13,9 +13,9 @@ Two signs, per pair, from what the run hears anyway:
   and only when it fits ``clear_margin`` times better than the next face: with three people a freely scaled
   vector of the wrong face, even turned round by a negative scale, often fits best), where that face's ITD is
   at least ``min_itd_s`` off zero and the ratio within ``plausible_scale`` (a face alone in view is not the only
-  possible source: a person the camera missed, the noise behind the robot). Reverberation pulls measured ITDs towards zero (section 5.3's c1) and a head
-  between the microphones lengthens them (NAO's rear pairs: docs/experiments.md), so only a median ratio outside
-  ``scale_range`` over ``min_observations`` counts.
+  possible source: a person the camera missed, the noise behind the robot). Reverberation pulls measured ITDs
+  towards zero (section 5.3's c1) and a head between the microphones lengthens them (NAO's rear pairs:
+  docs/experiments.md), so only a median ratio outside ``scale_range`` over ``min_observations`` counts.
 
 Each finding says which pair, the spacing the rig file declares and the one the sound suggests.
 """

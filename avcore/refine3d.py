@@ -18,9 +18,8 @@ hat_svect) and covariance. Here each cluster's alpha-weighted points are explain
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,7 +27,7 @@ __all__ = ["Group3D", "compact_groups", "held_bodies"]
 
 
 def _chi2_cdf(x: float, dof: int) -> float:
-    """The chi-square CDF for 3 or 5 degrees of freedom in closed form (SciPy's stats take a second to import):
+    """The chi-square CDF for 3 or 5 degrees of freedom in closed form (SciPy's stats are slow to import):
     P(3/2, x/2) = erf(sqrt(x/2)) - sqrt(2x/pi) exp(-x/2), and P(5/2, .) = P(3/2, .) - (x/2)^(3/2) exp(-x/2) / G(5/2)."""
     p3 = math.erf(math.sqrt(x / 2)) - math.sqrt(2 * x / math.pi) * math.exp(-x / 2)
     return p3 if dof == 3 else p3 - (x / 2) ** 1.5 * math.exp(-x / 2) / (0.75 * math.sqrt(math.pi))

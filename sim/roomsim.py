@@ -101,7 +101,7 @@ def read_wav(path: Path, samplerate_hz: int) -> np.ndarray:
     if x.ndim == 2:
         x = x.mean(axis=1)
     if fs != samplerate_hz:
-        from scipy.signal import resample_poly  # SciPy's signal module only where used: it takes seconds to import
+        from scipy.signal import resample_poly  # SciPy's signal module only where used: slow to import
 
         g = gcd(int(fs), int(samplerate_hz))
         x = resample_poly(x, samplerate_hz // g, fs // g)

@@ -9,7 +9,7 @@ import pytest
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 # The suite starts about fifty `python -m app` processes: with PYTHONDONTWRITEBYTECODE set (as on some CI images)
-# each compiled the whole package again (half a second each); they share the first one's bytecode instead.
+# each compiled the whole package again; they share the first one's bytecode instead (docs/experiments.md).
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 

@@ -367,7 +367,8 @@ def run_rooms(args: argparse.Namespace) -> int:
         print(json.dumps({"protocol": {"unit": "one visible person in one result", "forgive_s": 0.3,
                                        "tau_loc_m": 0.35},
                           "mics": args.mics, "seeds": list(args.seed), "read_lips": config.lips,
-                          "mouths_move": wants_lips(args), "far_faces": args.far_faces, "results": [s.as_dict() for s in scores]}, indent=2))
+                          "mouths_move": wants_lips(args), "far_faces": args.far_faces,
+                          "results": [s.as_dict() for s in scores]}, indent=2))
     else:
         print(format_room_table(scores))
         print(f"\n({time.perf_counter() - start:.1f} s)")

@@ -196,7 +196,7 @@ class ViewerSession:
         if target.part_s is not None and not target.part_s > 0:
             raise ValueError(f"part_s must be > 0 seconds or None, got {target.part_s!r}")
         if not target.logs:
-            return  # headless: Rerun is not even imported (a second of a run's start)
+            return  # headless: Rerun is not even imported
         import rerun as rr
 
         from layouts.blueprint import APPLICATION_ID, default_blueprint

@@ -334,8 +334,8 @@ def test_messages_name_what_was_wrong(argv: list[str], said: str) -> None:
 
 
 def test_a_wrong_namespace_is_named(tmp_path: Path) -> None:
-    env_port = str(_free_port())
     """No robot answers in that namespace within --bus-wait (10 s unless given): the one line says where it asked."""
+    env_port = str(_free_port())
     done = subprocess.run([sys.executable, "-m", "app", "run", "--source", "bus", "--bus-namespace", "labo",
                            "--bus-wait", "2", "--headless"], capture_output=True, text=True, cwd=ROOT, timeout=120,
                           env={**os.environ, "AVHEAR_BUS_PORT": env_port})
