@@ -5,7 +5,11 @@ Two signs, per pair, from what the run hears anyway:
 
 - ITDs beyond what the pair's declared spacing allows in free field (``d / nu``): the extractor searches lags up to
   1.2 times that, so a pair wider than declared puts a share of its ITDs out there (a share above
-  ``beyond_share`` of at least ``min_itds_total`` ITDs counts);
+  ``beyond_share`` of at least ``min_itds_total`` ITDs counts). Beyond ``beyond_margin`` times the reach, or
+  ``endfire_margin`` times it while a face in view lies near the pair's axis (its ITD over ``endfire_share`` of
+  the reach): a pair that points at its talkers (a flat array's front-back pair, people ahead) hears them at the
+  reach itself, and the measurement's spread puts a share just past it (a ReSpeaker 4 on a simulated ROS robot was
+  told its front-back pairs were at least 69 mm apart, not 57);
 - one-source ITDs that are a steady multiple of what the geometry predicts for the face that talks: a time frame
   whose ITDs on a pair spread less than ``max_spread_s`` (one source, as :mod:`avcore.selfcal` takes them) gives
   the ratio of their median to the raw ITD (eq. itd) of the face that explains it (with one pair: the one face in
@@ -70,6 +74,8 @@ class MicCheck:
     min_itds_total: int = 300
     beyond_share: float = 0.1
     beyond_margin: float = 1.05
+    endfire_share: float = 0.8
+    endfire_margin: float = 1.12
     clear_margin: float = 2.0
     plausible_scale: tuple[float, float] = (0.4, 2.5)
     _ratios: list[list[float]] = field(init=False, repr=False)
@@ -89,13 +95,16 @@ class MicCheck:
         """One result: the visible faces (N, 3) metres and its time frame's ITDs (K, P) seconds."""
         itds = np.asarray(itds_s, dtype=np.float64).reshape(-1, self.array.n_pairs)
         finite = np.isfinite(itds)
+        faces = np.asarray(faces_xyz, dtype=np.float64).reshape(-1, 3)
+        raw = self.array.raw_itd(faces).reshape(faces.shape[0], self.array.n_pairs)  # (N, P)
+        endfire = (np.abs(raw) > self.endfire_share * self._reach).any(axis=0)  # a face near the pair's axis
+        margin = np.where(endfire, self.endfire_margin, self.beyond_margin)
         self._counts += finite.sum(axis=0)
-        out = np.abs(np.where(finite, itds, 0.0)) > self.beyond_margin * self._reach
+        out = finite & (np.abs(np.where(finite, itds, 0.0)) > margin * self._reach)
         self._beyond += out.sum(axis=0)
         for p in np.flatnonzero(out.any(axis=0)):
             if len(self._largest[p]) < 5000:
                 self._largest[p].extend(np.abs(itds[out[:, p], p]).tolist())
-        faces = np.asarray(faces_xyz, dtype=np.float64).reshape(-1, 3)
         if faces.shape[0] == 0:
             return
         tau = np.full(self.array.n_pairs, np.nan)
@@ -108,7 +117,6 @@ class MicCheck:
         ok = np.isfinite(tau)
         if not ok.any():
             return
-        raw = self.array.raw_itd(faces).reshape(faces.shape[0], self.array.n_pairs)  # (N, P)
         if self.array.n_pairs == 1 or ok.sum() == 1:
             if faces.shape[0] != 1:
                 return  # one pair cannot tell which face talks
