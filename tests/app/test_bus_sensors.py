@@ -87,13 +87,13 @@ def test_sensors_to_run_to_a_subscriber_and_the_robot_coming_back() -> None:
                       "--bus-listen", f"tcp/127.0.0.1:{laptop}", "--bus-connect", f"tcp/127.0.0.1:{robot}",
                       "--bus-connect", f"tcp/127.0.0.1:{test}")
         try:
-            _wait_for(lambda: count() > 60, 120, "60 results from the first robot session")
+            _wait_for(lambda: count() > 30, 120, "30 results from the first robot session")
             first.send_signal(signal.SIGTERM)  # the robot goes away
             assert first.wait(timeout=60) in (0, 130), first.stderr.read()
             _wait_for(quiet_for(2.0), 60, "the results to stop while the robot is away")
             before = count()
             second = _avhear(*sensors)
-            _wait_for(lambda: count() > before + 60, 120, "60 results after the robot came back")
+            _wait_for(lambda: count() > before + 30, 120, "30 results after the robot came back")
             second.send_signal(signal.SIGTERM)
             assert second.wait(timeout=60) in (0, 130), second.stderr.read()
             run.send_signal(signal.SIGTERM)
@@ -188,7 +188,8 @@ def test_record_the_bus(tmp_path: Path) -> None:
                              "--duration", "3", "--bus-connect", f"tcp/127.0.0.1:{robot}",
                              "--bus-listen", f"tcp/127.0.0.1:{_free_port()}"], capture_output=True, text=True,
                             cwd=ROOT, timeout=60)
-    sensors.wait(timeout=60)
+    sensors.send_signal(signal.SIGTERM)  # the robot has served its part
+    assert sensors.wait(timeout=60) in (0, 130), sensors.stderr.read()
     assert record.returncode == 0, record.stderr
     from app.sources.recording import open_recording
 
@@ -225,8 +226,10 @@ def test_the_robots_microphone_array_reaches_the_laptop() -> None:
             finally:
                 source.close()
     finally:
+        if sensors.poll() is None:
+            sensors.send_signal(signal.SIGTERM)  # the robot has served its part
         out, err = sensors.communicate(timeout=60)
-    assert sensors.returncode == 0, err
+    assert sensors.returncode in (0, 130) and "Traceback" not in err, err
 
 
 def _bus_recipe() -> list[list[str]]:

@@ -205,7 +205,7 @@ def test_a_self_calibrated_run_saves_its_rig(tmp_path: Path, capsys: pytest.Capt
     from app.config import load_rig
 
     rig_file = tmp_path / "learned.yaml"
-    assert main(["demo", "--duration", "14", "--fast", "--headless", "--self-calibrate", "--save-rig",
+    assert main(["demo", "--duration", "8", "--fast", "--headless", "--self-calibrate", "--save-rig",
                  str(rig_file)]) == 0
     assert f"the self-calibrated rig is in {rig_file}" in capsys.readouterr().out
     rig = load_rig(rig_file)
