@@ -78,11 +78,11 @@ def test_one_face_in_view_is_not_taken_for_a_voice_from_elsewhere() -> None:
             assert len(said) == 1 and said[0].kind == "scale" and abs(said[0].value - expected) < 0.05
 
 
-def test_a_pair_that_points_at_its_talkers_is_judged_by_how_far_past_its_reach_they_are() -> None:
+def test_a_pair_that_points_at_its_talkers_is_judged_on_a_share_of_its_own() -> None:
     """A flat ReSpeaker 4 with the people ahead: its front-back pairs hear them at about their reach (times the
-    room's pull), and the measurement's spread (20 us) puts 12 % of those ITDs just past 1.05 times it; the right
-    geometry is said nothing. Microphones 1.27 times as far apart as declared put most of them farther still
-    (those the extractor's search, 1.2 times the reach, does not hold are lost): said on those pairs."""
+    room's pull), and the measurement's spread (20 us) puts 12 % of those ITDs past 1.05 times it; the right
+    geometry is said nothing. Microphones 1.27 times as far apart as declared put most of them there (those the
+    extractor's search, 1.2 times the reach, does not hold are lost): said on those pairs."""
     ahead = np.array([[-0.10, -0.10, 1.5], [0.05, -0.12, 2.0], [0.20, -0.10, 2.5]])
     declared = MicArray.preset("respeaker4")
     reach = np.array([declared.pair(k).max_itd_s for k in range(declared.n_pairs)])
