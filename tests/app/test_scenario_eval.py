@@ -485,11 +485,11 @@ def test_the_lips_alone_are_scored_as_a_speaking_detector() -> None:
 
 
 def test_reading_the_lips_reports_the_lips_alone(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips",
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--lips",
                  "--read-lips", "--json"]) == 0
     lips = json.loads(capsys.readouterr().out)["results"][0]["lip_cue_alone"]
     assert lips["face_results"] > 100 and 0.0 <= lips["auc"] <= 1.0 and lips["still_below"] == 0.012
-    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "4", "--no-calibrate", "--lips",
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--lips",
                  "--read-lips"]) == 0
     assert "The lips alone (no sound)" in capsys.readouterr().out
     # without reading them, no such table: test_eval_scenarios_runs_s6_which_the_paper_has_not
