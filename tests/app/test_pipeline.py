@@ -481,7 +481,8 @@ def test_the_lips_are_read_in_a_thread_of_their_own(monkeypatch: pytest.MonkeyPa
 
     def run(self: object, image: np.ndarray, boxes: np.ndarray, eyes: np.ndarray | None = None) -> FaceMeshResult:
         threads.append(threading.current_thread().name)
-        return FaceMeshResult(np.zeros((len(boxes), N_LANDMARKS, 3)), np.ones(len(boxes)))
+        mesh = np.random.default_rng(0).uniform(0.0, 50.0, (N_LANDMARKS, 3))  # the same mouth every frame
+        return FaceMeshResult(np.repeat(mesh[None], len(boxes), axis=0), np.ones(len(boxes)))
 
     monkeypatch.setattr("avcore.facemesh.FaceMesh.run", run)
     source = FakeSource()
@@ -492,6 +493,13 @@ def test_the_lips_are_read_in_a_thread_of_their_own(monkeypatch: pytest.MonkeyPa
     assert "lips" in pipe.stats.as_dict()["stage_ms_per_item"] and "lips" in pipe.queue_depths()
     _, plain = _run(FakeSource())
     assert "lips" not in plain.stats.as_dict()["stage_ms_per_item"] and "lips" not in plain.queue_depths()
+    # --lip-mesh-every 2: the mesh on every other frame, every frame still fused with its lips, which give an
+    # opinion (a still mouth: 0) once 0.4 s hold three openings
+    threads.clear()
+    spaced, _ = _run(FakeSource(fps=30.0), lips=True, lip_mesh_every=2)
+    assert len(spaced) == 48 and len(threads) == 24
+    opinions = [r.lip_activity[0] for r in spaced if len(r.lip_activity)]
+    assert opinions and np.isnan(opinions[0]) and opinions[-1] == 0.0
 
 
 class DisorderedSource(FakeSource):
