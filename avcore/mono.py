@@ -6,7 +6,7 @@ gives them (BlazeFace's keypoints): adults' interpupillary distance is about 63 
 3.5 mm (Dodgson 2004, "Variation and extrema of human interpupillary distance"). A detector with boxes alone (Haar)
 gives the box's width, which spans ``HAAR_BOX_PER_IPD`` interpupillary distances, a ratio measured on the labelled
 photographs of ``../shared/data/faces`` (BlazeFace's eyes inside OpenCV's boxes; docs/experiments.md, 2026-11-26).
-With the face mesh running (``--read-lips``) its eye centres replace BlazeFace's keypoints: a network made for
+With the face mesh running (the lips read) its eye centres replace BlazeFace's keypoints: a network made for
 landmarks, on a crop levelled by the detector's eyes (measured in docs/experiments.md, 2026-11-27 (sixth)).
 
 The depth error model is in docs/method.md ("One camera"): the person's own size against the population's, the

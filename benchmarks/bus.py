@@ -79,7 +79,7 @@ def main() -> int:
     args = p.parse_args()
     d = args.duration
     lips = ("--lips",) if args.read_lips else ()
-    read = ("--read-lips",) if args.read_lips else ()
+    read = ("--read-lips",) if args.read_lips else ("--no-read-lips",)  # the figures before the default
     sim = ("--camera", "rgbd", "--mics", "respeaker4", *lips) if args.ros else lips
     robot_side = ("--ros", "--mics", "respeaker4", *lips) if args.ros else lips
     laptop = ("run", "--source", "ros", *read) if args.ros else ("run", "--source", "bus", *read)

@@ -208,7 +208,7 @@ class Topics:
                 x, y, w, h = (max(int(v), 0) for v in p["box_px"])
                 add(f"humans/faces/{fid}/roi", ROI,  # a box in the rectified image
                     t[ROI](x_offset=x, y_offset=y, height=h, width=w, do_rectify=False))
-                if p.get("lip_activity") is not None:  # with --read-lips: the face's visual speech evidence
+                if p.get("lip_activity") is not None:  # with the lips read: the face's visual speech evidence
                     add(f"humans/faces/{fid}/lip_activity", FLOAT32, t[FLOAT32](data=float(p["lip_activity"])))
                 add("humans/candidate_matches", IDS_MATCH,
                     t[IDS_MATCH](id1=fid, id1_type=FACE, id2=vid, id2_type=VOICE, confidence=1.0))

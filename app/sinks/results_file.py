@@ -15,7 +15,7 @@ Schema of one line (one fused result; fields may be added, never renamed):
              "probability": float,      # in [0, 1], above 0.5 exactly when speaking
              "itd_mean_s": float,       # the person's mean in ITD space
              "box_px": [x, y, w, h],    # face-guided only: the face box in the left image, pixels
-             "lip_activity": float | null  # with --read-lips only: how much the lips moved over 0.4 s (the
+             "lip_activity": float | null  # with the lips read only: how much the lips moved over 0.4 s (the
                                            # spread of the mouth's opening); null: no opinion (face just seen)
              "voice_id": "v<id>"        # the person's voice: on the bus humans/voices/v<id>/, with --voices-dir
                                         # its stream in person_<id>.wav

@@ -215,7 +215,8 @@ def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path)
     pytest.importorskip("pyroomacoustics")
     _needs_the_face_mesh()
     out = tmp_path / "r.jsonl"
-    assert main(["demo", "--duration", "2", "--fast", "--headless", "--read-lips", "--results-jsonl", str(out)]) == 0
+    # the lips are read by default where the face mesh is installed; --no-read-lips turns them off
+    assert main(["demo", "--duration", "2", "--fast", "--headless", "--results-jsonl", str(out)]) == 0
     rows = [json.loads(line) for line in out.read_text().splitlines()]
     values = [p["lip_activity"] for r in rows for p in r["people"]]
     assert all("lip_activity" in p for r in rows for p in r["people"])
@@ -223,7 +224,8 @@ def test_read_lips_puts_each_persons_lip_activity_in_the_results(tmp_path: Path)
     assert sum(v is not None for v in values) > 0.5 * len(values)
     assert all(v is None or 0.0 <= v < 1.0 for v in values)
     plain = tmp_path / "plain.jsonl"
-    assert main(["demo", "--duration", "1", "--fast", "--headless", "--results-jsonl", str(plain)]) == 0
+    assert main(["demo", "--duration", "1", "--fast", "--headless", "--no-read-lips", "--results-jsonl",
+                 str(plain)]) == 0
     assert not any("lip_activity" in p for line in plain.read_text().splitlines() for p in json.loads(line)["people"])
 
 
@@ -454,3 +456,26 @@ def test_one_camera_reading_the_lips_places_faces_by_the_meshs_eyes_with_one_mes
     assert runs == [2]  # one mesh for the eyes and the lips
     np.testing.assert_allclose(with_lips.xyz[:, 2], plain.xyz[:, 2] / 2)  # eyes twice as far apart: half as far
     assert with_lips.lip_activity is not None and len(with_lips.lip_activity) == 2
+
+
+def test_the_lips_are_read_by_default_where_the_face_mesh_is(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Face-guided runs read the lips unless --no-read-lips; motion-guided ones only with --read-lips. Without the
+    face mesh's package the default leaves them unread (no error), and --read-lips is one line that says how."""
+    import app.models
+    from app.cli import build_parser
+    from app.commands.options import pipeline_config, wants_read_lips
+    from app.errors import UserError
+
+    parse = build_parser().parse_args
+    assert wants_read_lips(parse(["run"])) is True
+    assert wants_read_lips(parse(["run", "--no-read-lips"])) is False
+    assert wants_read_lips(parse(["run", "--motion"])) is False
+    assert wants_read_lips(parse(["run", "--motion", "--read-lips"])) is True
+
+    def missing() -> None:
+        raise UserError("the face mesh's model (the lips) is not installed")
+
+    monkeypatch.setattr(app.models, "facemesh_model", missing)
+    assert wants_read_lips(parse(["run"])) is False
+    with pytest.raises(UserError, match="not installed"):
+        pipeline_config(parse(["run", "--read-lips", "--face-detector", "blazeface"]))
