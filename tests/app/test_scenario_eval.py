@@ -219,12 +219,17 @@ def test_eval_scenarios_json(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_eval_scenarios_runs_s6_which_the_paper_has_not(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--json"]) == 0
+    """S6 has no row in the paper's table: its JSON and its table say so (and the lips' table comes only with the
+    lips read: test_reading_the_lips_reports_the_lips_alone runs S6's JSON with them)."""
+    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--lips",
+                 "--read-lips", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     (row,) = out["results"]
     assert row["scenario"] == "S6" and out["paper"] == {"S6": None}
     target = out["targets"]["per_spoken_number"]["S6"]
     assert target["paper_fp_per_speaking_count"] is None and target["fp_at_most_half_paper"] is None
+    lips = row["lip_cue_alone"]  # the lips alone, scored as a speaking detector
+    assert lips["face_results"] > 100 and 0.0 <= lips["auc"] <= 1.0 and lips["still_below"] == 0.012
     assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--lips",
                  "--no-read-lips"]) == 0
     table = capsys.readouterr().out
@@ -486,13 +491,10 @@ def test_the_lips_alone_are_scored_as_a_speaking_detector() -> None:
 
 
 def test_reading_the_lips_reports_the_lips_alone(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--lips",
-                 "--read-lips", "--json"]) == 0
-    lips = json.loads(capsys.readouterr().out)["results"][0]["lip_cue_alone"]
-    assert lips["face_results"] > 100 and 0.0 <= lips["auc"] <= 1.0 and lips["still_below"] == 0.012
+    """The table of the lips alone, with the lips read by default (the face mesh is installed); its JSON and the
+    table without the lips read: test_eval_scenarios_runs_s6_which_the_paper_has_not."""
     assert main(["eval", "scenarios", "--scenario", "S6", "--duration", "3", "--no-calibrate", "--lips"]) == 0
-    assert "The lips alone (no sound)" in capsys.readouterr().out  # read by default (the face mesh is installed)
-    # without reading them, no such table: test_eval_scenarios_runs_s6_which_the_paper_has_not
+    assert "The lips alone (no sound)" in capsys.readouterr().out
 
 
 def test_the_speechs_own_line_is_fitted_on_people_talking_alone(people_result: Callable[..., Result]) -> None:
