@@ -8,8 +8,7 @@ Two signs, per pair, from what the run hears anyway:
   ``beyond_share`` of at least ``min_itds_total`` ITDs counts). The results where a face in view lies near the
   pair's axis (its ITD over ``endfire_share`` of the reach) are counted apart, with ``endfire_beyond_share``: a
   pair that points at its talkers (a flat array's front-back pair, people ahead) hears them at the reach itself,
-  and the measurement's spread puts a share past it, up to the search's edge (a ReSpeaker 4 on a simulated ROS
-  robot was told its front-back pairs were at least 69 mm apart, not 57: 10-18 % of their ITDs past the reach);
+  and the measurement's spread puts a share past it, up to the search's edge (docs/experiments.md, 2026-11-29);
   microphones farther apart than declared put most of them there;
 - one-source ITDs that are a steady multiple of what the geometry predicts for the face that talks: a time frame
   whose ITDs on a pair spread less than ``max_spread_s`` (one source, as :mod:`avcore.selfcal` takes them) gives
