@@ -32,7 +32,7 @@ def facemesh_model() -> Path:
     says how to get it otherwise."""
     found = installed_model(FACEMESH_FILE)
     if found is None:
-        raise UserError(f"the face mesh's model (the lips) is not installed: {INSTALL_HINT} (or use --no-read-lips)")
+        raise UserError(f"the face mesh's model (the lips) is not installed: {INSTALL_HINT} (or leave out --read-lips)")
     if not found.is_file():
         raise UserError(f"AVHEAR_FACEMESH={found}: no such file; give the path of {FACEMESH_FILE}")
     return found

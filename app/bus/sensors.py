@@ -169,9 +169,10 @@ class RosDriverPublisher(SensorPublisher):
     """A robot made of an RGB-D source (the simulated room's ``camera="rgbd"``) that publishes as ROS 2 drivers do
     (:class:`app.bus.ros_source.RosTopics`): realsense2_camera's colour (rgb8), aligned depth (16UC1 millimetres)
     and CameraInfo, audio_common's AudioDataStamped (S16LE) and its AudioInfo, at the start and every second
-    (audio_capture's every 5 s: a laptop that joins waits up to that long; this stand-in answers sooner, the laptop's
-    wait is the same code). Stamps are ROS time (the system clock). The rig it answers holds the microphones in the colour camera's optical frame and
-    no stereo section: the laptop reads the camera from its CameraInfo, as it would a RealSense's."""
+    (audio_capture's every 5 s: a laptop that joins waits up to that long; this stand-in answers sooner, the
+    laptop's wait is the same code). Stamps are ROS time (the system clock). The rig it answers holds the
+    microphones in the colour camera's optical frame and no stereo section: the laptop reads the camera from its
+    CameraInfo, as it would a RealSense's."""
 
     node_name = "camera"
     info_period_s = 1.0

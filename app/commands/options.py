@@ -287,7 +287,8 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
         raise UserError(str(exc)) from None
     if config.lip_mesh_every != 1 and not config.lips:
         raise UserError(f"--lip-mesh-every {config.lip_mesh_every} spaces the face mesh that reads the lips, and "
-                        "this run reads none (--no-read-lips, or --motion without --read-lips): leave it out")
+                        "this run reads none (--no-read-lips, --motion without --read-lips, or no face mesh "
+                        "installed): leave it out")
     if config.self_calibrate and config.inference == "motion":
         raise UserError("--self-calibrate learns from faces: it goes with face-guided runs, not --motion")
     if config.inference == "motion" and one_camera:
