@@ -11,8 +11,8 @@ SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 # The suite starts about fifty `python -m app` processes: with PYTHONDONTWRITEBYTECODE set (as on some CI images)
 # each compiled the whole package again; they share the first one's bytecode instead (docs/experiments.md).
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
-# Two workers (the README's `-n 2`) fill the two cores: each process's BLAS and OpenMP keep to one thread instead of
-# a pool that spins beside the other worker (5 % of the time, docs/experiments.md). A developer's own setting stays.
+# The README's workers (`-n 3`) already more than fill two cores: each process's BLAS and OpenMP keep to one thread
+# instead of a pool that spins beside the other workers (docs/experiments.md). A developer's own setting stays.
 for _threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
     os.environ.setdefault(_threads, "1")
 
