@@ -136,7 +136,7 @@ class LipReader:
         already chose within)."""
         moving = None if relative is None or synchrony is None else \
             lips_move_with_the_sound(activity, relative, synchrony)
-        hidden = self.hidden.update(stamp_s, ids, output.speaking, activity, still_below, moving)
+        hidden = self.hidden.update(stamp_s, ids, output.speaking, activity, still_below, moving, synchrony)
         if frame_s is not None:
             hidden |= voice_without_lips(output.speaking, activity, still_below, self.envelope.loud_share(*frame_s))
         keep = ~hidden if alone is None else alone & ~hidden

@@ -192,11 +192,14 @@ def lip_synchrony(series: list[np.ndarray], envelope: SoundEnvelope, lead_s: flo
 class HiddenLips:
     """Which faces' still lips say nothing. A face is judged by its own voice: the moments it is heard speaking
     alone (no other face heard then), once they span ``heard_s`` (first to last) of the last ``window_s``. Lips whose
-    median activity over those moments reaches ``moving_factor`` times the veto's threshold have shown that they move
-    with this face's speech: the face is trusted, and its still lips may say "silent" later. Lips that stay near
-    still through that second of their own voice are not seen (a photograph, a hand, a mask, a face too far or too
-    small for the mesh, a mesh that has lost them): their stillness is no evidence. The verdict stands until the
-    face's own voice says otherwise again, however long it then listens.
+    median activity over those moments reaches ``moving_factor`` times the veto's threshold, and (where ``update``
+    is given their synchrony with the sound) whose median synchrony over them reaches ``synced_above``, have shown
+    that they move with this face's speech: the face is trusted, and its still lips may say "silent" later. Lips that
+    stay near still, or move out of step, through that second of their own voice are not seen (a photograph, a hand,
+    a mask, a face too far or too small for the mesh, a mesh that has lost them): their stillness is no evidence. A
+    photograph's mesh may jitter as much as lips that barely move (activity 0.015-0.03), never in step with the
+    voice (median synchrony about 0 against a talker's 0.77). The verdict stands until the face's own voice says
+    otherwise again, however long it then listens.
 
     With ``earn_trust`` (the default) a face that has not yet been judged gives no opinion either: abstaining never
     takes a person's words away, and a still face whose voice is heard only beside another's never earns the right
@@ -217,15 +220,18 @@ class HiddenLips:
     moving_factor: float = 2.0
     earn_trust: bool = True
     synced_s: float | None = None
-    _marks: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [(t, activity)] while heard
+    synced_above: float = 0.2
+    _marks: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [(t, activity, sync)] heard
     _synced: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [t] lips moving with the sound
     _trusted: dict = field(default_factory=dict, init=False, repr=False)  # track id -> its lips moved with its voice
 
     def update(self, stamp_s: float, ids: np.ndarray, speaking: np.ndarray, activity: np.ndarray,
-               still_below: float, moving_with_sound: np.ndarray | None = None) -> np.ndarray:
+               still_below: float, moving_with_sound: np.ndarray | None = None,
+               synchrony: np.ndarray | None = None) -> np.ndarray:
         """ids (N,) the faces' tracks (:attr:`LipTracks.ids`); speaking (N,) heard speaking; activity (N,) their lip
         activity (NaN: no opinion); still_below : the veto's threshold; moving_with_sound (N,) bool, read only
-        with ``synced_s``. Returns (N,) bool: the faces whose lips are hidden."""
+        with ``synced_s``; synchrony (N,) the lips' with the sound (:func:`lip_synchrony`). Returns (N,) bool: the
+        faces whose lips are hidden."""
         since, now = stamp_s - self.window_s, set(np.asarray(ids).tolist())
         self._marks = {k: [m for m in v if m[0] > since] for k, v in self._marks.items()}
         self._marks = {k: v for k, v in self._marks.items() if v or k in now}
@@ -236,7 +242,8 @@ class HiddenLips:
         for i, k in enumerate(np.asarray(ids).tolist()):
             marks = self._marks.setdefault(k, [])
             if speaking[i] and alone and np.isfinite(activity[i]):
-                marks.append((float(stamp_s), float(activity[i])))
+                marks.append((float(stamp_s), float(activity[i]),
+                              np.nan if synchrony is None else float(synchrony[i])))
             if self.synced_s is not None and moving_with_sound is not None and moving_with_sound[i]:
                 synced = self._synced.setdefault(k, [])
                 synced.append(float(stamp_s))
@@ -244,6 +251,8 @@ class HiddenLips:
                     self._trusted[k] = True
             judged = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s
             still = judged and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
+            synced = [m[2] for m in marks if np.isfinite(m[2])]
+            still = still or (judged and bool(synced) and float(np.median(synced)) < self.synced_above)
             if judged:
                 self._trusted[k] = not still
             hidden[i] = not self._trusted.get(k, False) if self.earn_trust else still
