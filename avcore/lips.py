@@ -197,9 +197,8 @@ class HiddenLips:
     that they move with this face's speech: the face is trusted, and its still lips may say "silent" later. Lips that
     stay near still, or move out of step, through that second of their own voice are not seen (a photograph, a hand,
     a mask, a face too far or too small for the mesh, a mesh that has lost them): their stillness is no evidence. A
-    photograph's mesh may jitter as much as lips that barely move (activity 0.015-0.03), never in step with the
-    voice (median synchrony about 0 against a talker's 0.77). The verdict stands until the face's own voice says
-    otherwise again, however long it then listens.
+    photograph's mesh may jitter as much as lips that barely move, but never in step with the voice. The verdict
+    stands until the face's own voice says otherwise again, however long it then listens.
 
     With ``earn_trust`` (the default) a face that has not yet been judged gives no opinion either: abstaining never
     takes a person's words away, and a still face whose voice is heard only beside another's never earns the right
@@ -250,10 +249,11 @@ class HiddenLips:
                 if synced[-1] - synced[0] >= self.synced_s:
                     self._trusted[k] = True
             judged = bool(marks) and marks[-1][0] - marks[0][0] >= self.heard_s
-            still = judged and float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
-            synced = [m[2] for m in marks if np.isfinite(m[2])]
-            still = still or (judged and bool(synced) and float(np.median(synced)) < self.synced_above)
+            still = False
             if judged:
+                synced = [m[2] for m in marks if np.isfinite(m[2])]
+                still = (float(np.median([m[1] for m in marks])) < self.moving_factor * still_below
+                         or (bool(synced) and float(np.median(synced)) < self.synced_above))
                 self._trusted[k] = not still
             hidden[i] = not self._trusted.get(k, False) if self.earn_trust else still
         return hidden
