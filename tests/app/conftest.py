@@ -104,9 +104,11 @@ def paced_cameras(monkeypatch: pytest.MonkeyPatch) -> None:
 
 class FakeInputStream:
     """Stands in for sounddevice.InputStream: calls the callback from its own thread, like PortAudio, with block
-    k filled with the value k / 1000 (distinct after 16-bit PCM); block 5 reports an input overflow."""
+    k filled with the value k / 1000 (distinct after 16-bit PCM); block 5 reports an input overflow. After its
+    ``n_blocks`` the stream stops, as a device unplugged, unless ``stays_open`` (a device open but silent)."""
 
     n_blocks = 20
+    stays_open = False
 
     def __init__(self, *, callback, channels, samplerate, blocksize, **kwargs) -> None:  # noqa: ANN001
         self.callback, self.channels, self.blocksize, self.samplerate = callback, channels, blocksize, samplerate
@@ -135,12 +137,13 @@ class FakeInputStream:
             self.callback(data, self.blocksize, info, status)
             t += self.blocksize / self.samplerate
             self._stop.wait(0.001)
-        self.active = False
+        self.active = self.stays_open
 
 
 @pytest.fixture
 def fake_sounddevice(monkeypatch: pytest.MonkeyPatch) -> types.SimpleNamespace:
-    fake = types.SimpleNamespace(InputStream=FakeInputStream)
+    # a class of the test's own: a test that sets n_blocks or stays_open changes no other test's device
+    fake = types.SimpleNamespace(InputStream=type("FakeInputStream", (FakeInputStream,), {}))
     monkeypatch.setattr(app.sources.live, "load_sounddevice", lambda: fake)
     return fake
 

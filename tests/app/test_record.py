@@ -17,6 +17,9 @@ RIG = StereoRig.ideal(focal_px=100.0, image_size=(64, 48), baseline_m=0.12)
 
 def test_record_then_replay(tmp_path: Path, rig_file: Path, make_video, fake_sounddevice,  # noqa: ANN001
                             capsys: pytest.CaptureFixture[str]) -> None:
+    # the microphone stays open after its blocks, so that the video files' end is what stops the recording (a
+    # stopped device is said after 0.3 s of silence, about when the cameras' 30 failed reads end: a race on a busy host)
+    fake_sounddevice.InputStream.stays_open = True
     left = make_video(tmp_path / "l.avi", 12, 64, 40)
     right = make_video(tmp_path / "r.avi", 12, 64, 200)
     out = tmp_path / "rec"
