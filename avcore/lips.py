@@ -219,7 +219,7 @@ class HiddenLips:
     moving_factor: float = 2.0
     earn_trust: bool = True
     synced_s: float | None = None
-    synced_above: float = 0.2
+    synced_above: float = 0.4
     _marks: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [(t, activity, sync)] heard
     _synced: dict = field(default_factory=dict, init=False, repr=False)  # track id -> [t] lips moving with the sound
     _trusted: dict = field(default_factory=dict, init=False, repr=False)  # track id -> its lips moved with its voice

@@ -203,17 +203,18 @@ def test_lips_moving_with_the_sound_earn_trust_beside_another_voice() -> None:
 
 def test_lips_that_jitter_out_of_step_with_their_own_voice_earn_no_trust() -> None:
     """A photograph's mesh jitters (activity 0.03, over twice the veto's threshold) while its owner's voice is heard
-    alone for a second, but never in step with that voice: given the synchrony, the face stays hidden; lips that move
-    as much in step with it (0.7) are trusted; with no synchrony given (motion-guided) the activity alone judges."""
+    alone for a second, but never in step with that voice: given the synchrony, the face stays hidden, and so it does
+    when chance puts it a little in step (0.3, as S5's photographs reach); lips that move as much in step with it (0.7)
+    are trusted; with no synchrony given (motion-guided) the activity alone judges."""
     ids, alone, jitter = np.array([1, 2]), np.array([True, False]), np.array([0.03, 0.008])
     verdicts = {}
-    for name, sync in (("out of step", np.array([0.0, np.nan])), ("in step", np.array([0.7, np.nan])),
-                       ("unknown", None)):
+    for name, sync in (("out of step", np.array([0.0, np.nan])), ("by chance", np.array([0.3, np.nan])),
+                       ("in step", np.array([0.7, np.nan])), ("unknown", None)):
         hidden = HiddenLips(window_s=3.0, heard_s=1.0)
         for t in np.arange(0.0, 1.12, 0.05):
             out = hidden.update(float(t), ids, alone, jitter, 0.012, None, sync)
         verdicts[name] = bool(out[0])
-    assert verdicts == {"out of step": True, "in step": False, "unknown": False}
+    assert verdicts == {"out of step": True, "by chance": True, "in step": False, "unknown": False}
 
 
 def test_each_followed_face_keeps_its_track_number() -> None:
