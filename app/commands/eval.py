@@ -12,6 +12,7 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,6 +23,10 @@ from app.commands.options import (MAX_SIMULATED_S, LazyChoices, add_bodies_argum
 from app.commands.paths import output_dir
 from avcore.geometry import MicArray, MicPair
 from sim.presets import INTERVAL_S, SCENARIO_CHOICES, SCENARIOS, SEQUENCES
+
+if TYPE_CHECKING:
+    from app.eval.scenarios import CalibrationFit
+    from app.pipeline_config import PipelineConfig
 
 
 def _synthetic_variants() -> LazyChoices:
@@ -123,6 +128,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                        help="film the rooms at 320 x 240 (the same 60-degree view): every face 16-45 px wide, as "
                             "small as faces 2-5.6 m away in the 640 x 480 camera (the lips' check of faces too "
                             "small to read)")
+    rooms.add_argument("--calibrate", action="store_true",
+                       help="first fit the audio-visual correction c1, c0 (section 5.3) on the 'calibration' preset "
+                            "(40 s, a room of its own), as a user of the rig would, and hear every room with it; "
+                            "by default the rooms are heard with the nominal microphone pair (one pair only)")
     rooms.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
     rooms.set_defaults(func=run_rooms)
     voices = kinds.add_parser(
@@ -230,7 +239,7 @@ def _gap_us(line: dict, mics: MicPair) -> float:
 
 
 def run_scenarios(args: argparse.Namespace) -> int:
-    from app.eval.scenarios import CalibrationFit, PAPER_SCENARIOS, calibrate_on_preset, evaluate_scenario
+    from app.eval.scenarios import CalibrationFit, PAPER_SCENARIOS, evaluate_scenario
     from app.eval.scoring import ITD_TOLERANCE_S, ScenarioScore
     from app.eval.tables import format_scenario_table, scenario_targets, signed_us
 
@@ -259,11 +268,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
         _progress(f"--mics {args.mics}: no audio-visual calibration (it fits one pair; the simulated microphones are "
                   "exact)")
     if args.calibrate and one_pair:
-        _progress("calibration preset (section 5.3): fitting c1, c0 ...")
-        calibration = calibrate_on_preset(seed=args.seed[0], config=config, camera=args.camera, mic_array=args.mics)
-        c = calibration.as_dict()
-        _progress(f"c1 = {c['c1']:.4f}, c0 = {signed_us(c['c0_us'])} us, median |residual| "
-                  f"{c['median_abs_residual_before_us']:.1f} -> {c['median_abs_residual_after_us']:.1f} us")
+        calibration = _calibrate(args, config)
     start_mics = calibration.mics if calibration else None
     if config.self_calibrate and calibration is not None:
         # the self-calibration's start: 20 % off in c1 and 30 us off in c0 from the loudspeaker's fit
@@ -347,6 +352,10 @@ def run_rooms(args: argparse.Namespace) -> int:
         raise UserError(f"--duration must be between 5 and 3600 seconds, got {args.duration}")
     config = pipeline_config(args)
     start = time.perf_counter()
+    if args.calibrate and MicArray.preset(args.mics).n_pairs != 1:
+        raise UserError(f"--calibrate fits one microphone pair; --mics {args.mics} has several (leave out "
+                        "--calibrate: the simulated arrays are exact)")
+    calibration = _calibrate(args, config) if args.calibrate else None
     scores: list[RoomScore] = []
     for method in args.method or DEFAULT_METHODS:
         runs: list[RoomScore] = []
@@ -355,7 +364,8 @@ def run_rooms(args: argparse.Namespace) -> int:
             t0 = time.perf_counter()
             score = evaluate_room(seed, method=method, config=config, mic_array=args.mics, lips=wants_lips(args),
                                   camera=args.camera, duration_s=args.duration,
-                                  image_scale=0.5 if args.far_faces else 1.0)
+                                  image_scale=0.5 if args.far_faces else 1.0,
+                                  mics=calibration.mics if calibration else None)
             c = score.counts
             _progress(f"room {seed}, {method}: {score.rooms[0]['people']} people, precision {c.precision:.3f} "
                       f"(forgiven {c.precision_forgiven:.3f}), recall {c.recall:.3f} (forgiven "
@@ -368,11 +378,26 @@ def run_rooms(args: argparse.Namespace) -> int:
                                        "tau_loc_m": 0.35},
                           "mics": args.mics, "seeds": list(args.seed), "read_lips": config.lips,
                           "mouths_move": wants_lips(args), "far_faces": args.far_faces,
+                          "calibration": calibration.as_dict() if calibration else None,
                           "results": [s.as_dict() for s in scores]}, indent=2))
     else:
         print(format_room_table(scores))
         print(f"\n({time.perf_counter() - start:.1f} s)")
     return 0
+
+
+def _calibrate(args: argparse.Namespace, config: PipelineConfig) -> CalibrationFit:
+    """--calibrate of `eval scenarios` and `eval rooms`: the correction c1, c0 fitted on the calibration preset (its
+    seed the first of --seed), with its progress lines."""
+    from app.eval.scenarios import calibrate_on_preset
+    from app.eval.tables import signed_us
+
+    _progress("calibration preset (section 5.3): fitting c1, c0 ...")
+    calibration = calibrate_on_preset(seed=args.seed[0], config=config, camera=args.camera, mic_array=args.mics)
+    c = calibration.as_dict()
+    _progress(f"c1 = {c['c1']:.4f}, c0 = {signed_us(c['c0_us'])} us, median |residual| "
+              f"{c['median_abs_residual_before_us']:.1f} -> {c['median_abs_residual_after_us']:.1f} us")
+    return calibration
 
 
 def run_words(args: argparse.Namespace) -> int:

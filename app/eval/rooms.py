@@ -26,6 +26,7 @@ from app.result import Result
 from app.sources.open import StreamAdapter
 from app.sources.sim import SimSource
 from avcore.evaluation import TAU_LOC_M, match_clusters
+from avcore.geometry import MicArray, MicPair
 from sim.rooms import overlap_share
 
 __all__ = ["DEFAULT_METHODS", "METHODS", "RoomScore", "evaluate_room", "method_config"]
@@ -92,15 +93,21 @@ class RoomScore:
 def evaluate_room(seed: int, *, method: str = "avhear", config: PipelineConfig | None = None,
                   mic_array: str = "pair", lips: bool = False, camera: str = "stereo",
                   duration_s: float | None = None, data_dir: str | None = None, image_scale: float = 1.0,
-                  progress: Progress | None = None) -> RoomScore:
+                  mics: MicPair | None = None, progress: Progress | None = None) -> RoomScore:
     """Draw room ``seed``, run it through the pipeline with ``method`` and score it (module docstring).
 
     lips : the people's mouths move with their speech (else the faces are still); reading them is the config's
     ``lips``. mic_array : a name of :data:`avcore.geometry.ARRAY_PRESETS` ("pair": the 12 cm pair). image_scale :
-    the camera's pixels per degree against the default's (0.5: far faces, :meth:`SimSource.from_room`)."""
+    the camera's pixels per degree against the default's (0.5: far faces, :meth:`SimSource.from_room`). mics : the
+    pair with an audio-visual correction (section 5.3, e.g. :func:`app.eval.scenarios.calibrate_on_preset`'s), heard
+    with instead of the nominal pair; None: the nominal microphones."""
     cfg = method_config(config or PipelineConfig(), method)
+    if mics is not None and MicArray.preset(mic_array).n_pairs != 1:
+        raise ValueError("an audio-visual correction (mics) applies to one pair; use a preset of one pair with it")
     sim = SimSource.from_room(seed, duration_s=duration_s, mics=mic_array, camera=camera, lips=lips,
                               data_dir=data_dir, image_scale=image_scale, progress=progress)
+    if mics is not None:
+        sim.mics = mics
     source = StreamAdapter(sim, realtime=False)
     fused: list[Result] = []
     Pipeline(source, cfg, lambda r: fused.append(r.without_image())).run()

@@ -58,3 +58,21 @@ def test_far_faces_film_the_same_room_in_half_the_pixels() -> None:
     for face in far.meta["room"]["faces_m"]:
         widths = [rig.focal_px * FACE_WIDTH_M / face[2] for rig in (full.stereo, far.stereo)]
         assert widths[1] == pytest.approx(widths[0] / 2) and 16 <= widths[1] <= 45
+
+
+def test_a_room_is_heard_with_the_pair_it_is_given() -> None:
+    """`eval rooms --calibrate` hears the room with the fitted pair: a correction far from the truth (every ITD
+    mapped at half its size) moves the faces' voices, so the same room scores otherwise."""
+    from app.sources.sim import SimSource
+
+    nominal = SimSource.from_room(0, duration_s=6.0).mics
+    wrong = evaluate_room(0, duration_s=6.0, mics=nominal.with_correction(0.5, 0.0)).counts
+    assert vars(wrong) != vars(evaluate_room(0, duration_s=6.0).counts)
+    with pytest.raises(ValueError, match="applies to one pair"):
+        evaluate_room(0, duration_s=6.0, mic_array="respeaker4", mics=nominal)
+
+
+def test_eval_rooms_calibrate_refuses_an_array_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["eval", "rooms", "--calibrate", "--mics", "respeaker4"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--calibrate fits one microphone pair" in err[0] and "respeaker4" in err[0]
