@@ -382,6 +382,10 @@ def run_rooms(args: argparse.Namespace) -> int:
                           "results": [s.as_dict() for s in scores]}, indent=2))
     else:
         print(format_room_table(scores))
+        if calibration is not None:
+            c = calibration.mics
+            print(f"\nHeard with the pair calibrated on the calibration preset (section 5.3): c1 = {c.c1:.4f}, "
+                  f"c0 = {c.c0 * 1e6:+.1f} us.")
         print(f"\n({time.perf_counter() - start:.1f} s)")
     return 0
 

@@ -76,3 +76,28 @@ def test_eval_rooms_calibrate_refuses_an_array_in_one_line(capsys: pytest.Captur
     assert main(["eval", "rooms", "--calibrate", "--mics", "respeaker4"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--calibrate fits one microphone pair" in err[0] and "respeaker4" in err[0]
+
+
+def test_eval_rooms_calibrate_hears_every_room_with_the_fit(monkeypatch: pytest.MonkeyPatch,
+                                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """`eval rooms --calibrate`: the fit (here a stand-in for the preset's 40 s run) is said under the table and in
+    the JSON, and each room is heard with it."""
+    import app.eval.rooms as rooms
+    import app.eval.scenarios as scenarios
+    from app.sources.sim import SimSource
+
+    fit = scenarios.CalibrationFit(SimSource.from_room(3, duration_s=6.0).mics.with_correction(0.8, -1e-6), 500,
+                                   0.99, 16e-6, 10e-6)
+    monkeypatch.setattr(scenarios, "calibrate_on_preset", lambda **kw: fit)
+    heard = []
+    real = rooms.evaluate_room
+    monkeypatch.setattr(rooms, "evaluate_room", lambda seed, **kw: heard.append(kw["mics"]) or real(seed, **kw))
+    argv = ["eval", "rooms", "--seed", "3", "--duration", "6", "--method", "avhear", "--calibrate"]
+    assert main(argv) == 0
+    out = capsys.readouterr()
+    assert "calibration preset (section 5.3)" in out.err and "c1 = 0.8000, c0 = -1.0 us." in out.out
+    assert main(argv + ["--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["calibration"]["c1"] == 0.8
+    assert heard == [fit.mics, fit.mics]
+    assert main(argv[:-1] + ["--json"]) == 0 and json.loads(capsys.readouterr().out)["calibration"] is None
+    assert heard[-1] is None
