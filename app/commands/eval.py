@@ -343,7 +343,7 @@ def run_scenarios(args: argparse.Namespace) -> int:
 
 def run_rooms(args: argparse.Namespace) -> int:
     from app.eval.rooms import DEFAULT_METHODS, RoomScore, evaluate_room
-    from app.eval.tables import format_room_table
+    from app.eval.tables import format_room_table, signed_us
 
     if args.motion:
         raise UserError("avhear eval rooms scores face-guided hearing; leave out --motion")
@@ -385,7 +385,7 @@ def run_rooms(args: argparse.Namespace) -> int:
         if calibration is not None:
             c = calibration.mics
             print(f"\nHeard with the pair calibrated on the calibration preset (section 5.3): c1 = {c.c1:.4f}, "
-                  f"c0 = {c.c0 * 1e6:+.1f} us.")
+                  f"c0 = {signed_us(c.c0 * 1e6)} us.")
         print(f"\n({time.perf_counter() - start:.1f} s)")
     return 0
 
