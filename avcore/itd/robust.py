@@ -309,7 +309,12 @@ class RobustGccPhat(FrameMethod):
     exponent (see the module docstring).
 
     Defaults that differ from :class:`FrameMethod`'s (measured: module docstring): ``flatness_power`` and
-    ``frame_snr_power`` 8, ``dereverb_taps`` 3.
+    ``frame_snr_power`` 8, ``dereverb_taps`` 3, ``over_subtraction`` 3. The last because the phase transform gives
+    every bin one vote: the running minimum lies well below a steady noise's mean power (Martin 2001), so at a
+    subtraction of 1 most bins of a steady noise from one direction (a kitchen, a fan) keep much of their weight, and
+    such a noise 10 dB under the speech won most windows of a talker speaking alone; three times the floor (the
+    over-subtraction of Berouti, Schwartz and Makhoul 1979) leaves them little (docs/experiments.md, 2026-11-29,
+    tenth session).
 
     Extra parameter ``frame_corr_power`` (2): each frame's weighted phase-transform correlation, normalised by the
     frame's total weight to ``[-1, 1]``, is clipped at 0 and raised to this power before the window sums the
@@ -338,10 +343,12 @@ class RobustGccPhat(FrameMethod):
 
     def __init__(self, samplerate_hz: float, window_len: int, max_itd_s: float, *, flatness_power: float = 8.0,
                  frame_snr_power: float = 8.0, frame_corr_power: float = 2.0, dereverb_taps: int = 3,
-                 band_edges_hz: tuple[float, ...] = (800.0, 1600.0, 2600.0), **options) -> None:
+                 over_subtraction: float = 3.0, band_edges_hz: tuple[float, ...] = (800.0, 1600.0, 2600.0),
+                 **options) -> None:
         # the frame-level cues are on by default here (measured: module docstring), off for the correlogram
         super().__init__(samplerate_hz, window_len, max_itd_s, flatness_power=flatness_power,
-                         frame_snr_power=frame_snr_power, dereverb_taps=dereverb_taps, **options)
+                         frame_snr_power=frame_snr_power, dereverb_taps=dereverb_taps,
+                         over_subtraction=over_subtraction, **options)
         if frame_corr_power < 0:
             raise ValueError(f"frame_corr_power must be >= 0, got {frame_corr_power!r}")
         self.frame_corr_power = float(frame_corr_power)

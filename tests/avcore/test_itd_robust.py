@@ -58,11 +58,11 @@ def test_each_setting_is_accepted_at_its_documented_edge(settings: dict) -> None
     ({"over_subtraction": -1.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s "
                                  "> 0; got -1.0, 3.0, 0.03, 0.03"),
     ({"noise_rise_db_per_s": 0.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s "
-                                   "> 0; got 1.0, 0.0, 0.03, 0.03"),
+                                   "> 0; got 3.0, 0.0, 0.03, 0.03"),
     ({"smoothing_s": 0.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s > 0; "
-                           "got 1.0, 3.0, 0.0, 0.03"),
+                           "got 3.0, 3.0, 0.0, 0.03"),
     ({"coherence_s": 0.0}, "over_subtraction must be >= 0 and noise_rise_db_per_s, smoothing_s, coherence_s > 0; "
-                           "got 1.0, 3.0, 0.03, 0.0"),
+                           "got 3.0, 3.0, 0.03, 0.0"),
     ({"dereverb_delay": 0}, "dereverb_taps must be an integer >= 0, dereverb_delay an integer >= 1 and dereverb_step "
                             "in (0, 2), got 3, 0 and 0.2"),
     ({"dereverb_step": 0.0}, "dereverb_taps must be an integer >= 0, dereverb_delay an integer >= 1 and "
@@ -112,9 +112,9 @@ def test_the_defaults_are_the_documented_ones() -> None:
     assert inspect.signature(RobustCorrelogram.__init__).parameters["n_channels"].default == 32
     own = inspect.signature(RobustGccPhat.__init__).parameters
     assert {name: own[name].default for name in ("flatness_power", "frame_snr_power", "frame_corr_power",
-                                                  "dereverb_taps", "band_edges_hz")} == {
+                                                  "dereverb_taps", "over_subtraction", "band_edges_hz")} == {
         "flatness_power": 8.0, "frame_snr_power": 8.0, "frame_corr_power": 2.0, "dereverb_taps": 3,
-        "band_edges_hz": (800.0, 1600.0, 2600.0)}
+        "over_subtraction": 3.0, "band_edges_hz": (800.0, 1600.0, 2600.0)}
 
 
 def test_band_edges_must_be_finite_increasing_frequencies() -> None:
