@@ -310,11 +310,9 @@ class RobustGccPhat(FrameMethod):
 
     Defaults that differ from :class:`FrameMethod`'s (measured: module docstring): ``flatness_power`` and
     ``frame_snr_power`` 8, ``dereverb_taps`` 3, ``over_subtraction`` 3. The last because the phase transform gives
-    every bin one vote: the running minimum lies well below a steady noise's mean power (Martin 2001), so at a
-    subtraction of 1 most bins of a steady noise from one direction (a kitchen, a fan) keep much of their weight, and
-    such a noise 10 dB under the speech won most windows of a talker speaking alone; three times the floor (the
-    over-subtraction of Berouti, Schwartz and Makhoul 1979) leaves them little (docs/experiments.md, 2026-11-29,
-    tenth session).
+    every bin one vote and the running minimum lies well below a steady noise's mean power (Martin 2001): three times
+    the floor (the over-subtraction of Berouti, Schwartz and Makhoul 1979) leaves little weight to the bins of a
+    steady noise from one direction (a kitchen, a fan), which would otherwise take a lone talker's windows.
 
     Extra parameter ``frame_corr_power`` (2): each frame's weighted phase-transform correlation, normalised by the
     frame's total weight to ``[-1, 1]``, is clipped at 0 and raised to this power before the window sums the
