@@ -144,25 +144,3 @@ def test_decide_passes_its_probabilities_through_the_bins_look() -> None:
     kept, kept_prob, _ = test.decide(beta, itds, means, variances, supports, bin_share=np.array([0.5, 0.05]))
     assert kept.tolist() == [True, False] and kept_prob.dtype == float and kept_prob.tolist() == prob.tolist()
 
-
-
-def test_one_pairs_bins_claim_only_a_larger_share() -> None:
-    """With one pair a bin agrees with every ITD whose phase lies within the agreement at its frequency, and no other
-    pair narrows it: the bins claim a person only above ``bin_claim_share_one_pair`` (0.25), above
-    ``bin_claim_share`` (0.1) with several pairs; the confirmation is the same."""
-    beta = np.zeros((16, 2))
-    beta[:8, 0] = 1.0
-    test = SpeakingTest()
-    for pairs, claimed_at in ((1, 0.25), (3, 0.1)):
-        itds = np.repeat([[-100e-6] * pairs, [100e-6] * pairs], 8, axis=0)
-        means = np.array([[-100e-6] * pairs, [100e-6] * pairs])
-        variances, supports = np.full((2, pairs), 1e-10), np.tile([-3.5e-4, 3.5e-4], (pairs, 1))
-        for share, claims in ((claimed_at - 0.01, False), (claimed_at + 0.01, True)):
-            speaking, prob, _ = test.decide(beta, itds, means, variances, supports,
-                                            bin_share=np.array([0.5, share]))
-            assert speaking.tolist() == [True, claims], (pairs, share)
-            assert (prob[1] > 0.5) == claims
-        dropped, _, _ = test.decide(beta, itds, means, variances, supports, bin_share=np.array([0.02, 0.0]))
-        assert dropped.tolist() == [False, False]  # a share under 0.03 drops the talker, one pair or several
-    with pytest.raises(ValueError, match="bin_claim_share_one_pair"):
-        SpeakingTest(bin_claim_share_one_pair=0.02)
