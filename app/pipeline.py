@@ -426,10 +426,10 @@ class Pipeline:
                 # first block, or samples were lost (an overflow, a dropped block): restart at this block's clock
                 if stream is not None:
                     self.stats.audio_gaps += 1
-                # the bins' look (avcore.speaking.bin_shares) asks every pair at once; it was measured with arrays
+                # the bins' look (avcore.speaking.bin_shares) asks every pair at once, one pair as well
                 stream = PairsItdStream(array, src.samplerate_hz, method=c.itd_method, window_s=c.window_s,
                                         hop_s=c.hop_s, energy_threshold=c.energy_threshold, frame_itds=frame_itds,
-                                        frame_bins=frame_itds and array.n_pairs > 1)
+                                        frame_bins=frame_itds)
                 start_s = block.stamp_s
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
             if envelope:  # before the ITDs that complete a frame, so that its lips find the sound there

@@ -107,6 +107,14 @@ class SpeakingTest:
     weight, and so the posterior, to one of them; counting each ITD for the nearest face follows the geometry
     instead of that weight, and keeps the outlier class's share out.
 
+    The bins' look (``bin_share``) keeps a call above ``bin_confirm_share`` and makes one above ``bin_claim_share``,
+    with one microphone pair above ``bin_claim_share_one_pair``: a bin then agrees with every ITD whose phase lies
+    within ``bin_agreement`` at its frequency (at 500 Hz +-140 us, most of a 12 cm pair's range) and no second pair
+    narrows that, so a talker's neighbour collects more of its bins. Nor can one pair tell a phantom from a voice:
+    two sounds at once (two talkers, or a talker and a steady voice) put a bin's phase between them. So with one
+    pair the bins confirm nothing, and while the other looks hear someone they never outvote them: they claim only
+    a person whose share is at most the heard talker's (the quieter voice of an overlap), not the person between.
+
     ``decide(..., present=mask)`` decides on a subset of the ITDs that fitted the model: the face-guided fusion
     fits on the ITDs of the whole time frame and decides on those near the frame's own instant
     (``FaceGuidedParams.decision_window_s``).
@@ -130,13 +138,15 @@ class SpeakingTest:
     bin_agreement: float = 0.9
     bin_confirm_share: float = 0.03
     bin_claim_share: float = 0.1
+    bin_claim_share_one_pair: float = 0.25
 
     def __post_init__(self) -> None:
         if not -1 <= self.bin_agreement <= 1:
             raise ValueError(f"bin_agreement must be in [-1, 1], got {self.bin_agreement!r}")
-        if not 0 <= self.bin_confirm_share <= self.bin_claim_share <= 1:
-            raise ValueError(f"need 0 <= bin_confirm_share <= bin_claim_share <= 1, got {self.bin_confirm_share!r} "
-                             f"and {self.bin_claim_share!r}")
+        for name in ("bin_claim_share", "bin_claim_share_one_pair"):
+            if not 0 <= self.bin_confirm_share <= getattr(self, name) <= 1:
+                raise ValueError(f"need 0 <= bin_confirm_share <= {name} <= 1, got {self.bin_confirm_share!r} "
+                                 f"and {getattr(self, name)!r}")
         if self.count_by not in COUNT_BY:
             raise ValueError(f"count_by must be one of {', '.join(COUNT_BY)}, got {self.count_by!r}")
         for name in ("frame_within_s", "frame_spread_s", "band_spread_s"):
@@ -235,17 +245,26 @@ class SpeakingTest:
             speaking = np.where(between, speaking, found)
             prob = np.where(between, prob, found_prob)
         if bin_share is not None:
-            speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n))
+            speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n),
+                                        one_pair=means.shape[1] == 1)
         return Decision(speaking, prob, tau, speaking & ~by_windows)
 
-    def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share``. Where it changes a
-        state, the probability is the share against the threshold that decided (above 0.5 exactly when speaking)."""
-        kept = speaking & (share > self.bin_confirm_share)
-        claimed = share > self.bin_claim_share
+    def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray, one_pair: bool = False
+              ) -> tuple[np.ndarray, np.ndarray]:
+        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share``; with ``one_pair``
+        claimed by ``bin_claim_share_one_pair`` without outvoting the other looks' talkers, and never confirmed (see
+        the class). Where the look changes a state, the probability is the share against the threshold that decided
+        (above 0.5 exactly when speaking)."""
+        if one_pair:
+            claim, kept = self.bin_claim_share_one_pair, speaking
+            top = share[speaking].max() if speaking.any() else np.inf  # the largest share of those heard
+            claimed = (share > claim) & (share <= top)
+        else:
+            claim, kept = self.bin_claim_share, speaking & (share > self.bin_confirm_share)
+            claimed = share > claim
         out = kept | claimed
         with np.errstate(invalid="ignore", divide="ignore"):
-            thr = np.where(speaking, self.bin_confirm_share, self.bin_claim_share)
+            thr = np.where(speaking, self.bin_confirm_share, claim)
             by_share = np.where(share + thr > 0, share / (share + thr), 0.0)
         by_share = np.where(out, np.maximum(by_share, 0.5 + 1e-9), np.minimum(by_share, 0.5))
         return out, np.where(out == speaking, prob, by_share)

@@ -120,18 +120,19 @@ def test_decision_window_ends_the_speaking_state_at_the_frame() -> None:
 
 
 def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPatch) -> None:
-    """With gcc-phat-robust the ITD worker passes the 32 ms frames' ITDs and their bands' peaks; each vision frame
-    gets those of its time frame (+-0.2 s: about 40 frames at 10 ms, up to 4 bands each) at the talker's ITD;
-    switched off, none."""
+    """With gcc-phat-robust the ITD worker passes the 32 ms frames' ITDs, their bands' peaks and their bins (one
+    pair's too); each vision frame gets those of its time frame (+-0.2 s: about 40 frames at 10 ms, up to 4 bands
+    each) at the talker's ITD; switched off, none."""
     from avcore.inference import FaceGuidedHearing
 
     seen: dict[bool, list] = {True: [], False: []}
+    bins_seen: dict[bool, list] = {True: [], False: []}
     step = FaceGuidedHearing.step
     for enabled in (True, False):
         def spy(self, faces, itds, offsets=None, frame_itds_s=None, band_itds_s=None,  # type: ignore[no-untyped-def]
                 frame_bins=None, _on=enabled):
-            assert frame_bins is None  # one pair: no bins (they are a look across several pairs)
             seen[_on].append((frame_itds_s, band_itds_s))
+            bins_seen[_on].append(frame_bins)
             return step(self, faces, itds, offsets, frame_itds_s, band_itds_s, frame_bins)
 
         monkeypatch.setattr(FaceGuidedHearing, "step", spy)
@@ -139,6 +140,10 @@ def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPa
         results, _ = _run(source, frame_itds=enabled)
         assert len(results) == len(seen[enabled])
     assert all(f is None and b is None for f, b in seen[False])
+    assert all(b is None for b in bins_seen[False])
+    with_bins = [b for b in bins_seen[True][6:-4] if b is not None]
+    assert len(with_bins) == len(bins_seen[True][6:-4])
+    assert all(b.bins.shape[1] == 1 and 35 <= len(b) <= 42 and b.bins.shape[2] == b.freqs_hz.size for b in with_bins)
     middle = seen[True][6:-4]  # frames with a whole time frame of sound
     assert middle and all(f is not None and 35 <= f.size <= 42 for f, _ in middle)
     assert all(b is not None and f.size < b.size <= 4 * f.size for f, b in middle)
@@ -324,7 +329,7 @@ def test_a_stop_loses_no_fused_frame() -> None:
     results: list[Result] = []
     pipe = Pipeline(source, PipelineConfig(), results.append)
     stats = pipe.run(duration_s=1.2)
-    assert 20 <= stats.vision_results < 90  # stopped before the end
+    assert 5 <= stats.vision_results < 90  # stopped before the end (36 frames at 30 fps; fewer on a loaded machine)
     assert len(results) == stats.results == stats.vision_results
     assert [r.index for r in results] == sorted(r.index for r in results)
 

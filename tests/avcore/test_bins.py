@@ -144,3 +144,49 @@ def test_decide_passes_its_probabilities_through_the_bins_look() -> None:
     kept, kept_prob, _ = test.decide(beta, itds, means, variances, supports, bin_share=np.array([0.5, 0.05]))
     assert kept.tolist() == [True, False] and kept_prob.dtype == float and kept_prob.tolist() == prob.tolist()
 
+
+
+def test_one_pairs_bins_claim_only_a_larger_share() -> None:
+    """With one pair a bin agrees with every ITD whose phase lies within the agreement at its frequency, and no other
+    pair narrows it: the bins claim a person only above ``bin_claim_share_one_pair`` (0.25), above
+    ``bin_claim_share`` (0.1) with several pairs."""
+    beta = np.zeros((16, 2))
+    beta[:8, 0] = 1.0
+    test = SpeakingTest()
+    for pairs, claimed_at in ((1, 0.25), (3, 0.1)):
+        itds = np.repeat([[-100e-6] * pairs, [100e-6] * pairs], 8, axis=0)
+        means = np.array([[-100e-6] * pairs, [100e-6] * pairs])
+        variances, supports = np.full((2, pairs), 1e-10), np.tile([-3.5e-4, 3.5e-4], (pairs, 1))
+        for share, claims in ((claimed_at - 0.01, False), (claimed_at + 0.01, True)):
+            speaking, prob, _ = test.decide(beta, itds, means, variances, supports,
+                                            bin_share=np.array([0.5, share]))
+            assert speaking.tolist() == [True, claims], (pairs, share)
+            assert (prob[1] > 0.5) == claims
+        dropped, _, _ = test.decide(beta, itds, means, variances, supports, bin_share=np.array([0.02, 0.0]))
+        # a share under 0.03 drops the talker with several pairs; one pair's bins confirm nothing (a phantom owns
+        # bins there too)
+        assert dropped.tolist() == [pairs == 1, False]
+    with pytest.raises(ValueError, match="bin_claim_share_one_pair"):
+        SpeakingTest(bin_claim_share_one_pair=0.02)
+
+
+def test_one_pairs_bins_never_outvote_the_talker_the_other_looks_hear() -> None:
+    """With one pair a bin's phase cannot tell a second voice from one voice mixed with a steady sound (both put it
+    between them), so while the other looks hear a talker the pair's bins claim only a person whose share is at most
+    the talker's: the quieter voice of an overlap. Several pairs rule such phases out and claim as before; with
+    nobody heard, the pair's bins claim too (a talker masked in every window and frame)."""
+    beta = np.zeros((16, 2))
+    beta[:8, 0] = 1.0  # the windows hear person 0
+    test = SpeakingTest()
+    for pairs in (1, 3):
+        itds = np.repeat([[-100e-6] * pairs, [100e-6] * pairs], 8, axis=0)
+        means = np.array([[-100e-6] * pairs, [100e-6] * pairs])
+        variances, supports = np.full((2, pairs), 1e-10), np.tile([-3.5e-4, 3.5e-4], (pairs, 1))
+        for talker, other, claims in ((0.4, 0.3, True), (0.4, 0.4, True), (0.3, 0.4, pairs > 1)):
+            speaking, prob, _ = test.decide(beta, itds, means, variances, supports,
+                                            bin_share=np.array([talker, other]))
+            assert speaking.tolist() == [True, claims], (pairs, talker, other)
+            assert (prob[1] > 0.5) == claims
+        quiet = np.zeros((16, 2))
+        speaking, _, _ = test.decide(quiet, itds, means, variances, supports, bin_share=np.array([0.0, 0.6]))
+        assert speaking.tolist() == [False, True], pairs
