@@ -145,7 +145,6 @@ def test_decide_passes_its_probabilities_through_the_bins_look() -> None:
     assert kept.tolist() == [True, False] and kept_prob.dtype == float and kept_prob.tolist() == prob.tolist()
 
 
-
 def test_one_pairs_bins_claim_only_a_larger_share() -> None:
     """With one pair a bin agrees with every ITD whose phase lies within the agreement at its frequency, and no other
     pair narrows it: the bins claim a person only above ``bin_claim_share_one_pair`` (0.25), above
