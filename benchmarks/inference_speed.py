@@ -5,7 +5,8 @@
 Prints, on one core (BLAS threads pinned to 1):
 * MotionGuidedHearing.step on the synthetic DynCon sequence (M ~ 2,000 points, K ~ 20 ITDs, N_max = 10), both
   variants: median and 90th percentile wall time, CPU time, peak memory of one step;
-* FaceGuidedHearing.step with 3 faces and 20 ITDs, on a pair and on NAO's four microphones (6 pairs);
+* FaceGuidedHearing.step with 3 faces and 20 ITDs, on a pair and on NAO's four microphones (6 pairs), alone and
+  with the speaking test's later looks (40 frames' ITDs, 120 band peaks, 40 x 257 bins);
 * the search for a voice out of view (avcore.voices.unexplained_voice) on NAO's array, 20 ITD vectors from a talker
   53 degrees to the left and two faces in view (the fusion thread runs it once a result with several pairs);
 * the self-calibration's search for an array's turn (avcore.selfcal.ArrayYawCalibration.fit) over 600 time frames;
@@ -34,6 +35,7 @@ import numpy as np  # noqa: E402
 
 from avcore.geometry import MicArray, MicPair  # noqa: E402
 from avcore.inference import FaceGuidedHearing, MotionGuidedHearing, MotionGuidedParams  # noqa: E402
+from avcore.itd.pairs import FrameBins  # noqa: E402
 from sim.synthetic import generate_sequence  # noqa: E402
 
 
@@ -78,7 +80,22 @@ def bench_face(mics: MicPair | MicArray, repeats: int) -> float:
         times.append(time.perf_counter() - t0)
     pairs = f"{talker.size} pairs" if talker.size > 1 else "1 pair "
     print(f"FaceGuidedHearing.step 3 faces, 20 ITDs, {pairs}:      {_stats(times)}")
-    return float(np.median(times))
+    plain = float(np.median(times))
+    # the speaking test's later looks as the pipeline passes them: 40 frames' ITDs, their bands' peaks (3 a frame)
+    # and their bins (257, a 32 ms frame at 16 kHz) on every pair
+    frames = rng.normal(talker, 25e-6, (40, talker.size))
+    bands = rng.normal(talker, 30e-6, (120, talker.size))
+    shape = (40, talker.size, 257)
+    bins = FrameBins(np.linspace(-0.2, 0.2, 40), (rng.normal(size=shape) + 1j * rng.normal(size=shape))
+                     .astype(np.complex64), np.linspace(0.0, 8000.0, 257))
+    for label, extra in (("+ frames, bands", {}), ("+ frames, bands, bins", {"frame_bins": bins})):
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            fg.step(faces, itds, frame_itds_s=frames, band_itds_s=bands, **extra)
+            times.append(time.perf_counter() - t0)
+        print(f"  {label:22s} ({pairs}):          {_stats(times)}")
+    return plain
 
 
 def bench_sklearn(mics: MicPair, intervals: list, n_runs: int) -> None:
