@@ -139,7 +139,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         help="each person's voice from the microphones in drawn rooms: SI-SDR improvement of each candidate",
         description="Draw each room from its seed (as eval rooms), keep each talker's own signals, and take every "
         "person's voice from all the microphones by each candidate (delay-and-sum, MVDR from the person's silent "
-        "frames, either with the direction mask, and the oracle mask), steered at the person's face and told when "
+        "frames, either with the direction mask, the stream avhear hands out; and three oracles that know each "
+        "talker's signals: the ideal mask, the talker's own image, the multichannel Wiener filter), steered at the "
+        "person's face and told when "
         "they are silent by the truth. Prints each candidate's SI-SDR improvement over the reference microphone "
         "against the person's dry speech, where they talk alone and where another talks at once.",
     )

@@ -11,7 +11,12 @@ the truth's speaking states (what a perfect speaking state would give):
 * ``stream``: what the pipeline hands out (:class:`avcore.separation.VoiceSeparator`: MVDR learned online, from
   the people of ``voice_delay_s`` earlier, resampled and overlap-added), fed the truth's places and states;
 * ``oracle-mask``: the reference microphone under the ideal ratio mask of the person's own image (the upper bound
-  of a mask on one microphone).
+  of a mask on one microphone, which keeps the image's reverberation);
+* ``oracle-image``: the person's own image at the reference microphone, alone (perfect separation that keeps the
+  reverberation);
+* ``oracle-mwf``: the multichannel Wiener filter fitted with the truth, one filter of all the microphones per STFT
+  frequency for the whole room, E|d - w^H x|^2 least with d the dry reference below (the upper bound of any fixed
+  linear beamformer of this frame: it also undoes the reverberation that one frame of 32 ms can reach).
 
 Each is scored by SI-SDR (``fast_bss_eval``) and STOI (``pystoi``, Taal et al. 2011: the intelligibility a listener
 or a recogniser would find, 0-1) against the person's dry speech delayed by the direct path to the
@@ -31,7 +36,8 @@ from avcore import beamform as bf
 
 __all__ = ["CANDIDATES", "VoiceRow", "evaluate_voices", "summarise"]
 
-CANDIDATES: tuple[str, ...] = ("ds", "mvdr", "ds+mask", "mvdr+mask", "stream", "oracle-mask")
+CANDIDATES: tuple[str, ...] = ("ds", "mvdr", "ds+mask", "mvdr+mask", "stream", "oracle-mask", "oracle-image",
+                                 "oracle-mwf")
 _FS, _NFFT, _HOP, _GRID = 16000, 512, 256, 160  # Hz, STFT frame and hop (samples), the segments' grid (10 ms)
 _MIN_SECONDS = 1.0
 Progress = Callable[[str], None]
@@ -68,6 +74,17 @@ def _stoi(reference: np.ndarray, estimate: np.ndarray) -> float:
     from pystoi import stoi
 
     return float(stoi(reference, estimate, _FS, extended=False))
+
+
+def _oracle_mwf(spec: np.ndarray, target: np.ndarray, loading: float = 1e-9) -> np.ndarray:
+    """The multichannel Wiener filter's output (F, T): per frequency, w = R_xx^-1 r_xd over all frames, with
+    ``spec`` (Q, F, T) the microphones and ``target`` (F, T) the wanted signal (``loading`` times the trace keeps
+    R_xx invertible in silent bands)."""
+    cov = np.einsum("qft,rft->fqr", spec, spec.conj())
+    cov += loading * np.trace(cov, axis1=1, axis2=2).real[:, None, None] * np.eye(spec.shape[0])
+    cross = np.einsum("qft,ft->fq", spec, target.conj())
+    weights = np.linalg.solve(cov, cross[..., None])[..., 0]  # (F, Q)
+    return np.einsum("fq,qft->ft", weights.conj(), spec)
 
 
 def _delayed(signal: np.ndarray, delay_s: float) -> np.ndarray:
@@ -115,10 +132,12 @@ def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | N
         weights = bf.mvdr_weights(bf.covariance(spec, ~talking_frames[:, k]), steers[k])
         mask = bf.direction_mask(spec, steers, k)
         ds, mvdr = bf.delay_and_sum(spec, steers[k]), bf.apply(weights, spec)
+        dry = stft(reference, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[2]
         outputs = {"ds": ds, "mvdr": mvdr, "ds+mask": ds * mask, "mvdr+mask": mvdr * mask,
-                   "oracle-mask": spec[0] * ideal}
+                   "oracle-mask": spec[0] * ideal, "oracle-mwf": _oracle_mwf(spec, dry)}
         waves = {name: wave(y) for name, y in outputs.items()}
         waves["stream"] = streams[k]
+        waves["oracle-image"] = audio.images[k, 0].astype(np.float64)
         mixture = x[0]
         others = np.delete(talking, k, axis=1).any(axis=1)
         for kind, where in (("alone", talking[:, k] & ~others), ("overlap", talking[:, k] & others)):

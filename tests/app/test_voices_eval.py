@@ -15,17 +15,23 @@ pytest.importorskip("fast_bss_eval")
 def test_eval_voices_scores_every_candidate_alone_and_in_overlap(capsys: pytest.CaptureFixture[str]) -> None:
     """Room 1 (three people, a third of the speech overlapped) with the ReSpeaker 4, 12 s: every person with a second
     of speech alone or overlapped has a row; the oracle mask, which knows the talker's own signal, gains where
-    another talks at once, and the reference microphone scores worse in overlap than alone."""
+    another talks at once, the truth's multichannel Wiener filter gains more than MVDR and delay-and-sum, and the
+    reference microphone scores worse in overlap than alone."""
     assert main(["eval", "voices", "--seed", "1", "--mics", "respeaker4", "--duration", "12", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     rows = out["rows"]
     assert rows and {r["kind"] for r in rows} <= {"alone", "overlap"}
-    assert all(set(r["improvement_db"]) == {"ds", "mvdr", "ds+mask", "mvdr+mask", "stream", "oracle-mask"}
-               for r in rows)
+    assert all(set(r["improvement_db"]) == {"ds", "mvdr", "ds+mask", "mvdr+mask", "stream", "oracle-mask",
+                                            "oracle-image", "oracle-mwf"} for r in rows)
     over = [r for r in rows if r["kind"] == "overlap"]
     alone = [r for r in rows if r["kind"] == "alone"]
     assert over and alone
     assert np.mean([r["improvement_db"]["oracle-mask"] for r in over]) > 1.0
+    # the truth's Wiener filter of all the microphones bounds every fixed beamformer: above MVDR and delay-and-sum
+    for kind in (over, alone):
+        mwf = np.mean([r["improvement_db"]["oracle-mwf"] for r in kind])
+        assert mwf > np.mean([r["improvement_db"]["mvdr"] for r in kind]) + 1.0
+        assert mwf > np.mean([r["improvement_db"]["ds"] for r in kind]) + 1.0
     assert np.mean([r["reference_db"] for r in over]) < np.mean([r["reference_db"] for r in alone])
     assert set(out["summary"]) == {"alone", "overlap"}
 
