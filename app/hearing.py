@@ -37,6 +37,7 @@ from avcore.lips import (
 )
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
+from avcore.own_itd import OwnItds
 from avcore.selfcal import ArrayYawCalibration, SelfCalibration, SelfCalibrationFit, YawFit
 from avcore.speaking import SpeakingVote
 from avcore.sync import TimeFrame
@@ -160,15 +161,18 @@ class LipReader:
 
 @dataclass(eq=False)
 class FaceGuided:
-    """Algorithm 2 (module docstring); with ``config.lips`` the face mesh on every face and the lips' veto
-    (:mod:`avcore.lips`)."""
+    """Algorithm 2 (module docstring), each person heard where their voice is (``config.own_itds``:
+    :mod:`avcore.own_itd`); with ``config.lips`` the face mesh on every face and the lips' veto (:mod:`avcore.lips`)."""
 
     config: PipelineConfig
     _lips: LipReader | None = field(default=None, init=False, repr=False)
     _voices: VoiceTracks = field(default_factory=VoiceTracks, init=False, repr=False)
     _unexplained: tuple = field(default=(None, None), init=False, repr=False)  # (stamp, VoiceDirection | None)
+    _own: OwnItds | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
+        if self.config.own_itds and self.config.face_variant != "paper":
+            self._own = OwnItds()
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
             self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s,
                                    self.config.lip_mesh_every)
@@ -251,7 +255,8 @@ class FaceGuided:
         found = unexplained_voice(itds, hearing.array, vision.xyz) if hearing.array.n_pairs >= 2 else None
         self._unexplained = (vision.stamp_s, found)
         if vision.lip_activity is None:
-            return hearing.step(vision.xyz, itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
+            return self._heard(found is None, hearing, vision.xyz, itds, times_s - vision.stamp_s, frames, bands,
+                               None if found else bins)
         xyz = np.asarray(vision.xyz, dtype=np.float64).reshape(-1, 3)
         itds_of_faces = hearing.array.itd(xyz).reshape(len(xyz), hearing.array.n_pairs)
         assert self._lips is not None
@@ -263,7 +268,8 @@ class FaceGuided:
         for k, g in enumerate(groups):
             owner[g] = k
         alone = np.bincount(owner, minlength=len(groups))[owner] == 1
-        out = hearing.step(xyz[ones], itds, times_s - vision.stamp_s, frames, bands, None if found else bins)
+        out = self._heard(found is None, hearing, xyz[ones], itds, times_s - vision.stamp_s, frames, bands,
+                          None if found else bins)
         if len(ones) < len(xyz):
             out = replace(out, speaking=out.speaking[owner], probability=out.probability[owner],
                           itd_means=out.itd_means[owner], itd_counts=out.itd_counts[owner],
@@ -285,6 +291,21 @@ class FaceGuided:
         if vision.lip_relative is None or synchrony is None:
             return out
         return self._lips.join(out, lips, vision.lip_relative, synchrony)
+
+    def _heard(self, learn: bool, hearing: Any, xyz: np.ndarray, itds: np.ndarray, *rest: Any) -> Any:
+        """``hearing.step`` with each person where their voice is heard (:class:`avcore.own_itd.OwnItds`), which
+        then learns from what the windows' test heard alone, unless ``learn`` is False (the ITDs hold a voice no
+        face explains, which could lie near the one person heard)."""
+        if self._own is None:
+            return hearing.step(xyz, itds, *rest)
+        n_pairs = hearing.array.n_pairs
+        mapped = hearing.array.itd(np.asarray(xyz, dtype=np.float64).reshape(-1, 3)).reshape(-1, n_pairs)
+        out = hearing.step(xyz, itds, *rest, self._own.offsets(mapped))
+        if not learn:
+            return out
+        alone = out.speaking if out.rescued is None else out.speaking & ~out.rescued
+        self._own.update(mapped, np.asarray(itds, dtype=np.float64).reshape(-1, n_pairs), alone)
+        return out
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
         return vision.xyz

@@ -44,6 +44,9 @@ class PipelineConfig:
         (default: the installed package's); tflite_runtime : "opencv" (OpenCV's DNN) or "litert".
     self_calibrate : face-guided: learn the correction c1, c0 of every pair while running
         (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
+    own_itds : face-guided, avhear's variant: each person's Gaussian sits where their voice is heard, learned
+        while the windows' test hears them alone (:class:`avcore.own_itd.OwnItds`), not only at the free-field
+        mapping of their face.
     lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): still lips (under
         ``lip_still_below``) are not speaking; faces within ``lip_same_direction_s`` on every pair are heard as
         one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its range);
@@ -69,6 +72,7 @@ class PipelineConfig:
     face_detector: Literal["auto", "haar", "blazeface"] = "auto"
     latency: Literal["default", "low"] = "default"
     self_calibrate: bool = False
+    own_itds: bool = True
     face_model: str | None = None
     tflite_runtime: Literal["opencv", "litert"] = "opencv"
     lips: bool = False

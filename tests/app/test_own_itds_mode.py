@@ -1,0 +1,65 @@
+"""Each person's own ITD in the application: the face-guided mode learns it from its own results and hears each
+person there; --no-own-itds and the paper's variant keep the mapping."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.hearing import FaceGuided, Vision
+from app.pipeline import PipelineConfig
+from avcore.geometry import MicArray, MicPair
+from avcore.inference import FaceGuidedHearing
+
+_FACES = np.array([[2.0 * np.sin(np.radians(a)), 0.0, 2.0 * np.cos(np.radians(a))] for a in (-25.0, -13.0)])
+
+
+def _run(config: PipelineConfig, results: int = 90) -> tuple[np.ndarray, list]:
+    """A talker at -25 degrees alone, pulled to 0.8 of the mapping, a silent neighbour at -13: the neighbour's
+    states over ``results`` results, and the mean offsets the mode handed the hearing each time."""
+    hearing = FaceGuidedHearing(MicArray.from_pair(MicPair()))
+    given: list = []
+    real = hearing.step
+
+    def step(*args: object) -> object:
+        given.append(args[6] if len(args) > 6 else None)
+        return real(*args)  # type: ignore[arg-type]
+
+    hearing.step = step  # type: ignore[method-assign]
+    mode = FaceGuided(config)
+    mapped = hearing.array.itd(_FACES).reshape(2, 1)
+    rng = np.random.default_rng(4)
+    neighbour = []
+    for r in range(results):
+        itds = (0.8 * mapped[0, 0] + rng.laplace(0.0, 8e-6, 20))[:, None]
+        vision = Vision(r / 30, None, np.zeros((2, 4)), _FACES)
+        out = mode.step(hearing, vision, itds, np.full(20, r / 30), lambda: (None, None, None))
+        neighbour.append(bool(out.speaking[1]))
+    return np.array(neighbour), given
+
+
+def test_the_mode_learns_each_persons_own_itd_and_stops_calling_the_neighbour() -> None:
+    neighbour, given = _run(PipelineConfig())
+    assert neighbour[:10].any() and not neighbour[-30:].any()
+    assert given[0] is not None and not given[0].any()  # nothing known at first
+    assert given[-1][0, 0] > 20e-6 and given[-1][1, 0] == 0.0  # the talker's pull learned; the neighbour's none
+
+
+@pytest.mark.parametrize("config", [PipelineConfig(own_itds=False), PipelineConfig(face_variant="paper")],
+                         ids=["--no-own-itds", "paper"])
+def test_without_own_itds_and_in_the_papers_variant_each_person_stays_at_the_mapping(config: PipelineConfig
+                                                                                     ) -> None:
+    neighbour, given = _run(config, results=40)
+    assert all(g is None for g in given)
+    if config.face_variant == "avhear":
+        assert neighbour[-20:].mean() > 0.5  # the pull keeps the neighbour called
+
+
+@pytest.mark.parametrize(("argv", "expected"), [([], True), (["--no-own-itds"], False)])
+def test_the_option_reaches_the_config(argv: list[str], expected: bool) -> None:
+    import argparse
+
+    from app.commands.options import add_method_arguments, pipeline_config
+
+    parser = argparse.ArgumentParser()
+    add_method_arguments(parser)
+    assert pipeline_config(parser.parse_args(argv), one_camera=False).own_itds is expected
