@@ -68,11 +68,12 @@ def test_the_bins_claim_nobody_while_a_voice_out_of_view_holds_the_itds() -> Non
         return np.tile([d[i] - d[j] for i, j in array.pairs], (6, 1))
 
     seen: list = []
-    hearing = SimpleNamespace(array=array, step=lambda *a: seen.append(a[-1]) or "out")
+    out = SimpleNamespace(speaking=np.array([False]), rescued=None)  # what the own ITDs read of a step's output
+    hearing = SimpleNamespace(array=array, step=lambda *a: seen.append(a[5]) or out)  # a[5]: the frames' bins
     mode = FaceGuided(PipelineConfig())
     face = np.array([[0.3, 0.0, 2.0]])
     vision = Vision(1.0, None, np.array([[300, 200, 40, 40]]), face)  # type: ignore[arg-type]
     unseen = [2.0 * np.sin(np.radians(-60)), 0.0, 2.0 * np.cos(np.radians(-60))]
     near = lambda: (None, None, "the bins")  # noqa: E731
-    assert mode.step(hearing, vision, itds_from(unseen), np.zeros(6), near) == "out" and seen[-1] is None
-    assert mode.step(hearing, vision, itds_from(face[0]), np.zeros(6), near) == "out" and seen[-1] == "the bins"
+    assert mode.step(hearing, vision, itds_from(unseen), np.zeros(6), near) is out and seen[-1] is None
+    assert mode.step(hearing, vision, itds_from(face[0]), np.zeros(6), near) is out and seen[-1] == "the bins"
