@@ -42,11 +42,8 @@ class PipelineConfig:
     face_detector : "auto" (BlazeFace when its model is installed, else Haar's cascade with a notice),
         "blazeface" (:mod:`avcore.blazeface`) or "haar" (OpenCV 4 only); face_model : the BlazeFace model file
         (default: the installed package's); tflite_runtime : "opencv" (OpenCV's DNN) or "litert".
-    self_calibrate : face-guided: learn the correction c1, c0 of every pair while running
-        (:class:`app.hearing.SelfCalibrating`); the stats report where it stands.
-    own_itds : face-guided, avhear's variant: each person's Gaussian sits where their voice is heard, learned
-        while the windows' test hears them alone (:class:`avcore.own_itd.OwnItds`), not only at the free-field
-        mapping of their face.
+    self_calibrate : face-guided: learn every pair's c1, c0 while running (:class:`app.hearing.SelfCalibrating`).
+        own_itds : face-guided: each person heard where their voice is (:class:`avcore.own_itd.OwnItds`).
     lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): still lips (under
         ``lip_still_below``) are not speaking; faces within ``lip_same_direction_s`` on every pair are heard as
         one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its range);
