@@ -1,9 +1,9 @@
 """Each person's own ITD: where a person's voice is heard, learned while they talk alone (beyond the paper).
 
 Eq. (itd_up) maps a face to the ITD its voice would have in free field, and Algorithm 2 anchors each person's
-Gaussian there. A room moves the peaks: its reflections pull a talker's ITDs towards the front (docs/method.md), so a
-lone talker's ITDs fall nearer a neighbour between them and the front, and the neighbour is called speaking. Section 5.3's calibration removes the pull for
-one rig in one room; a robot nobody calibrated still has it.
+Gaussian there. A room moves the peaks: its reflections pull a talker's ITDs towards the front (docs/method.md), so
+a lone talker's ITDs fall nearer a neighbour between them and the front, and the neighbour is called speaking.
+Section 5.3's calibration removes the pull for one rig in one room; a robot nobody calibrated still has it.
 
 Where the windows' test (not a later look) calls exactly one person speaking, the window ITDs within ``window_s``
 of that person's mean (their own voice, if they are alone) say where the person is heard: their median minus the
