@@ -26,7 +26,7 @@ class PipelineConfig:
     decision_window_s : face-guided: decide on the ITDs within +- this of the stamp only (EM still fits on the
         whole time frame; :class:`avcore.inference.FaceGuidedParams`); None: on all of them, as the paper.
     frame_itds : face-guided with "gcc-phat-robust": the speaking test's later looks, at the single 32 ms frames'
-        ITDs, their frequency bands' peaks and, with an array, their bins (:class:`avcore.speaking.SpeakingTest`).
+        ITDs, their frequency bands' peaks and their bins, one pair's too (:class:`avcore.speaking.SpeakingTest`).
     vote_frames : face-guided: each person's state is the majority over this many results centred on it
         (:func:`avcore.speaking.vote_speaking`): results leave ``vote_frames // 2`` frames later; 1: no vote.
     rescue_gap_s : face-guided: a call only the later looks make stands while the person's last call that stood is
@@ -42,8 +42,8 @@ class PipelineConfig:
     face_detector : "auto" (BlazeFace when its model is installed, else Haar's cascade with a notice),
         "blazeface" (:mod:`avcore.blazeface`) or "haar" (OpenCV 4 only); face_model : the BlazeFace model file
         (default: the installed package's); tflite_runtime : "opencv" (OpenCV's DNN) or "litert".
-    self_calibrate : face-guided: learn every pair's c1, c0 while running (:class:`app.hearing.SelfCalibrating`).
-        own_itds : face-guided: each person heard where their voice is (:class:`avcore.own_itd.OwnItds`).
+    self_calibrate, own_itds : face-guided: learn every pair's c1, c0 while running (:class:`app.hearing.
+        SelfCalibrating`); hear each person where their voice is heard (:class:`avcore.own_itd.OwnItds`).
     lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): still lips (under
         ``lip_still_below``) are not speaking; faces within ``lip_same_direction_s`` on every pair are heard as
         one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its range);

@@ -50,7 +50,7 @@ def test_each_pair_learns_its_own_and_a_moved_person_starts_afresh() -> None:
     assert not own.offsets(mapped + 30e-6).any()
 
 
-def test_offsets_move_the_persons_means_for_em_and_every_look() -> None:
+def test_offsets_move_the_persons_means_and_must_fit_the_faces() -> None:
     hearing = FaceGuidedHearing(MicPair())
     faces = np.array([[-0.8, 0.0, 2.0], [0.6, 0.0, 2.0]])
     itds = np.full(10, 1e-4)
