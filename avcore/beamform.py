@@ -25,7 +25,7 @@ import numpy as np
 
 from avcore.geometry import SPEED_OF_SOUND
 
-__all__ = ["apply", "covariance", "delay_and_sum", "direction_mask", "mvdr_weights", "steering"]
+__all__ = ["apply", "covariance", "delay_and_sum", "diffuse_coherence", "direction_mask", "mvdr_weights", "steering"]
 
 
 def steering(positions_m: np.ndarray, source_xyz: np.ndarray, freqs_hz: np.ndarray,
@@ -36,6 +36,16 @@ def steering(positions_m: np.ndarray, source_xyz: np.ndarray, freqs_hz: np.ndarr
     dist = np.linalg.norm(mics - np.asarray(source_xyz, dtype=np.float64).reshape(1, 3), axis=1)
     delays = (dist - dist[0]) / speed_of_sound  # (Q,) seconds after the reference microphone
     return np.exp(-2j * np.pi * np.asarray(freqs_hz, dtype=np.float64)[:, None] * delays[None, :])
+
+
+def diffuse_coherence(positions_m: np.ndarray, freqs_hz: np.ndarray, speed_of_sound: float = SPEED_OF_SOUND
+                      ) -> np.ndarray:
+    """(F, Q, Q): the coherence of a spherically isotropic (diffuse) field between the microphones at
+    ``positions_m`` (Q, 3), ``sin(2 pi f d / c) / (2 pi f d / c)`` for microphones ``d`` apart (Cook et al. 1955):
+    the model of a room's late reverberation, which reaches the array from every direction at once."""
+    mics = np.asarray(positions_m, dtype=np.float64).reshape(-1, 3)
+    dist = np.linalg.norm(mics[:, None, :] - mics[None, :, :], axis=2)
+    return np.sinc(2.0 * np.asarray(freqs_hz, dtype=np.float64)[:, None, None] * dist[None] / speed_of_sound)
 
 
 def apply(weights: np.ndarray, stft: np.ndarray) -> np.ndarray:

@@ -62,3 +62,21 @@ def test_covariance_of_no_frame_is_zero_and_mvdr_falls_back_to_delay_and_sum() -
     assert cov.shape == (257, 4, 4) and not cov.any()
     steer = bf.steering(ARRAY, np.array([0.0, 0.0, 1.0]), FREQS)
     np.testing.assert_allclose(bf.mvdr_weights(cov, steer), steer / 4)
+
+
+def test_diffuse_coherence_is_that_of_sound_from_every_direction() -> None:
+    """Many independent plane waves from directions spread over the sphere: their measured coherence between the
+    microphones is the model's sinc, and each microphone's with itself is 1."""
+    rng = np.random.default_rng(1)
+    directions = rng.standard_normal((4000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    freqs = np.array([500.0, 2000.0, 5000.0])
+    # each wave's delay at each microphone, and a random phase of its own
+    delays = ARRAY @ directions.T / 343.0  # (Q, K)
+    x = np.exp(-2j * np.pi * freqs[:, None, None] * delays[None] + 2j * np.pi * rng.random(4000)[None, None])
+    measured = np.einsum("fqk,fpk->fqp", x, x.conj()).real / 4000  # (F, Q, Q)
+    model = bf.diffuse_coherence(ARRAY, freqs)
+    assert model.shape == (3, 4, 4)
+    np.testing.assert_allclose(np.diagonal(model, axis1=1, axis2=2), 1.0)
+    np.testing.assert_allclose(measured, model, atol=0.06)
+    assert model[2, 0, 2] < 0.5 < model[0, 0, 2]  # far apart in wavelengths: little in common

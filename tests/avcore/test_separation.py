@@ -169,3 +169,27 @@ def test_bad_inputs_are_named() -> None:
         separator.push_audio(0.0, np.zeros((100, 3)))
     with pytest.raises(ValueError, match="disagree"):
         separator.push_people(0.0, np.array([1, 2]), TALKER[None], np.array([True]))
+
+
+def test_the_voices_own_reverberation_is_taken_down_with_the_diffuse_term() -> None:
+    """A room's late reverberation comes with the voice and from every direction: here a field of many far sources
+    that sound only while the talker talks, so the talker's silences teach MVDR nothing of it. With the diffuse
+    term (the talker's power spread over the sphere's coherence) the stream keeps more of the voice against it
+    than without."""
+    fs, seconds = 16000, 4.0
+    n = int(fs * seconds)
+    rng = np.random.default_rng(7)
+    on = (np.arange(n) % fs) < 0.6 * fs  # the talker talks 0.6 s of every second
+    target = _speech_like(n, fs, 11) * on
+    field = np.zeros((n, 4))
+    for k in range(48):
+        direction = rng.standard_normal(3)
+        field += _at_mics(_speech_like(n, fs, 100 + k) * on, fs, 30.0 * direction / np.linalg.norm(direction))
+    field *= 0.5 * np.std(target[on]) / np.std(field[on, 0])
+    mixture = _at_mics(target, fs, TALKER) + field
+    people = [(t, np.array([3]), TALKER[None], np.array([(t % 1.0) < 0.6])) for t in np.arange(0, seconds, 1 / 30)]
+    ref = _at_mics(target, fs, TALKER)[:, 0]
+    late = np.flatnonzero(on & (np.arange(n) >= 2 * fs))  # once learned, while the talker talks
+    got = {d: _run(VoiceSeparator(MICS, fs, diffuse=d), mixture, fs, people, 512)[3][:n] for d in (0.0, 1.0)}
+    gain = _snr_db(ref[late], got[1.0][late]) - _snr_db(ref[late], got[0.0][late])
+    assert gain > 0.8  # 1.25 dB measured (0.3: 1.27, 3.0: 1.24)
