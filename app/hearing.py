@@ -204,8 +204,13 @@ class FaceGuided:
         return face_detector(self.config)
 
     def hearing(self, mics: MicPair | MicArray) -> FaceGuidedHearing | SelfCalibrating:
+        """Algorithm 2 on ``mics``. A calibrated mapping (section 5.3's c1, c0 on any pair) already says where the
+        voices are heard, and each person's own ITD is not learned on top of it (docs/method.md)."""
         params = FaceGuidedParams.paper() if self.config.face_variant == "paper" else FaceGuidedParams()
         hearing = FaceGuidedHearing(mics, replace(params, decision_window_s=self.config.decision_window_s))
+        array = hearing.array
+        if np.any(np.asarray(array.c1) != 1.0) or np.any(np.asarray(array.c0) != 0.0):
+            self._own = None
         return SelfCalibrating(hearing) if self.config.self_calibrate else hearing
 
     @property

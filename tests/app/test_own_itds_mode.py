@@ -13,10 +13,12 @@ from avcore.inference import FaceGuidedHearing
 _FACES = np.array([[2.0 * np.sin(np.radians(a)), 0.0, 2.0 * np.cos(np.radians(a))] for a in (-25.0, -13.0)])
 
 
-def _run(config: PipelineConfig, results: int = 90) -> tuple[np.ndarray, list]:
+def _run(config: PipelineConfig, results: int = 90, mics: MicPair | None = None) -> tuple[np.ndarray, list]:
     """A talker at -25 degrees alone, pulled to 0.8 of the mapping, a silent neighbour at -13: the neighbour's
-    states over ``results`` results, and the mean offsets the mode handed the hearing each time."""
-    hearing = FaceGuidedHearing(MicArray.from_pair(MicPair()))
+    states over ``results`` results, and the mean offsets the mode handed the hearing each time. ``mics``: the
+    hearing the mode builds for them (default: the nominal pair's, built here)."""
+    mode = FaceGuided(config)
+    hearing = FaceGuidedHearing(MicArray.from_pair(MicPair())) if mics is None else mode.hearing(mics)
     given: list = []
     real = hearing.step
 
@@ -25,7 +27,6 @@ def _run(config: PipelineConfig, results: int = 90) -> tuple[np.ndarray, list]:
         return real(*args)  # type: ignore[arg-type]
 
     hearing.step = step  # type: ignore[method-assign]
-    mode = FaceGuided(config)
     mapped = hearing.array.itd(_FACES).reshape(2, 1)
     rng = np.random.default_rng(4)
     neighbour = []
@@ -52,6 +53,15 @@ def test_without_own_itds_and_in_the_papers_variant_each_person_stays_at_the_map
     assert all(g is None for g in given)
     if config.face_variant == "avhear":
         assert neighbour[-20:].mean() > 0.5  # the pull keeps the neighbour called
+
+
+def test_a_calibrated_mapping_is_not_learned_on_top_of() -> None:
+    """Section 5.3's c1, c0 say where the voices are heard: on a calibrated pair the mode learns no offsets; on the
+    nominal one, built the same way, it does."""
+    _, given = _run(PipelineConfig(), results=40, mics=MicPair(c1=0.8))
+    assert all(g is None for g in given)
+    _, given = _run(PipelineConfig(), results=40, mics=MicPair())
+    assert given[-1] is not None and given[-1][0, 0] > 5e-6
 
 
 @pytest.mark.parametrize(("argv", "expected"), [([], True), (["--no-own-itds"], False)])
