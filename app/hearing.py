@@ -145,12 +145,15 @@ class LipReader:
                                                 still_below, relative)
         return replace(output, speaking=speaking, probability=probability)
 
-    def join(self, output: Any, activity: np.ndarray, relative: np.ndarray, synchrony: np.ndarray) -> Any:
+    def join(self, output: Any, activity: np.ndarray, relative: np.ndarray, synchrony: np.ndarray,
+             trusted: np.ndarray | None = None) -> Any:
         """``output`` with the faces whose lips move with the sound (``synchrony``: :meth:`synchrony`) speaking too
         while another is heard (:func:`avcore.lips.lips_with_the_words`), and a call of the speaking test's later
         looks on lips that move with the sound no longer a rescue (:class:`avcore.speaking.RescueContinuity`: the
-        lips may start speech)."""
-        speaking, probability = lips_with_the_words(output.speaking, output.probability, activity, relative,
+        lips may start speech). Only lips that have earned trust (``trusted``, (N,) bool; None: all) add a talker:
+        a face whose lips never moved with its own voice gives no opinion, here as in the veto."""
+        joining = relative if trusted is None else np.where(np.asarray(trusted, dtype=bool), relative, np.nan)
+        speaking, probability = lips_with_the_words(output.speaking, output.probability, activity, joining,
                                                     synchrony)
         rescued = getattr(output, "rescued", None)
         if rescued is not None:
@@ -250,7 +253,8 @@ class FaceGuided:
         with the lips' cue, faces that direction cannot tell apart (:func:`avcore.lips.same_direction_groups`,
         within ``lip_same_direction_s``) are one object for the hearing, whose words go to the face whose lips move
         (:func:`avcore.lips.choose_by_lips`), the faces whose lips are still are not speaking, and while one face
-        is heard, another whose lips move with the sound speaks too (:func:`avcore.lips.lips_with_the_words`).
+        is heard, another whose trusted lips move with the sound speaks too
+        (:func:`avcore.lips.lips_with_the_words`).
 
         With several pairs, where the ITDs hold a voice that no visible face explains (:func:`unexplained_voice`),
         the bins' look is not taken for this result: a bin of that voice agrees best with whichever visible person
@@ -295,7 +299,7 @@ class FaceGuided:
                               (vision.stamp_s - before, vision.stamp_s + after), synchrony)
         if vision.lip_relative is None or synchrony is None:
             return out
-        return self._lips.join(out, lips, vision.lip_relative, synchrony)
+        return self._lips.join(out, lips, vision.lip_relative, synchrony, trusted)
 
     def _heard(self, learn: bool, hearing: Any, xyz: np.ndarray, itds: np.ndarray, *rest: Any) -> Any:
         """``hearing.step`` with each person where their voice is heard (:class:`avcore.own_itd.OwnItds`), which
