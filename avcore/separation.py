@@ -12,8 +12,8 @@ eventually retrieve a clean speech signal". :class:`VoiceSeparator` is the strea
 * plus the person's own reverberation, which their silences cannot show: a diffuse field
   (:func:`avcore.beamform.diffuse_coherence`) of ``diffuse`` times their voice's own power (the microphones' power
   while they talk less ``R``'s), so that MVDR also turns down what reaches the array from every direction while
-  they talk (a room's late reverberation; the dereverberating MVDR of Habets et al.'s joint dereverberation and
-  noise reduction), measured in docs/results.md;
+  they talk (a room's late reverberation; MVDR against a diffuse field is the superdirective beamformer, Bitzer
+  and Simmer 2001), measured in docs/results.md;
 * the output is resampled to ``out_rate_hz`` (16 kHz, what recognisers take) in the same inverse transform (the
   bins up to its Nyquist frequency), and overlap-added: a stream per person that goes on through their silence.
 
@@ -242,9 +242,10 @@ class VoiceSeparator:
             if state is None:
                 continue
             outer = np.einsum("fq,fp->fqp", x, np.conj(x))
+            now = np.mean(np.abs(x) ** 2, axis=1)  # (F,) the microphones' mean power
             for pid, talking in zip(state.ids.tolist(), state.speaking.tolist()):
                 if talking:
-                    power, now = self._power.get(pid), np.mean(np.abs(x) ** 2, axis=1)
+                    power = self._power.get(pid)
                     self._power[pid] = (1 - self._decay) * now if power is None else (
                         self._decay * power + (1 - self._decay) * now)
                     continue
