@@ -37,6 +37,7 @@ from avcore.lips import (
 )
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
+from avcore.bin_spill import BinSpill
 from avcore.own_itd import OwnItds
 from avcore.selfcal import ArrayYawCalibration, SelfCalibration, SelfCalibrationFit, YawFit
 from avcore.speaking import SpeakingVote
@@ -165,17 +166,22 @@ class LipReader:
 @dataclass(eq=False)
 class FaceGuided:
     """Algorithm 2 (module docstring), each person heard where their voice is (``config.own_itds``:
-    :mod:`avcore.own_itd`); with ``config.lips`` the face mesh on every face and the lips' veto (:mod:`avcore.lips`)."""
+    :mod:`avcore.own_itd`) and each talker's spill onto the neighbours' bins learned (``config.bin_spill``:
+    :mod:`avcore.bin_spill`); with ``config.lips`` the face mesh on every face and the lips' veto
+    (:mod:`avcore.lips`)."""
 
     config: PipelineConfig
     _lips: LipReader | None = field(default=None, init=False, repr=False)
     _voices: VoiceTracks = field(default_factory=VoiceTracks, init=False, repr=False)
     _unexplained: tuple = field(default=(None, None), init=False, repr=False)  # (stamp, VoiceDirection | None)
     _own: OwnItds | None = field(default=None, init=False, repr=False)
+    _spill: BinSpill | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.config.own_itds and self.config.face_variant != "paper":
             self._own = OwnItds()
+        if self.config.bin_spill and self.config.face_variant != "paper":
+            self._spill = BinSpill()
         if self.config.lips:  # the model is found (or a UserError says how to get it) before anything runs
             self._lips = LipReader(self.config.tflite_runtime, self.config.lip_earn_trust, self.config.lip_synced_s,
                                    self.config.lip_mesh_every)
@@ -284,7 +290,8 @@ class FaceGuided:
                           itd_means=out.itd_means[owner], itd_counts=out.itd_counts[owner],
                           model=out.model.shared(owner),
                           pair_itd_means=None if out.pair_itd_means is None else out.pair_itd_means[owner],
-                          rescued=None if out.rescued is None else out.rescued[owner])
+                          rescued=None if out.rescued is None else out.rescued[owner],
+                          bin_share=None if out.bin_share is None else out.bin_share[owner])
             speaking, probability = choose_by_lips(out.speaking, out.probability, vision.lip_relative, groups,
                                                    self.config.lip_both_above)
             out = replace(out, speaking=speaking, probability=probability)
@@ -302,18 +309,26 @@ class FaceGuided:
         return self._lips.join(out, lips, vision.lip_relative, synchrony, trusted)
 
     def _heard(self, learn: bool, hearing: Any, xyz: np.ndarray, itds: np.ndarray, *rest: Any) -> Any:
-        """``hearing.step`` with each person where their voice is heard (:class:`avcore.own_itd.OwnItds`), which
-        then learns from what the windows' test heard alone, unless ``learn`` is False (the ITDs hold a voice no
-        face explains, which could lie near the one person heard)."""
-        if self._own is None:
-            return hearing.step(xyz, itds, *rest)
+        """``hearing.step`` with each person where their voice is heard (:class:`avcore.own_itd.OwnItds`) and the
+        bins' claims above the heard talkers' learned spill (:class:`avcore.bin_spill.BinSpill`); both then learn
+        from what the windows' test heard alone, unless ``learn`` is False (the ITDs hold a voice no face explains,
+        which could lie near the one person heard)."""
         n_pairs = hearing.array.n_pairs
+        learner = self._spill if n_pairs >= 2 else None  # one pair's bins claim by their own rule (SpeakingTest)
+        if self._own is None and learner is None:
+            return hearing.step(xyz, itds, *rest)
         mapped = hearing.array.itd(np.asarray(xyz, dtype=np.float64).reshape(-1, 3)).reshape(-1, n_pairs)
-        out = hearing.step(xyz, itds, *rest, self._own.offsets(mapped))
+        offsets = None if self._own is None else self._own.offsets(mapped)
+        means = mapped if offsets is None else mapped + offsets
+        spill = None if learner is None else learner.ratios(means)
+        out = hearing.step(xyz, itds, *rest, mean_offsets_s=offsets, bin_spill=spill)
         if not learn:
             return out
         alone = out.speaking if out.rescued is None else out.speaking & ~out.rescued
-        self._own.update(mapped, np.asarray(itds, dtype=np.float64).reshape(-1, n_pairs), alone)
+        if self._own is not None:
+            self._own.update(mapped, np.asarray(itds, dtype=np.float64).reshape(-1, n_pairs), alone)
+        if learner is not None:
+            learner.update(means, out.bin_share, alone)
         return out
 
     def people_xyz(self, vision: Vision, output: Any) -> np.ndarray:
@@ -522,8 +537,8 @@ class SelfCalibrating:
     def array(self) -> MicArray:
         return self.hearing.array
 
-    def step(self, faces_xyz: np.ndarray, itds_s: np.ndarray, *rest: Any) -> Any:
-        out = self.hearing.step(faces_xyz, itds_s, *rest)
+    def step(self, faces_xyz: np.ndarray, itds_s: np.ndarray, *rest: Any, **options: Any) -> Any:
+        out = self.hearing.step(faces_xyz, itds_s, *rest, **options)
         for p, cal in enumerate(self._cals):
             cal.push(faces_xyz, itds_s[:, p])
         if self._yaw is not None:

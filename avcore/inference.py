@@ -517,6 +517,8 @@ class FaceGuidedOutput:
     pair's); None only in outputs built by hand.
     rescued : (N,) bool, the calls only the speaking test's later looks made
     (:meth:`avcore.speaking.SpeakingTest.decide_all`, for :class:`avcore.speaking.RescueContinuity`); None: none.
+    bin_share : (N,) each person's share of the frames' bins (:func:`avcore.speaking.bin_shares`, for
+    :class:`avcore.bin_spill.BinSpill`); None: the bins were not looked at.
     """
 
     speaking: np.ndarray
@@ -528,6 +530,7 @@ class FaceGuidedOutput:
     n_iter: int
     pair_itd_means: np.ndarray | None = None
     rescued: np.ndarray | None = None
+    bin_share: np.ndarray | None = None
 
 
 def _as_array(mics: object) -> MicArray:
@@ -585,7 +588,7 @@ class FaceGuidedHearing:
 
     def step(self, faces_xyz: object, itds_s: object, itd_offsets_s: object = None,
              frame_itds_s: object = None, band_itds_s: object = None, frame_bins: FrameBins | None = None,
-             mean_offsets_s: object = None) -> FaceGuidedOutput:
+             mean_offsets_s: object = None, bin_spill: object = None) -> FaceGuidedOutput:
         """faces_xyz : (N, 3) float, metres. itds_s : (K, P) float, seconds, one vector per window (NaN where a
         pair has none), or P arrays (each pair's values alone, not aligned); (K,) with one pair.
         itd_offsets_s : (K,) seconds, each ITD window's centre minus the frame's stamp, for
@@ -596,7 +599,9 @@ class FaceGuidedHearing:
         frame_bins : the frames' bins on every pair (``PairsItdStream(frame_bins=True)``), the fourth look
         (:func:`avcore.speaking.bin_shares`); None: none.
         mean_offsets_s : (N, P) seconds added to each face's mapped ITD on each pair (where the person's voice is
-        heard: :class:`avcore.own_itd.OwnItds`), for EM's anchors and every look; None: the mapping alone."""
+        heard: :class:`avcore.own_itd.OwnItds`), for EM's anchors and every look; None: the mapping alone.
+        bin_spill : (N, N) each talker's learned spill onto each neighbour's bins (:class:`avcore.bin_spill.BinSpill`)
+        for the bins' claims; None: none."""
         faces = as_points(faces_xyz, "faces_xyz")
         p, array = self.params, self.array
         n_pairs = array.n_pairs
@@ -629,8 +634,11 @@ class FaceGuidedHearing:
             if frame_bins.bins.shape[1] != n_pairs:
                 raise ValueError(f"frame_bins must hold the array's {n_pairs} pairs, got {frame_bins.bins.shape[1]}")
             share = bin_shares(frame_bins.bins, frame_bins.freqs_hz, means, p.speaking.bin_agreement)
+        spill = None if bin_spill is None or share is None else np.asarray(bin_spill, dtype=np.float64)
+        if spill is not None and spill.shape != (n, n):
+            raise ValueError(f"bin_spill must be (faces, faces) = {(n, n)}, got {spill.shape}")
         d = p.speaking.decide_all(beta[:, :-1], x, fit.means, fit.variances, self._supports, present, frames, bands,
-                                  share)
+                                  share, spill)
         model = Mixture1D.unchecked(fit.weights, fit.means[:, 0].copy(), fit.variances[:, 0].copy(), self.support)
         return FaceGuidedOutput(d.speaking, d.probability, fit.means[:, 0].copy(), beta[:, :-1].sum(axis=0), model,
-                                d.tau_a, fit.n_iter, fit.means.copy(), d.rescued)
+                                d.tau_a, fit.n_iter, fit.means.copy(), d.rescued, share)

@@ -114,6 +114,9 @@ class SpeakingTest:
     two sounds at once (two talkers, or a talker and a steady voice) put a bin's phase between them. So with one
     pair the bins confirm nothing, and while the other looks hear someone they never outvote them: they claim only
     a person whose share is at most the heard talker's (the quieter voice of an overlap), not the person between.
+    With several pairs and ``bin_spill`` (each talker's learned spill onto each neighbour: :mod:`avcore.bin_spill`)
+    a claim also needs a share above ``bin_spill_factor`` times the spill that the talkers the other looks hear
+    would give the person: a lone talker's neighbour is not claimed by the talker's own reverberation.
 
     ``decide(..., present=mask)`` decides on a subset of the ITDs that fitted the model: the face-guided fusion
     fits on the ITDs of the whole time frame and decides on those near the frame's own instant
@@ -139,6 +142,7 @@ class SpeakingTest:
     bin_confirm_share: float = 0.03
     bin_claim_share: float = 0.1
     bin_claim_share_one_pair: float = 0.25
+    bin_spill_factor: float = 1.5
 
     def __post_init__(self) -> None:
         if not -1 <= self.bin_agreement <= 1:
@@ -147,6 +151,8 @@ class SpeakingTest:
             if not 0 <= self.bin_confirm_share <= getattr(self, name) <= 1:
                 raise ValueError(f"need 0 <= bin_confirm_share <= {name} <= 1, got {self.bin_confirm_share!r} "
                                  f"and {getattr(self, name)!r}")
+        if not self.bin_spill_factor >= 0:
+            raise ValueError(f"bin_spill_factor must be >= 0, got {self.bin_spill_factor!r}")
         if self.count_by not in COUNT_BY:
             raise ValueError(f"count_by must be one of {', '.join(COUNT_BY)}, got {self.count_by!r}")
         for name in ("frame_within_s", "frame_spread_s", "band_spread_s"):
@@ -172,7 +178,8 @@ class SpeakingTest:
 
     def decide_all(self, beta: np.ndarray, itds: np.ndarray, means: np.ndarray, variances: np.ndarray,
                    supports: np.ndarray, present: np.ndarray | None = None, frame_itds: np.ndarray | None = None,
-                   band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None) -> Decision:
+                   band_itds: np.ndarray | None = None, bin_share: np.ndarray | None = None,
+                   bin_spill: np.ndarray | None = None) -> Decision:
         """The :class:`Decision`: speaking states (N,), a probability in [0, 1] above 0.5 exactly when speaking,
         tau_A, and ``rescued``, the calls that the windows' test did not make and the later looks did.
 
@@ -246,15 +253,15 @@ class SpeakingTest:
             prob = np.where(between, prob, found_prob)
         if bin_share is not None:
             speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n),
-                                        one_pair=means.shape[1] == 1)
+                                        one_pair=means.shape[1] == 1, spill=bin_spill)
         return Decision(speaking, prob, tau, speaking & ~by_windows)
 
-    def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray, one_pair: bool = False
-              ) -> tuple[np.ndarray, np.ndarray]:
-        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share``; with ``one_pair``
-        claimed by ``bin_claim_share_one_pair`` without outvoting the other looks' talkers, and never confirmed (see
-        the class). Where the look changes a state, the probability is the share against the threshold that decided
-        (above 0.5 exactly when speaking)."""
+    def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray, one_pair: bool = False,
+              spill: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share`` and above the heard
+        talkers' learned ``spill``; with ``one_pair`` claimed by ``bin_claim_share_one_pair`` without outvoting the
+        other looks' talkers, and never confirmed (see the class). Where the look changes a state, the probability
+        is the share against the threshold that decided (above 0.5 exactly when speaking)."""
         if one_pair:
             claim, kept = self.bin_claim_share_one_pair, speaking
             top = share[speaking].max() if speaking.any() else np.inf  # the largest share of those heard
@@ -262,6 +269,10 @@ class SpeakingTest:
         else:
             claim, kept = self.bin_claim_share, speaking & (share > self.bin_confirm_share)
             claimed = share > claim
+            if spill is not None:
+                ratio = np.nan_to_num(np.asarray(spill, dtype=np.float64).reshape(len(share), len(share)))
+                np.fill_diagonal(ratio, 0.0)
+                claimed &= share > self.bin_spill_factor * (ratio.T @ np.where(speaking, share, 0.0))
         out = kept | claimed
         with np.errstate(invalid="ignore", divide="ignore"):
             thr = np.where(speaking, self.bin_confirm_share, claim)

@@ -28,10 +28,11 @@ def _needs_the_face_mesh() -> None:
 
 
 @dataclass(frozen=True)
-class _Output:  # the fields of FaceGuidedOutput the veto and the own ITDs read and replace
+class _Output:  # the fields of FaceGuidedOutput the veto, the own ITDs and the bins' spill read and replace
     speaking: np.ndarray
     probability: np.ndarray
     rescued: np.ndarray | None = None
+    bin_share: np.ndarray | None = None
 
 
 class _Hearing:
@@ -40,7 +41,7 @@ class _Hearing:
     def __init__(self, speaking: tuple[bool, ...] = (True, True, False)) -> None:
         self.speaking = np.array(speaking)
 
-    def step(self, *args: object) -> _Output:
+    def step(self, *args: object, **options: object) -> _Output:
         return _Output(self.speaking.copy(), np.array([0.9, 0.8, 0.1]))
 
 
@@ -142,6 +143,7 @@ class _GroupOutput:  # the fields of FaceGuidedOutput that follow each face
     pair_itd_means: np.ndarray
     model: Mixture1D
     rescued: np.ndarray | None = None
+    bin_share: np.ndarray | None = None
 
 
 class _EveryoneSpeaks:
@@ -150,7 +152,7 @@ class _EveryoneSpeaks:
     def __init__(self) -> None:
         self.heard: list[np.ndarray] = []
 
-    def step(self, xyz: np.ndarray, *args: object) -> _GroupOutput:
+    def step(self, xyz: np.ndarray, *args: object, **options: object) -> _GroupOutput:
         self.heard.append(xyz)
         n = len(xyz)
         model = Mixture1D(np.full(n + 1, 1 / (n + 1)), np.arange(n) * 1e-4, np.full(n, 1e-9), (-8e-4, 8e-4))
@@ -360,6 +362,7 @@ class _RescuedOutput:
     speaking: np.ndarray
     probability: np.ndarray
     rescued: np.ndarray
+    bin_share: np.ndarray | None = None
 
 
 def test_lips_that_move_with_the_sound_make_a_rescued_call_one_that_may_start_speech(
@@ -379,7 +382,7 @@ def test_lips_that_move_with_the_sound_make_a_rescued_call_one_that_may_start_sp
     class Rescuing:
         array = MicArray.from_pair(MicPair())
 
-        def step(self, *args: object) -> _RescuedOutput:
+        def step(self, *args: object, **options: object) -> _RescuedOutput:
             return _RescuedOutput(np.array([True, True]), np.array([0.9, 0.7]), np.array([False, True]))
 
     def rescued(series: list[np.ndarray]) -> list[bool]:

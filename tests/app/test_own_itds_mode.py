@@ -22,9 +22,9 @@ def _run(config: PipelineConfig, results: int = 90, mics: MicPair | None = None)
     given: list = []
     real = hearing.step
 
-    def step(*args: object) -> object:
-        given.append(args[6] if len(args) > 6 else None)
-        return real(*args)  # type: ignore[arg-type]
+    def step(*args: object, **options: object) -> object:
+        given.append(options.get("mean_offsets_s"))
+        return real(*args, **options)  # type: ignore[arg-type]
 
     hearing.step = step  # type: ignore[method-assign]
     mapped = hearing.array.itd(_FACES).reshape(2, 1)

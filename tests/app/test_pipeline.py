@@ -130,10 +130,10 @@ def test_single_frames_itds_reach_the_speaking_test(monkeypatch: pytest.MonkeyPa
     step = FaceGuidedHearing.step
     for enabled in (True, False):
         def spy(self, faces, itds, offsets=None, frame_itds_s=None, band_itds_s=None,  # type: ignore[no-untyped-def]
-                frame_bins=None, mean_offsets_s=None, _on=enabled):
+                frame_bins=None, mean_offsets_s=None, bin_spill=None, _on=enabled):
             seen[_on].append((frame_itds_s, band_itds_s))
             bins_seen[_on].append(frame_bins)
-            return step(self, faces, itds, offsets, frame_itds_s, band_itds_s, frame_bins, mean_offsets_s)
+            return step(self, faces, itds, offsets, frame_itds_s, band_itds_s, frame_bins, mean_offsets_s, bin_spill)
 
         monkeypatch.setattr(FaceGuidedHearing, "step", spy)
         source = FakeSource()

@@ -68,8 +68,8 @@ def test_the_bins_claim_nobody_while_a_voice_out_of_view_holds_the_itds() -> Non
         return np.tile([d[i] - d[j] for i, j in array.pairs], (6, 1))
 
     seen: list = []
-    out = SimpleNamespace(speaking=np.array([False]), rescued=None)  # what the own ITDs read of a step's output
-    hearing = SimpleNamespace(array=array, step=lambda *a: seen.append(a[5]) or out)  # a[5]: the frames' bins
+    out = SimpleNamespace(speaking=np.array([False]), rescued=None, bin_share=None)  # what the learners read
+    hearing = SimpleNamespace(array=array, step=lambda *a, **o: seen.append(a[5]) or out)  # a[5]: the frames' bins
     mode = FaceGuided(PipelineConfig())
     face = np.array([[0.3, 0.0, 2.0]])
     vision = Vision(1.0, None, np.array([[300, 200, 40, 40]]), face)  # type: ignore[arg-type]

@@ -1,0 +1,98 @@
+"""Each talker's learned spill onto a neighbour's bins (avcore.bin_spill) and the bins' claim above it
+(SpeakingTest ``bin_spill``): the learner's bookkeeping, and on real bins of NAO's four microphones a reflection
+that the fixed claim calls a neighbour speaking, which the learned spill does not, while the neighbour's own voice
+still is."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avcore.bin_spill import BinSpill
+from avcore.speaking import SpeakingTest, bin_shares
+from tests.avcore.test_bins import FS, NAO, _at_mics, _bins, _noise
+
+MEANS = np.array([[-100e-6, 50e-6], [40e-6, 0.0], [150e-6, -80e-6]])
+
+
+def test_the_median_ratio_is_learned_where_one_talker_is_heard_alone() -> None:
+    spill = BinSpill(min_samples=3, memory=5)
+    assert np.isnan(spill.ratios(MEANS)).all()
+    alone0 = np.array([True, False, False])
+    for k, s1 in enumerate([0.1, 0.3, 0.2]):
+        assert np.isnan(spill.ratios(MEANS)).all(), k  # nothing before min_samples
+        spill.update(MEANS, np.array([0.5, s1, 0.05]), alone0)
+    r = spill.ratios(MEANS)
+    assert r[0, 1] == pytest.approx(0.4) and r[0, 2] == pytest.approx(0.1)  # medians of 0.2, 0.6, 0.4 and 0.1s
+    assert np.isnan(r[1]).all() and np.isnan(r[2]).all() and np.isnan(np.diag(r)).all()
+    # within the tolerance on every pair it is the same person; a person who moved is someone else
+    assert spill.ratios(MEANS + 8e-6)[0, 1] == pytest.approx(0.4)
+    moved = MEANS.copy()
+    moved[1, 1] += 15e-6
+    assert np.isnan(spill.ratios(moved)[0, 1]) and spill.ratios(moved)[0, 2] == pytest.approx(0.1)
+    # the memory keeps the last five: three ratios of 2.0 move the median there
+    for _ in range(3):
+        spill.update(MEANS, np.array([0.1, 0.2, 0.0]), alone0)
+    assert spill.ratios(MEANS)[0, 1] == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("alone, share", [([True, True, False], [0.5, 0.3, 0.1]),  # two heard: not alone
+                                          ([False, False, False], [0.5, 0.3, 0.1]),  # nobody heard
+                                          ([True, False, False], [0.0, 0.3, 0.1]),  # the talker has no bins
+                                          ([True, False, False], None)])  # the bins were not looked at
+def test_nothing_is_learned_unless_one_talker_with_bins_is_heard_alone(alone: list, share: list | None) -> None:
+    spill = BinSpill(min_samples=1)
+    spill.update(MEANS, None if share is None else np.array(share), np.array(alone))
+    assert len(spill) == 0 and np.isnan(spill.ratios(MEANS)).all()
+
+
+def test_people_who_keep_moving_are_forgotten_oldest_first() -> None:
+    spill = BinSpill(min_samples=1, max_pairs=4)
+    for k in range(5):
+        spill.update(MEANS[:2] + k * 30e-6, np.array([0.5, 0.1]), np.array([True, False]))
+    assert len(spill) == 4
+    assert np.isnan(spill.ratios(MEANS[:2])[0, 1])  # the first place, forgotten
+    assert spill.ratios(MEANS[:2] + 120e-6)[0, 1] == pytest.approx(0.2)
+
+
+@pytest.mark.parametrize("bad", [{"min_samples": 0}, {"min_samples": 10, "memory": 5}, {"tolerance_s": 0.0}])
+def test_bad_spill_settings_are_refused(bad: dict) -> None:
+    with pytest.raises(ValueError):
+        BinSpill(**bad)
+
+
+def test_a_reflection_on_a_neighbour_is_not_claimed_once_learned_and_its_own_voice_is() -> None:
+    """A talker on the left, and a reflection of the talker's voice from the direction of a silent neighbour (0.8 of
+    its amplitude): the neighbour gets more than the fixed claim's 0.1 of the bins in every quarter second, so the
+    fixed claim calls them speaking. Learned over quarter seconds in which the talker is heard alone, the spill
+    explains that share: no claim. When the neighbour then talks too, softer than the talker, their share rises
+    above the spill, and the bins claim them."""
+    rng = np.random.default_rng(3)
+    left, near = np.array([-0.8, 0.0, 1.5]), np.array([-0.2, 0.0, 1.6])
+    means = NAO.itd(np.stack([left, near]))
+    n = FS // 4
+    test = SpeakingTest()
+    spill = BinSpill(min_samples=5)
+
+    def shares(neighbour_talks: bool) -> np.ndarray:
+        voice = _noise(rng, n + 400, 300, 3800)
+        audio = _at_mics(voice[400:], left) + 0.8 * _at_mics(voice[:n], near)  # the reflection comes 25 ms late
+        if neighbour_talks:
+            audio += 0.7 * _at_mics(_noise(rng, n, 300, 3800), near)
+        got = _bins(audio + 1e-3 * rng.standard_normal((n, 4)))
+        return bin_shares(got.bins, got.freqs_hz, means)
+
+    heard = np.array([True, False])
+    for _ in range(6):
+        s = shares(False)
+        assert s[1] > test.bin_claim_share  # the fixed claim would call the silent neighbour
+        assert test._bins(heard, np.array([0.9, 0.3]), s)[0].tolist() == [True, True]
+        spill.update(means, s, heard)
+    ratios = spill.ratios(means)
+    assert 0.1 < ratios[0, 1] < 1.0
+    lone = shares(False)
+    assert test._bins(heard, np.array([0.9, 0.3]), lone, spill=ratios)[0].tolist() == [True, False]
+    both = shares(True)
+    claimed, prob = test._bins(heard, np.array([0.9, 0.3]), both, spill=ratios)
+    assert claimed.tolist() == [True, True] and prob[1] > 0.5
+    # the spill is the heard talkers': with nobody heard the claim is the fixed threshold's
+    assert test._bins(np.array([False, False]), np.array([0.3, 0.3]), lone, spill=ratios)[0][1]
