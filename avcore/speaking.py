@@ -142,7 +142,7 @@ class SpeakingTest:
     bin_confirm_share: float = 0.03
     bin_claim_share: float = 0.1
     bin_claim_share_one_pair: float = 0.25
-    bin_spill_factor: float = 1.5
+    bin_spill_factor: float = 1.0
 
     def __post_init__(self) -> None:
         if not -1 <= self.bin_agreement <= 1:
