@@ -45,7 +45,8 @@ class PipelineConfig:
     self_calibrate, own_itds : face-guided: learn every pair's c1, c0 while running (:class:`app.hearing.
         SelfCalibrating`); hear each person where their voice is heard (:class:`avcore.own_itd.OwnItds`).
     bin_spill : face-guided, several pairs: the bins claim a person only above the spill the heard talkers' voices
-        give them, learned while each talks alone (:class:`avcore.bin_spill.BinSpill`).
+        give them, learned while each talks alone (:class:`avcore.bin_spill.BinSpill`; precision first: off by
+        default, docs/results.md).
     lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): still lips (under
         ``lip_still_below``) are not speaking; faces within ``lip_same_direction_s`` on every pair are heard as
         one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its range);
@@ -72,7 +73,7 @@ class PipelineConfig:
     latency: Literal["default", "low"] = "default"
     self_calibrate: bool = False
     own_itds: bool = True
-    bin_spill: bool = True
+    bin_spill: bool = False
     face_model: str | None = None
     tflite_runtime: Literal["opencv", "litert"] = "opencv"
     lips: bool = False

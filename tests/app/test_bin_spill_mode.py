@@ -1,6 +1,6 @@
-"""Each talker's spill on the neighbours' bins in the application: the face-guided mode learns it from its own
-results with several microphone pairs and hands it to the hearing; one pair, --no-bin-spill and the paper's
-variant hand nothing."""
+"""Each talker's spill on the neighbours' bins in the application: with --bin-spill the face-guided mode learns it
+from its own results with several microphone pairs and hands it to the hearing; one pair, the default (off) and the
+paper's variant hand nothing."""
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -41,23 +41,24 @@ def _run(config: PipelineConfig, array: MicArray, results: int = 25) -> list:
 
 
 def test_the_mode_learns_the_talkers_spill_with_several_pairs() -> None:
-    given = _run(PipelineConfig(), MicArray.preset("respeaker4"))
+    given = _run(PipelineConfig(bin_spill=True), MicArray.preset("respeaker4"))
     assert np.isnan(given[0]).all()  # nothing known at first
     learned = given[-1]
     assert learned.shape == (2, 2) and learned[0, 1] == pytest.approx(0.25)
     assert np.isnan(learned[1, 0])  # person 1 was never heard alone
 
 
-@pytest.mark.parametrize("config, array", [(PipelineConfig(), MicArray.from_pair(MicPair())),
-                                           (PipelineConfig(bin_spill=False), MicArray.preset("respeaker4")),
-                                           (PipelineConfig(face_variant="paper"), MicArray.preset("respeaker4"))],
-                         ids=["one pair", "--no-bin-spill", "paper"])
-def test_one_pair_no_bin_spill_and_the_papers_variant_hand_no_spill(config: PipelineConfig, array: MicArray
+@pytest.mark.parametrize("config, array", [(PipelineConfig(bin_spill=True), MicArray.from_pair(MicPair())),
+                                           (PipelineConfig(), MicArray.preset("respeaker4")),
+                                           (PipelineConfig(bin_spill=True, face_variant="paper"),
+                                            MicArray.preset("respeaker4"))],
+                         ids=["one pair", "the default", "paper"])
+def test_one_pair_the_default_and_the_papers_variant_hand_no_spill(config: PipelineConfig, array: MicArray
                                                                      ) -> None:
     assert all(g is None for g in _run(config, array))
 
 
-@pytest.mark.parametrize(("argv", "expected"), [([], True), (["--no-bin-spill"], False), (["--bin-spill"], True)])
+@pytest.mark.parametrize(("argv", "expected"), [([], False), (["--no-bin-spill"], False), (["--bin-spill"], True)])
 def test_the_option_reaches_the_config(argv: list[str], expected: bool) -> None:
     import argparse
 
