@@ -42,11 +42,9 @@ class PipelineConfig:
     face_detector : "auto" (BlazeFace when its model is installed, else Haar's cascade with a notice),
         "blazeface" (:mod:`avcore.blazeface`) or "haar" (OpenCV 4 only); face_model : the BlazeFace model file
         (default: the installed package's); tflite_runtime : "opencv" (OpenCV's DNN) or "litert".
-    self_calibrate, own_itds : face-guided: learn every pair's c1, c0 while running (:class:`app.hearing.
-        SelfCalibrating`); hear each person where their voice is heard (:class:`avcore.own_itd.OwnItds`).
-    bin_spill : face-guided, several pairs: the bins claim a person only above the spill the heard talkers' voices
-        give them, learned while each talks alone (:class:`avcore.bin_spill.BinSpill`; precision first: off by
-        default, docs/results.md).
+    self_calibrate, own_itds, bin_spill : face-guided: learn every pair's c1, c0 while running (:class:`app.hearing.
+        SelfCalibrating`); hear each person where their voice is heard (:class:`avcore.own_itd.OwnItds`); with
+        several pairs, claim by the bins only above the heard talkers' learned spill (:mod:`avcore.bin_spill`).
     lips : the face mesh on every face and the lips' cue (:meth:`app.hearing.FaceGuided.step`): still lips (under
         ``lip_still_below``) are not speaking; faces within ``lip_same_direction_s`` on every pair are heard as
         one, whose words go to the moving lips (to a second face too above ``lip_both_above`` of its range);
