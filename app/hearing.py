@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 import cv2
 import numpy as np
 
+from avcore.bin_spill import BinSpill
 from avcore.depth import locate_faces_depth, motion_points_depth
 from avcore.facemesh import N_LANDMARKS, eye_centres, mouth_opening
 from avcore.faces import TrackingFaceDetector, locate_faces
@@ -37,7 +38,6 @@ from avcore.lips import (
 )
 from avcore.mono import locate_faces_mono
 from avcore.motion import harris_motion_points
-from avcore.bin_spill import BinSpill
 from avcore.own_itd import OwnItds
 from avcore.selfcal import ArrayYawCalibration, SelfCalibration, SelfCalibrationFit, YawFit
 from avcore.speaking import SpeakingVote

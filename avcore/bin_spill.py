@@ -4,8 +4,9 @@ The bins' look (:func:`avcore.speaking.bin_shares`) gives each person the share 
 agree best with them on every pair. A talker's reverberation and the array's limited aperture give some of the
 talker's bins to a silent neighbour: with four microphones 32 mm from the centre, the median share of a neighbour
 per unit of a lone talker's ranges from 0.01 to 0.93 over the pairs of people of ten rooms, so it depends on the
-room and on where both sit, not on the angle alone (docs/experiments.md, wave 4, fifteenth session). A fixed claim threshold cannot tell that spill from a
-talker a louder one masks: raising it costs the masked talkers' recall as much as it saves precision.
+room and on where both sit, not on the angle alone (docs/experiments.md, wave 4, fifteenth session). A fixed claim
+threshold cannot tell that spill from a talker a louder one masks: raising it costs the masked talkers' recall as
+much as it saves precision.
 
 So each ordered pair of persons (talker i, neighbour j) learns the ratio ``s_j / s_i`` of their bins' shares from
 the results in which the windows' test hears i alone: what i's voice alone gives j in this room. The median of the

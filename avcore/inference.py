@@ -634,7 +634,7 @@ class FaceGuidedHearing:
             if frame_bins.bins.shape[1] != n_pairs:
                 raise ValueError(f"frame_bins must hold the array's {n_pairs} pairs, got {frame_bins.bins.shape[1]}")
             share = bin_shares(frame_bins.bins, frame_bins.freqs_hz, means, p.speaking.bin_agreement)
-        spill = None if bin_spill is None or share is None else np.asarray(bin_spill, dtype=np.float64)
+        spill = None if bin_spill is None else np.asarray(bin_spill, dtype=np.float64)
         if spill is not None and spill.shape != (n, n):
             raise ValueError(f"bin_spill must be (faces, faces) = {(n, n)}, got {spill.shape}")
         d = p.speaking.decide_all(beta[:, :-1], x, fit.means, fit.variances, self._supports, present, frames, bands,

@@ -58,6 +58,19 @@ def test_people_who_keep_moving_are_forgotten_oldest_first() -> None:
 def test_bad_spill_settings_are_refused(bad: dict) -> None:
     with pytest.raises(ValueError):
         BinSpill(**bad)
+    with pytest.raises(ValueError, match="bin_spill_factor"):
+        SpeakingTest(bin_spill_factor=-1.0)
+
+
+def test_the_hearing_refuses_a_spill_that_is_not_one_per_pair_of_faces() -> None:
+    from avcore.inference import FaceGuidedHearing
+
+    faces = np.array([[-0.5, 0.0, 2.0], [0.5, 0.0, 2.0]])
+    itds = np.tile(NAO.itd(faces[:1]).reshape(1, -1), (10, 1))
+    hearing = FaceGuidedHearing(NAO)
+    assert hearing.step(faces, itds, bin_spill=np.full((2, 2), np.nan)).speaking.shape == (2,)
+    with pytest.raises(ValueError, match="bin_spill must be"):
+        hearing.step(faces, itds, bin_spill=np.zeros((3, 3)))
 
 
 def test_a_reflection_on_a_neighbour_is_claimed_half_as_often_once_learned_and_its_own_voice_always() -> None:
