@@ -2,11 +2,9 @@
 
 The bins' look (:func:`avcore.speaking.bin_shares`) gives each person the share of the time-frequency bins that
 agree best with them on every pair. A talker's reverberation and the array's limited aperture give some of the
-talker's bins to a silent neighbour: with four microphones 32 mm from the centre, the median share of a neighbour
-per unit of a lone talker's ranges from 0.01 to 0.93 over the pairs of people of ten rooms, so it depends on the
-room and on where both sit, not on the angle alone (docs/experiments.md, wave 4, fifteenth session). A fixed claim
-threshold cannot tell that spill from a talker a louder one masks: raising it costs the masked talkers' recall as
-much as it saves precision.
+talker's bins to a silent neighbour; how many depends on the room and on where both sit, not on the angle alone
+(measured: docs/experiments.md, wave 4, fifteenth session). A fixed claim threshold cannot tell that spill from a
+talker a louder one masks: raising it costs the masked talkers' recall as much as it saves precision.
 
 So each ordered pair of persons (talker i, neighbour j) learns the ratio ``s_j / s_i`` of their bins' shares from
 the results in which the windows' test hears i alone: what i's voice alone gives j in this room. The median of the
@@ -41,6 +39,7 @@ class BinSpill:
     _talkers: np.ndarray | None = field(default=None, init=False, repr=False)  # (K, P) each key's talker
     _neighbours: np.ndarray | None = field(default=None, init=False, repr=False)  # (K, P) its neighbour
     _ratios: list = field(default_factory=list, init=False, repr=False)  # K deques of s_j / s_i
+    _medians: list = field(default_factory=list, init=False, repr=False)  # K medians (NaN under min_samples)
 
     def __post_init__(self) -> None:
         if self.min_samples < 1 or self.memory < self.min_samples:
@@ -60,13 +59,14 @@ class BinSpill:
 
     def _add(self, mi: np.ndarray, mj: np.ndarray) -> int:
         if self._talkers is None or self._talkers.shape[1] != mi.size:  # a first key, or another array
-            self._talkers, self._neighbours, self._ratios = mi[None].copy(), mj[None].copy(), []
+            self._talkers, self._neighbours, self._ratios, self._medians = mi[None].copy(), mj[None].copy(), [], []
         else:
             keep = slice(1, None) if len(self._ratios) >= self.max_pairs else slice(None)  # forget the oldest
             self._talkers = np.vstack([self._talkers[keep], mi[None]])
             self._neighbours = np.vstack([self._neighbours[keep], mj[None]])
-            self._ratios = self._ratios[keep]
+            self._ratios, self._medians = self._ratios[keep], self._medians[keep]
         self._ratios.append(deque(maxlen=self.memory))
+        self._medians.append(np.nan)
         return len(self._ratios) - 1
 
     def ratios(self, means_s: np.ndarray) -> np.ndarray:
@@ -81,8 +81,8 @@ class BinSpill:
             for j in range(n):
                 if i != j:
                     k = self._find(means[i], means[j])
-                    if k is not None and len(self._ratios[k]) >= self.min_samples:
-                        out[i, j] = float(np.median(self._ratios[k]))
+                    if k is not None:
+                        out[i, j] = self._medians[k]
         return out
 
     def update(self, means_s: np.ndarray, share: np.ndarray | None, alone: np.ndarray) -> None:
@@ -103,3 +103,5 @@ class BinSpill:
             if k is None:
                 k = self._add(means[i], means[j])
             self._ratios[k].append(float(s[j] / s[i]))
+            if len(self._ratios[k]) >= self.min_samples:
+                self._medians[k] = float(np.median(self._ratios[k]))

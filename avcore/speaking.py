@@ -116,7 +116,7 @@ class SpeakingTest:
     a person whose share is at most the heard talker's (the quieter voice of an overlap), not the person between.
     With several pairs and ``bin_spill`` (each talker's learned spill onto each neighbour: :mod:`avcore.bin_spill`)
     a claim also needs a share above ``bin_spill_factor`` times the spill that the talkers the other looks hear
-    would give the person: a lone talker's neighbour is not claimed by the talker's own reverberation.
+    would give the person: a lone talker's neighbour is not claimed for what the talker's own reverberation explains.
 
     ``decide(..., present=mask)`` decides on a subset of the ITDs that fitted the model: the face-guided fusion
     fits on the ITDs of the whole time frame and decides on those near the frame's own instant
