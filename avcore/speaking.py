@@ -117,6 +117,9 @@ class SpeakingTest:
     With several pairs and ``bin_spill`` (each talker's learned spill onto each neighbour: :mod:`avcore.bin_spill`)
     a claim also needs a share above ``bin_spill_factor`` times the spill that the talkers the other looks hear
     would give the person: a lone talker's neighbour is not claimed for what the talker's own reverberation explains.
+    Also with several pairs, two voices at once put each pair's peak between them: a person whose ITD vector lies
+    near the chord between two others' (off it by at most ``between_chord`` of its length), each called or with a
+    bins' share at least the person's, stays called only by the bins' claim, not by their confirmation.
 
     ``decide(..., present=mask)`` decides on a subset of the ITDs that fitted the model: the face-guided fusion
     fits on the ITDs of the whole time frame and decides on those near the frame's own instant
@@ -143,6 +146,7 @@ class SpeakingTest:
     bin_claim_share: float = 0.1
     bin_claim_share_one_pair: float = 0.25
     bin_spill_factor: float = 1.0
+    between_chord: float = 0.3
 
     def __post_init__(self) -> None:
         if not -1 <= self.bin_agreement <= 1:
@@ -153,6 +157,8 @@ class SpeakingTest:
                                  f"and {getattr(self, name)!r}")
         if not self.bin_spill_factor >= 0:
             raise ValueError(f"bin_spill_factor must be >= 0, got {self.bin_spill_factor!r}")
+        if not self.between_chord >= 0:
+            raise ValueError(f"between_chord must be >= 0, got {self.between_chord!r}")
         if self.count_by not in COUNT_BY:
             raise ValueError(f"count_by must be one of {', '.join(COUNT_BY)}, got {self.count_by!r}")
         for name in ("frame_within_s", "frame_spread_s", "band_spread_s"):
@@ -253,15 +259,16 @@ class SpeakingTest:
             prob = np.where(between, prob, found_prob)
         if bin_share is not None:
             speaking, prob = self._bins(speaking, prob, np.asarray(bin_share, dtype=np.float64).reshape(n),
-                                        one_pair=means.shape[1] == 1, spill=bin_spill)
+                                        one_pair=means.shape[1] == 1, spill=bin_spill, means=means)
         return Decision(speaking, prob, tau, speaking & ~by_windows)
 
     def _bins(self, speaking: np.ndarray, prob: np.ndarray, share: np.ndarray, one_pair: bool = False,
-              spill: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """The fourth look: confirmed by ``bin_confirm_share``, claimed by ``bin_claim_share`` and above the heard
-        talkers' learned ``spill``; with ``one_pair`` claimed by ``bin_claim_share_one_pair`` without outvoting the
-        other looks' talkers, and never confirmed (see the class). Where the look changes a state, the probability
-        is the share against the threshold that decided (above 0.5 exactly when speaking)."""
+              spill: np.ndarray | None = None, means: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The fourth look: confirmed by ``bin_confirm_share`` (not a person between two others: ``means``),
+        claimed by ``bin_claim_share`` and above the heard talkers' learned ``spill``; with ``one_pair`` claimed by
+        ``bin_claim_share_one_pair`` without outvoting the other looks' talkers, and never confirmed (see the
+        class). Where the look changes a state, the probability is the share against the threshold that decided
+        (above 0.5 exactly when speaking)."""
         if one_pair:
             claim, kept = self.bin_claim_share_one_pair, speaking
             top = share[speaking].max() if speaking.any() else np.inf  # the largest share of those heard
@@ -273,6 +280,8 @@ class SpeakingTest:
                 ratio = np.nan_to_num(np.asarray(spill, dtype=np.float64).reshape(len(share), len(share)))
                 np.fill_diagonal(ratio, 0.0)
                 claimed &= share > self.bin_spill_factor * (ratio.T @ np.where(speaking, share, 0.0))
+            if means is not None and self.between_chord > 0:
+                kept &= ~_between(np.asarray(means, dtype=np.float64), kept | claimed, share, self.between_chord)
         out = kept | claimed
         with np.errstate(invalid="ignore", divide="ignore"):
             thr = np.where(speaking, self.bin_confirm_share, claim)
@@ -364,6 +373,26 @@ def _groups(x: np.ndarray) -> list[tuple[np.ndarray | slice, np.ndarray | slice]
     patterns, inverse = np.unique(seen, axis=0, return_inverse=True)
     inverse = np.asarray(inverse).reshape(-1)
     return [(inverse == g, pat) for g, pat in enumerate(patterns) if pat.any()]
+
+
+def _between(means: np.ndarray, called: np.ndarray, share: np.ndarray, chord: float) -> np.ndarray:
+    """(N,) True for each person i whose ITD vector lies near the chord between two others a and b, each of them
+    called or with a bins' share at least i's: projected strictly inside the chord, at most ``chord`` times its
+    length off it (means (N, P); called, share (N,))."""
+    n = means.shape[0]
+    if n < 3:
+        return np.zeros(n, dtype=bool)
+    v = means[None, :, :] - means[:, None, :]  # (a, b, P): b - a
+    length2 = np.einsum("abp,abp->ab", v, v)
+    w = v  # (a, i, P): i - a
+    dot = np.einsum("abp,aip->abi", v, w)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t = dot / length2[:, :, None]
+        off2 = (np.einsum("aip,aip->ai", w, w)[:, None, :] - t * dot) / length2[:, :, None]
+    near = (t > 0) & (t < 1) & (off2 <= chord * chord)  # (a, b, i); a = b gives NaN, never near
+    ends = called[None, :] | (share[None, :] >= share[:, None])  # (i, a)
+    np.fill_diagonal(ends, False)
+    return np.einsum("abi,ia,ib->i", near, ends, ends).astype(bool) if near.any() else np.zeros(n, dtype=bool)
 
 
 def _nearest(d: np.ndarray) -> np.ndarray:

@@ -189,3 +189,50 @@ def test_one_pairs_bins_never_outvote_the_talker_the_other_looks_hear() -> None:
         quiet = np.zeros((16, 2))
         speaking, _, _ = test.decide(quiet, itds, means, variances, supports, bin_share=np.array([0.0, 0.6]))
         assert speaking.tolist() == [False, True], pairs
+
+
+def _three_on_two_pairs(middle: list[float], heard: list[int]) -> tuple:
+    """Three people on two pairs (left, ``middle``, right, microseconds) and 8 windows' ITDs at each heard one."""
+    means = np.array([[-100e-6, -80e-6], np.asarray(middle) * 1e-6, [100e-6, 80e-6]])
+    itds = np.repeat(means[heard], 8, axis=0)
+    beta = np.zeros((itds.shape[0], 3))
+    for k, who in enumerate(heard):
+        beta[8 * k:8 * (k + 1), who] = 1.0
+    return beta, itds, means, np.full((3, 2), 1e-10), np.tile([-3.5e-4, 3.5e-4], (2, 1))
+
+
+def test_a_person_between_two_talkers_needs_the_bins_claim() -> None:
+    """Two voices at once put a pair's peak between them, on every pair: the windows hear the person whose ITD
+    vector lies near the chord between the two talkers'. Such a call stands only where the bins would claim the
+    person on their own (a share above ``bin_claim_share``), not merely confirm it (above ``bin_confirm_share``);
+    a person off the chord keeps the confirmation's rule."""
+    test = SpeakingTest()  # between_chord 0.3: off the chord by at most 0.3 of its length
+    on_chord = _three_on_two_pairs([0.0, 5.0], [0, 1, 2])
+    for middle_share, called in ((0.07, False), (0.12, True)):
+        speaking, prob, _ = test.decide(*on_chord, bin_share=np.array([0.3, middle_share, 0.3]))
+        assert speaking.tolist() == [True, called, True], middle_share
+        assert (prob[1] > 0.5) == called
+    off_chord = _three_on_two_pairs([0.0, 120.0], [0, 1, 2])  # 120 / 256 of the chord's length off it
+    assert test.decide(*off_chord, bin_share=np.array([0.3, 0.07, 0.3]))[0].tolist() == [True, True, True]
+    # beyond either end of the chord is not between
+    beyond = _three_on_two_pairs([150.0, 120.0], [0, 1, 2])
+    assert test.decide(*beyond, bin_share=np.array([0.3, 0.07, 0.3]))[0].tolist() == [True, True, True]
+    # one pair keeps its own rule (its bins confirm nothing): the windows' call of the person between stands
+    beta, itds, means, variances, supports = on_chord
+    one = test.decide(beta, itds[:, :1], means[:, :1], variances[:, :1], supports[:1],
+                      bin_share=np.array([0.3, 0.07, 0.3]))
+    assert one[0].tolist() == [True, True, True]
+    # 0 switches the rule off
+    off = SpeakingTest(between_chord=0.0)
+    assert off.decide(*on_chord, bin_share=np.array([0.3, 0.07, 0.3]))[0].tolist() == [True, True, True]
+    with pytest.raises(ValueError, match="between_chord"):
+        SpeakingTest(between_chord=-0.1)
+
+
+def test_a_talker_masked_by_the_phantom_still_makes_its_neighbour_between() -> None:
+    """Where the phantom between two talkers takes the windows of one of them, that talker is not heard; its bins'
+    share at least the middle person's still marks the middle person as between (a quieter share does not)."""
+    test = SpeakingTest()
+    masked = _three_on_two_pairs([0.0, 5.0], [1, 2])  # the windows hear the middle and the right, not the left
+    assert test.decide(*masked, bin_share=np.array([0.08, 0.07, 0.4]))[0].tolist() == [False, False, True]
+    assert test.decide(*masked, bin_share=np.array([0.05, 0.07, 0.4]))[0].tolist() == [False, True, True]
