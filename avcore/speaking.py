@@ -330,17 +330,26 @@ class RescueContinuity:
     lone talker's reverberation and spread put the same evidence on a silent neighbour some 15 degrees away. In a
     conversation the masked talker was heard on their own just before (turns overlap at their ends), or is heard
     again within a moment. So a rescued call stands only while the same person's last call that stood is at most
-    ``gap_s`` old: a call of the windows' test always stands, and a chain of rescued calls may follow it. The others
-    become silent, their probability at most 0.5. Causal: it adds no wait. Keyed by the people's ids
-    (:mod:`avcore.tracking`); an id unseen for ``memory_s`` is forgotten.
+    ``gap_s`` old: a call of the windows' test always stands, and a chain of rescued calls may follow it. Nor does
+    a chain run on for more than ``chain_s`` after the person's last call by the windows' test: once a person has
+    stopped, a neighbour's spill would otherwise keep them called through the neighbour's whole turn (the tail of
+    their speech). The others become silent, their probability at most 0.5. Causal: it adds no wait. Keyed by the
+    people's ids (:mod:`avcore.tracking`); an id unseen for ``memory_s`` is forgotten.
 
     ``update(stamp_s, ids, speaking, probability, rescued)`` -> ``(speaking, probability)``, once per result, in
     stamp order.
     """
 
     gap_s: float = 0.1
+    chain_s: float = 1.0
     memory_s: float = 10.0
     _last: dict[int, float] = field(default_factory=dict, init=False, repr=False)  # id -> stamp of its last call
+    _heard: dict[int, float] = field(default_factory=dict, init=False, repr=False)  # ... of its last windows' call
+
+    def __post_init__(self) -> None:
+        for name in ("gap_s", "chain_s", "memory_s"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0 seconds, got {getattr(self, name)!r}")
 
     def update(self, stamp_s: float, ids: np.ndarray, speaking: np.ndarray, probability: np.ndarray,
                rescued: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -355,12 +364,16 @@ class RescueContinuity:
         for k, pid in enumerate(ids.tolist()):
             if not speaking[k]:
                 continue
-            if rescued[k] and not stamp - self._last.get(pid, -np.inf) <= self.gap_s + 1e-6:  # stamps' rounding
+            if rescued[k] and not (stamp - self._last.get(pid, -np.inf) <= self.gap_s + 1e-6  # stamps' rounding
+                                   and stamp - self._heard.get(pid, -np.inf) <= self.chain_s + 1e-6):
                 speaking[k] = False
                 probability[k] = min(probability[k], 0.5)
                 continue
             self._last[pid] = stamp
+            if not rescued[k]:
+                self._heard[pid] = stamp
         self._last = {i: t for i, t in self._last.items() if stamp - t <= self.memory_s}
+        self._heard = {i: t for i, t in self._heard.items() if stamp - t <= self.memory_s}
         return speaking, probability
 
 

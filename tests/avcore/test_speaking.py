@@ -148,6 +148,27 @@ def test_rescue_continuity_carries_speech_on_and_never_starts_it() -> None:
     assert out.tolist() == [False, True] and prob.tolist() == [0.2, 0.9]
 
 
+def test_rescue_continuity_ends_a_chain_a_while_after_the_windows_last_heard_the_person() -> None:
+    """Person 3 is heard by the windows at 0.0 s, then only rescued, every 0.1 s: the chain stands until 1.0 s
+    after that call (``chain_s``) and no longer, though no gap breaks it; a new call of the windows at 1.5 s
+    starts a chain again. With ``chain_s`` of 10 s the whole chain stands."""
+    for chain_s, last_standing in ((1.0, 1.0), (10.0, 1.4)):
+        c = RescueContinuity(gap_s=0.1, chain_s=chain_s)
+        standing = []
+        for k in range(20):
+            stamp = round(0.1 * k, 1)
+            windows = k in (0, 15)
+            out, prob = c.update(stamp, np.array([3]), np.array([True]), np.array([0.8]), np.array([not windows]))
+            assert (prob[0] > 0.5) == out[0]
+            if out[0]:
+                standing.append(stamp)
+        before = [t for t in standing if t < 1.5]
+        assert before == [round(0.1 * k, 1) for k in range(int(round(last_standing * 10)) + 1)], chain_s
+        assert standing[len(before):] == [1.5, 1.6, 1.7, 1.8, 1.9]
+    with pytest.raises(ValueError, match="chain_s"):
+        RescueContinuity(chain_s=-1.0)
+
+
 def test_rescue_continuity_forgets_and_checks_its_input() -> None:
     """An id unseen for ``memory_s`` is forgotten; mismatched lengths are refused."""
     c = RescueContinuity(gap_s=1.0, memory_s=2.0)
