@@ -266,10 +266,12 @@ class Pipeline:
         """Ask every thread to finish (safe from a signal handler)."""
         self._stop.set()
 
-    def run(self, duration_s: float | None = None) -> PipelineStats:
+    def run(self, duration_s: float | None = None, *, whole: bool = False) -> PipelineStats:
         """Run until the source ends, ``duration_s`` of wall time passes, :meth:`stop` or Ctrl-C.
 
-        Re-raises the first exception of a worker thread after all threads have been joined.
+        Re-raises the first exception of a worker thread after all threads have been joined. With ``whole`` (an
+        evaluation, whose figures would be a cut run's), Ctrl-C or SIGTERM raises ``KeyboardInterrupt`` once the
+        threads are joined, instead of returning the stats with ``interrupted`` set.
         """
         workers = [
             ("voices", self._voices_loop), ("fusion", self._fusion_loop), ("itd", self._itd_loop),
@@ -314,6 +316,8 @@ class Pipeline:
             if isinstance(exc, UserError):  # a bad recording or device: the message says what to do
                 raise exc
             raise RuntimeError(f"the {name} thread failed: {exc}") from exc
+        if whole and self.stats.interrupted:
+            raise KeyboardInterrupt
         return self.stats
 
     def _guard(self, name: str, fn: Callable[[], None]) -> None:

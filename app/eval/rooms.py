@@ -110,7 +110,7 @@ def evaluate_room(seed: int, *, method: str = "avhear", config: PipelineConfig |
         sim.mics = mics
     source = StreamAdapter(sim, realtime=False)
     fused: list[Result] = []
-    Pipeline(source, cfg, lambda r: fused.append(r.without_image())).run()
+    Pipeline(source, cfg, lambda r: fused.append(r.without_image())).run(whole=True)
     scenario = sim.scenario
     fused.sort(key=lambda r: r.stamp_s)
     n = len(scenario.actors)

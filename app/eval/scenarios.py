@@ -102,7 +102,7 @@ def calibrate_on_preset(*, seed: int = 0, duration_s: float | None = None, confi
                 faces.append(result.xyz[0])
                 itds.append(float(itd))
 
-    Pipeline(source, cfg, keep).run()
+    Pipeline(source, cfg, keep).run(whole=True)
     if len(itds) < 10:
         raise RuntimeError(f"the calibration run gave only {len(itds)} face-ITD pairs; cannot fit c1, c0")
     report = fit_av_calibration_report(np.asarray(faces), np.asarray(itds), source.mics)
@@ -146,7 +146,7 @@ def evaluate_scenario(name: str, seed: int = 0, *, duration_s: float | None = No
     def keep(result: Result) -> None:
         fused.append(result.without_image())
 
-    stats = Pipeline(source, cfg, keep).run()
+    stats = Pipeline(source, cfg, keep).run(whole=True)
     log.info("%s seed %d: %s", name, seed, stats.summary())
     stream = source.stream
     scenario: Scenario = stream.scenario  # type: ignore[attr-defined]

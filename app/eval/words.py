@@ -105,7 +105,7 @@ def evaluate_words(name: str, *, seed: int = 0, mics: str = "pair", duration_s: 
             places.setdefault(p.id, []).append((result.stamp_s, p.position_m))
 
     with StreamAdapter(source, realtime=False) as adapter:
-        Pipeline(adapter, PipelineConfig(voices=True), on_result, on_voice=transcriber.voice).run()
+        Pipeline(adapter, PipelineConfig(voices=True), on_result, on_voice=transcriber.voice).run(whole=True)
     finals.extend(w for w in transcriber.close() if w.final)
 
     # each tracked id is the actor nearest to it over the results where it was seen

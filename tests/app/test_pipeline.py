@@ -1,6 +1,7 @@
 """The threaded pipeline on a small fake source: rendered stereo frames and a talker's delayed noise."""
 from __future__ import annotations
 
+import _thread
 import threading
 from dataclasses import replace
 import time
@@ -244,6 +245,28 @@ def test_stop_is_quick_and_a_worker_error_reaches_the_caller() -> None:
 
     with pytest.raises(UserError, match="^left.avi: frame 3 cannot be decoded; re-encode it$"):
         Pipeline(FakeSource(duration_s=1.0), PipelineConfig(), unfixable).run(duration_s=30)
+
+
+def test_an_interrupt_ends_a_whole_run_with_the_interrupt() -> None:
+    """Ctrl-C (here ``_thread.interrupt_main``, what SIGINT does; SIGTERM does the same through the command line)
+    during a run: it returns its stats marked interrupted, every worker joined; with ``whole`` (an evaluation, whose
+    figures would be a cut run's) the interrupt goes on to the caller once the workers are joined."""
+    for whole in (False, True):
+        results: list[Result] = []
+
+        def interrupt_at_the_first(result: Result) -> None:  # the run is under way: its wait gets the interrupt
+            if not results:
+                _thread.interrupt_main()
+            results.append(result)
+
+        pipe = Pipeline(FakeSource(duration_s=20.0, realtime=True), PipelineConfig(), interrupt_at_the_first)
+        if whole:
+            with pytest.raises(KeyboardInterrupt):
+                pipe.run(whole=True)
+        else:
+            assert pipe.run().interrupted
+        assert pipe.stats.interrupted and results and pipe.stats.frames < 200
+        assert not [t for t in threading.enumerate() if t.name.startswith("avhear-")]
 
 
 def test_motion_guided_variant_runs() -> None:
