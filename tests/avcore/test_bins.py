@@ -212,7 +212,7 @@ def test_a_person_between_two_talkers_needs_the_bins_claim() -> None:
         speaking, prob, _ = test.decide(*on_chord, bin_share=np.array([0.3, middle_share, 0.3]))
         assert speaking.tolist() == [True, called, True], middle_share
         assert (prob[1] > 0.5) == called
-    off_chord = _three_on_two_pairs([0.0, 120.0], [0, 1, 2])  # 120 / 256 of the chord's length off it
+    off_chord = _three_on_two_pairs([0.0, 120.0], [0, 1, 2])  # 94 us off the 256 us chord: 0.37 of it
     assert test.decide(*off_chord, bin_share=np.array([0.3, 0.07, 0.3]))[0].tolist() == [True, True, True]
     # beyond either end of the chord is not between
     beyond = _three_on_two_pairs([150.0, 120.0], [0, 1, 2])
