@@ -3,15 +3,15 @@
 The window is cut into short Hann-windowed frames (32 ms, on a grid of ``hop / 2``); each frame and frequency bin is
 weighted by its signal-to-noise ratio (a running noise floor), its onset share (precedence), the short-time
 coherence and the coherent-to-diffuse ratio; whole frames by their share above the noise floor and their spectral
-flatness. ``gcc-phat-robust`` also dereverberates each bin by delayed linear prediction (WPE-like, NLMS filters) and
-sums the frames' clipped, squared correlations; ``correlogram-robust`` sums the weighted cross-spectra through the
+flatness. ``gcc-phat-robust`` also dereverberates each bin by delayed linear prediction (WPE-like, NLMS filters),
+subtracts a steady noise's learnt cross-spectrum and sums the frames' clipped, squared correlations; ``correlogram-robust`` sums the weighted cross-spectra through the
 gammatone correlogram. The band stops at 4 kHz. Every cue, its formula, its source in the literature and the
 options that set it: docs/method.md ("ITD extraction"); how each was chosen: docs/experiments.md ("The robust ITD
 extractors").
 
-The noise floor, the previous frame, the coherence averages and the dereverberation's past frames and filters are
-state carried from frame to frame: these methods run in streaming form (``PairStream``), and ``extract_itds`` feeds
-the whole signal through a stream, so both forms agree by construction.
+The noise floor, the previous frame, the coherence averages, the dereverberation's past frames and filters and the
+noise's cross-spectrum are state carried from frame to frame: these methods run in streaming form (``PairStream``),
+and ``extract_itds`` feeds the whole signal through a stream, so both forms agree by construction.
 """
 from __future__ import annotations
 
@@ -56,6 +56,7 @@ class FrameState:
     past_spectra: np.ndarray | None = None
     past_power: np.ndarray | None = None
     predictor: np.ndarray | None = None
+    noise_cross: np.ndarray | None = None
 
 
 class FrameMethod(ItdMethod):
@@ -63,18 +64,14 @@ class FrameMethod(ItdMethod):
 
     Parameters (all keyword)
     ----------
-    frame_s : float, seconds
-        Frame length (32 ms).
-    frame_hop_len : int
-        Samples between frames; must divide the window hop (the stream sets it to ``hop / 2``).
+    frame_s, frame_hop_len : float seconds, int samples
+        Frame length (32 ms); samples between frames, dividing the window hop (the stream sets ``hop / 2``).
     onset_floor : float in [0, 1]
         Weight of a frame with no new energy (0.2; 1 disables the precedence weighting).
     over_subtraction : float
         Factor on the noise floor (1; 0 switches the signal-to-noise weighting off).
-    noise_rise_db_per_s : float
-        How fast the noise floor may rise, dB per second (3).
-    smoothing_s : float, seconds
-        Time constant of the power smoothing before minimum tracking (30 ms).
+    noise_rise_db_per_s, smoothing_s : float, dB per second and seconds
+        How fast the noise floor may rise (3); the power smoothing before its minimum tracking (30 ms).
     coherence_power : float
         Exponent on the coherence magnitude (2; 0 disables the coherence weighting).
     coherence_s : float, seconds
@@ -88,17 +85,17 @@ class FrameMethod(ItdMethod):
     flatness_power : float
         Exponent on one minus the frame's spectral flatness (0: off; ``gcc-phat-robust`` uses 8).
     frame_snr_power : float
-        Exponent on the share of the frame's in-band power above the noise floor (0: off; ``gcc-phat-robust``
-        uses 8).
+        Exponent on the frame's in-band share above the noise floor (0: off; ``gcc-phat-robust`` uses 8).
     low_hz, high_hz : float, hertz
         Band used (80 Hz to 4 kHz).
     dereverb_taps : int
         Frames the linear-prediction dereverberation predicts from (0: off; ``gcc-phat-robust`` uses 3).
-    dereverb_delay : int
-        Frames between the predicted frame and the latest frame it is predicted from (2: 20 ms at the stream's
-        frame hop).
-    dereverb_step : float in (0, 2)
-        Normalised step of the prediction filters' adaptation per frame (0.2).
+    dereverb_delay, dereverb_step : int, float in (0, 2)
+        Frames between the predicted frame and the latest it is predicted from (2: 20 ms at the stream's hop);
+        normalised step of the prediction filters' adaptation per frame (0.2).
+    noise_cross_s, noise_cross_gate : float seconds, float in (0, 1]
+        Time constant of a steady noise's cross-spectrum, learnt and subtracted from every frame's (0: off;
+        ``gcc-phat-robust`` uses 1 s); only frames whose share above the floor is below the gate (0.8) teach it.
     """
 
     frame_based: ClassVar[bool] = True
@@ -110,7 +107,8 @@ class FrameMethod(ItdMethod):
                  diffuse_subtract: bool = True, mic_distance_m: float = 0.12, speed_of_sound: float = 343.0,
                  flatness_power: float = 0.0, frame_snr_power: float = 0.0, low_hz: float = 80.0,
                  high_hz: float = 4000.0, dereverb_taps: int = 0, dereverb_delay: int = 2,
-                 dereverb_step: float = 0.2) -> None:
+                 dereverb_step: float = 0.2, noise_cross_s: float = 0.0,
+                 noise_cross_gate: float = 0.8) -> None:
         frame_len = round(frame_s * samplerate_hz)
         if not (16 <= frame_len <= window_len // 2):
             raise ValueError(f"frame_s={frame_s} s must give between 16 samples and half the window "
@@ -151,6 +149,11 @@ class FrameMethod(ItdMethod):
         self._rise = 10 ** (noise_rise_db_per_s * frame_dt / 10)
         self._alpha = np.exp(-frame_dt / smoothing_s)
         self._beta = np.exp(-frame_dt / coherence_s)
+        if not (noise_cross_s >= 0 and 0 < noise_cross_gate <= 1):
+            raise ValueError(f"noise_cross_s must be >= 0 seconds and noise_cross_gate in (0, 1], got "
+                             f"{noise_cross_s!r} and {noise_cross_gate!r}")
+        self.noise_cross_gate = float(noise_cross_gate)
+        self._noise_keep = float(np.exp(-frame_dt / noise_cross_s)) if noise_cross_s > 0 else None
         self.coherence_power = float(coherence_power)
         self.diffuse_power = float(diffuse_power)
         self.diffuse_subtract = bool(diffuse_subtract)
@@ -212,8 +215,9 @@ class FrameMethod(ItdMethod):
             state.smoothed = self._alpha * state.smoothed + (1 - self._alpha) * p
             state.noise = np.minimum(state.smoothed, state.noise * self._rise)
             w = np.ones_like(p)
-            if self.frame_snr_power > 0:
+            if self.frame_snr_power > 0 or self._noise_keep is not None:
                 share = (np.maximum(p - state.noise, 0.0) @ self.band) / max(float(p @ self.band), tiny)
+            if self.frame_snr_power > 0:
                 w *= share**self.frame_snr_power
             if self.over_subtraction > 0:
                 w *= _unit(1.0 - self.over_subtraction * _ratio(state.noise, p))
@@ -221,6 +225,8 @@ class FrameMethod(ItdMethod):
                 new = _unit(1.0 - _ratio(state.previous, p))
                 w *= self.onset_floor + (1 - self.onset_floor) * new
             state.previous = p
+            if self._noise_keep is not None:
+                self._subtract_noise_cross(cross, j, p, share, state)
             if self.coherence_power > 0 or self.diffuse_power > 0 or self.diffuse_subtract:
                 b = self._beta
                 state.cross_avg = b * state.cross_avg + (1 - b) * cross[j]
@@ -245,6 +251,26 @@ class FrameMethod(ItdMethod):
                         cross[j] = cross[j] - self.diffuse_coherence * np.sqrt(pow_l[j] * pow_r[j]) * (1 - direct)
             weights[j] = w * self.band * frame_weight[j]
         return self._terms(weights, cross, pow_l, pow_r)
+
+    def _subtract_noise_cross(self, cross: np.ndarray, j: int, p: np.ndarray, share: float,
+                              state: FrameState) -> None:
+        """Subtract the steady noise's learnt cross-spectrum from frame ``j``'s (in place), then learn from it.
+
+        A point noise (a fan, a kitchen) is coherent: in every bin it holds a fixed phase, its direction's, and the
+        phase transform gives each bin one vote, so at 10 dB it takes a lone talker's windows on every pair. Its
+        cross-spectrum's mean, subtracted, leaves the talker's (the two are uncorrelated: Boll 1979's spectral
+        subtraction, on the cross-spectrum rather than the power). It is learnt, with time constant ``noise_cross_s``,
+        in the frames whose share above the noise floor is below ``noise_cross_gate`` (a talker's frames lie
+        above it), and there in each bin by how close it lies to the floor: fully at or below
+        ``over_subtraction`` times the floor, not at all where the floor is nothing to the bin.
+        """
+        if state.noise_cross is None:
+            state.noise_cross = np.zeros_like(cross[j])
+        heard = cross[j].copy()
+        cross[j] = heard - state.noise_cross
+        if share < self.noise_cross_gate:
+            floor = 1.0 - _unit(1.0 - max(self.over_subtraction, 1.0) * _ratio(state.noise, p))
+            state.noise_cross += ((1.0 - self._noise_keep) * floor) * (heard - state.noise_cross)
 
     def _dereverberate(self, spec: np.ndarray, power: np.ndarray, state: FrameState
                        ) -> tuple[np.ndarray, np.ndarray]:
@@ -309,7 +335,7 @@ class RobustGccPhat(FrameMethod):
     exponent (see the module docstring).
 
     Defaults that differ from :class:`FrameMethod`'s (measured: module docstring): ``flatness_power`` and
-    ``frame_snr_power`` 8, ``dereverb_taps`` 3, ``over_subtraction`` 3. The last because the phase transform gives
+    ``frame_snr_power`` 8, ``dereverb_taps`` 3, ``noise_cross_s`` 1 s, ``over_subtraction`` 3. The last because the phase transform gives
     every bin one vote and the running minimum lies well below a steady noise's mean power (Martin 2001): three times
     the floor (the over-subtraction of Berouti, Schwartz and Makhoul 1979) leaves little weight to the bins of a
     steady noise from one direction (a kitchen, a fan), which would otherwise take a lone talker's windows.
@@ -342,11 +368,11 @@ class RobustGccPhat(FrameMethod):
     def __init__(self, samplerate_hz: float, window_len: int, max_itd_s: float, *, flatness_power: float = 8.0,
                  frame_snr_power: float = 8.0, frame_corr_power: float = 2.0, dereverb_taps: int = 3,
                  over_subtraction: float = 3.0, band_edges_hz: tuple[float, ...] = (800.0, 1600.0, 2600.0),
-                 **options) -> None:
+                 noise_cross_s: float = 1.0, **options) -> None:
         # the frame-level cues are on by default here (measured: module docstring), off for the correlogram
         super().__init__(samplerate_hz, window_len, max_itd_s, flatness_power=flatness_power,
                          frame_snr_power=frame_snr_power, dereverb_taps=dereverb_taps,
-                         over_subtraction=over_subtraction, **options)
+                         over_subtraction=over_subtraction, noise_cross_s=noise_cross_s, **options)
         if frame_corr_power < 0:
             raise ValueError(f"frame_corr_power must be >= 0, got {frame_corr_power!r}")
         self.frame_corr_power = float(frame_corr_power)

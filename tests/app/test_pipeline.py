@@ -168,7 +168,9 @@ def test_single_frames_itds_stay_bounded_without_vision(monkeypatch: pytest.Monk
 
 def _masked_source(quiet_db: float) -> FakeSource:
     """The talker speaks in syllables (110 ms of noise, 50 ms gaps); person 0 talks without pause ``quiet_db``
-    quieter, so the talker wins every 150 ms window and person 0 only the frames in the gaps."""
+    quieter, so the talker wins every 150 ms window and person 0 only the frames in the gaps. Person 0's voice
+    swells and fades five times a second, as speech does: a sound of steady level is a steady noise to the ITD
+    front end, whose cross-spectrum it learns and subtracts (``gcc-phat-robust``'s ``noise_cross_s``)."""
     source = FakeSource(duration_s=2.0)
     rng = np.random.default_rng(4)
     n = source.audio_data.shape[0]
@@ -182,6 +184,8 @@ def _masked_source(quiet_db: float) -> FakeSource:
     left, right = pair(TALKER, 0.3)
     syllables = (np.arange(n) / FS) % 0.16 < 0.11
     quiet_left, quiet_right = pair(0, 0.3 * 10 ** (-quiet_db / 20))
+    swell = np.sqrt(2) * np.abs(np.sin(np.pi * 5 * np.arange(n) / FS))  # the same power on average
+    quiet_left, quiet_right = quiet_left * swell, quiet_right * swell
     source.audio_data[:, 1] = left * syllables + quiet_left
     source.audio_data[:, 3] = right * syllables + quiet_right
     return source

@@ -35,7 +35,7 @@ def frames_of(signal: np.ndarray, count: int) -> np.ndarray:
     {"frame_s": 16 / 16000}, {"frame_s": 1200 / 16000}, {"frame_hop_len": 1}, {"onset_floor": 0.0},
     {"onset_floor": 1.0}, {"coherence_power": 0.0, "diffuse_power": 0.0, "flatness_power": 0.0, "frame_snr_power": 0.0},
     {"speed_of_sound": 0.5}, {"low_hz": 0.0}, {"over_subtraction": 0.0}, {"dereverb_taps": 0, "dereverb_delay": 1},
-    {"dereverb_step": 1.999}, {"noise_rise_db_per_s": 0.5},
+    {"dereverb_step": 1.999}, {"noise_rise_db_per_s": 0.5}, {"noise_cross_s": 0.0}, {"noise_cross_gate": 1.0},
 ])
 def test_each_setting_is_accepted_at_its_documented_edge(settings: dict) -> None:
     method = make(**settings)
@@ -68,6 +68,9 @@ def test_each_setting_is_accepted_at_its_documented_edge(settings: dict) -> None
     ({"dereverb_step": 0.0}, "dereverb_taps must be an integer >= 0, dereverb_delay an integer >= 1 and "
                              "dereverb_step in (0, 2), got 3, 2 and 0.0"),
     ({"low_hz": 7990.0, "high_hz": 7995.0}, "no frequency bin lies in [7990.0, 7995.0] Hz at 16000.0 Hz"),
+    ({"noise_cross_s": -1.0}, "noise_cross_s must be >= 0 seconds and noise_cross_gate in (0, 1], got -1.0 and 0.8"),
+    ({"noise_cross_gate": 0.0}, "noise_cross_s must be >= 0 seconds and noise_cross_gate in (0, 1], got 1.0 and 0.0"),
+    ({"noise_cross_gate": 1.5}, "noise_cross_s must be >= 0 seconds and noise_cross_gate in (0, 1], got 1.0 and 1.5"),
 ])
 def test_each_setting_out_of_bounds_is_named_in_full(settings: dict, message: str) -> None:
     with pytest.raises(ValueError, match=f"^{re.escape(message)}$"):
@@ -107,14 +110,15 @@ def test_the_defaults_are_the_documented_ones() -> None:
         "smoothing_s": 0.03, "coherence_power": 2.0, "coherence_s": 0.03, "diffuse_power": 2.0,
         "diffuse_subtract": True, "mic_distance_m": 0.12, "speed_of_sound": 343.0, "flatness_power": 0.0,
         "frame_snr_power": 0.0, "low_hz": 80.0, "high_hz": 4000.0, "dereverb_taps": 0, "dereverb_delay": 2,
-        "dereverb_step": 0.2,
+        "dereverb_step": 0.2, "noise_cross_s": 0.0, "noise_cross_gate": 0.8,
     }
     assert inspect.signature(RobustCorrelogram.__init__).parameters["n_channels"].default == 32
     own = inspect.signature(RobustGccPhat.__init__).parameters
     assert {name: own[name].default for name in ("flatness_power", "frame_snr_power", "frame_corr_power",
-                                                  "dereverb_taps", "over_subtraction", "band_edges_hz")} == {
+                                                  "dereverb_taps", "over_subtraction", "band_edges_hz",
+                                                  "noise_cross_s")} == {
         "flatness_power": 8.0, "frame_snr_power": 8.0, "frame_corr_power": 2.0, "dereverb_taps": 3,
-        "over_subtraction": 3.0, "band_edges_hz": (800.0, 1600.0, 2600.0)}
+        "over_subtraction": 3.0, "band_edges_hz": (800.0, 1600.0, 2600.0), "noise_cross_s": 1.0}
 
 
 def test_band_edges_must_be_finite_increasing_frequencies() -> None:
@@ -146,7 +150,8 @@ def test_a_frame_method_keeps_no_band_peaks_or_bins_unless_asked() -> None:
 
 # -- each cue alone, on frames whose spectra are known --------------------------------------------------------------
 CUES_OFF = {"onset_floor": 1.0, "over_subtraction": 0.0, "coherence_power": 0.0, "diffuse_power": 0.0,
-            "diffuse_subtract": False, "flatness_power": 0.0, "frame_snr_power": 0.0, "dereverb_taps": 0}
+            "diffuse_subtract": False, "flatness_power": 0.0, "frame_snr_power": 0.0, "dereverb_taps": 0,
+            "noise_cross_s": 0.0}
 RISE = 10 ** (3.0 * 0.010 / 10)  # the noise floor's rise per 10 ms frame at the default 3 dB/s
 
 
@@ -427,3 +432,58 @@ def test_a_dereverberated_silent_frame_stays_silent_and_one_tap_is_used() -> Non
     without = make(**CUES_OFF).frame_terms(frames[0], frames[1], FrameState())["corr"]
     np.testing.assert_allclose(with_tap[:2], without[:2], rtol=1e-9)  # nothing to predict from yet
     assert np.abs(with_tap[4:] - without[4:]).max() > 0.01 * np.abs(without).max()  # predicted from t - 2 on
+
+
+def talker_over_steady_noise(gain: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(left, right, talk): 8 s at 16 kHz of a steady point noise 4 samples to the left (white, rms 0.1) and, from
+    2 s, a talker 4 samples to the right in 0.6 s bursts every 1.5 s (white noise at ``gain`` times the noise's rms,
+    its envelope swinging between 0.5 and 1 four times a second); ``talk`` marks each burst's middle 0.4 s."""
+    fs, n = 16000, 8 * 16000
+    rng = np.random.default_rng(1)
+    noise_l, noise_r = delayed_noise(-4.0, n, rng)
+    talk_l, talk_r = delayed_noise(4.0, n, rng)
+    t = np.arange(n) / fs
+    envelope = (((t % 1.5) < 0.6) & (t > 2.0)) * (0.5 + 0.5 * np.sin(2 * np.pi * 4 * t) ** 2)
+    talk = ((t % 1.5) > 0.1) & ((t % 1.5) < 0.5) & (t > 2.0)
+    return noise_l + gain * envelope * talk_l, noise_r + gain * envelope * talk_r, talk
+
+
+def test_a_steady_noises_cross_spectrum_subtracted_gives_a_talker_as_loud_as_it_the_windows() -> None:
+    # The phase transform gives every bin one vote: at equal power the steady noise holds every window of the talk.
+    # Its cross-spectrum learnt in the noise's own frames and subtracted, the talker takes most of them.
+    left, right, talk = talker_over_steady_noise(1.0)
+    share = {}
+    for seconds in (0.0, 1.0):
+        track = extract_itds(left, right, 16000, method="gcc-phat-robust", noise_cross_s=seconds)
+        talking = np.interp(track.times_s, np.arange(talk.size) / 16000, talk) > 0.5
+        assert talking.sum() == 76 and np.isfinite(track.itds_s[talking]).all()
+        share[seconds] = np.mean(np.abs(track.itds_s[talking] * 16000 - 4.0) < 1.0)
+    assert share[0.0] == 0.0 and share[1.0] > 0.8
+
+
+def test_a_talkers_own_frames_do_not_teach_the_noises_cross_spectrum() -> None:
+    # A frame whose share above the noise floor reaches the gate (0.8) teaches nothing; the noise's own frames do.
+    method = make(noise_cross_s=1.0)
+    noise_l, noise_r = delayed_noise(-4.0, 4000, np.random.default_rng(2))
+    talk_l, talk_r = delayed_noise(4.0, 4000, np.random.default_rng(3))
+    state = FrameState()
+    method.frame_terms(frames_of(noise_l, 5), frames_of(noise_r, 5), state)
+    learnt = state.noise_cross.copy()
+    assert np.abs(learnt).max() > 0
+    loud = 10 * np.stack((frames_of(talk_l[800:], 3), frames_of(talk_r[800:], 3)))  # 20 dB over the noise
+    method.frame_terms(loud[0], loud[1], state)
+    np.testing.assert_array_equal(state.noise_cross, learnt)
+    method.frame_terms(frames_of(noise_l[1600:], 1), frames_of(noise_r[1600:], 1), state)
+    assert not np.array_equal(state.noise_cross, learnt)
+
+
+def test_the_learnt_cross_spectrum_is_taken_out_of_each_bin_before_the_phase_transform() -> None:
+    method = make(**{**CUES_OFF, "noise_cross_s": 1.0, "frame_corr_power": 0.0})  # the terms: each bin's phasor
+    left, right = delayed_noise(3.0, 2400, np.random.default_rng(3))
+    other_l, other_r = delayed_noise(-2.0, 2400, np.random.default_rng(4))
+    spec = method.spectra(np.stack((frames_of(left, 1), frames_of(right, 1))) * method.taper)
+    other = method.spectra(np.stack((frames_of(other_l, 1), frames_of(other_r, 1))) * method.taper)
+    learnt = (other[0] * np.conj(other[1]))[0]
+    terms = method.frame_terms(frames_of(left, 1), frames_of(right, 1), FrameState(noise_cross=learnt.copy()))
+    residual = (spec[0] * np.conj(spec[1]))[0] - learnt
+    np.testing.assert_allclose(terms["cross"][0], method.band * residual / np.abs(residual), atol=1e-9)
