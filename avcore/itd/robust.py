@@ -4,10 +4,10 @@ The window is cut into short Hann-windowed frames (32 ms, on a grid of ``hop / 2
 weighted by its signal-to-noise ratio (a running noise floor), its onset share (precedence), the short-time
 coherence and the coherent-to-diffuse ratio; whole frames by their share above the noise floor and their spectral
 flatness. ``gcc-phat-robust`` also dereverberates each bin by delayed linear prediction (WPE-like, NLMS filters),
-subtracts a steady noise's learnt cross-spectrum and sums the frames' clipped, squared correlations; ``correlogram-robust`` sums the weighted cross-spectra through the
-gammatone correlogram. The band stops at 4 kHz. Every cue, its formula, its source in the literature and the
-options that set it: docs/method.md ("ITD extraction"); how each was chosen: docs/experiments.md ("The robust ITD
-extractors").
+subtracts a steady noise's learnt cross-spectrum and sums the frames' clipped, squared correlations;
+``correlogram-robust`` sums the weighted cross-spectra through the gammatone correlogram. The band stops at 4 kHz.
+Every cue, its formula, its source in the literature and the options that set it: docs/method.md ("ITD
+extraction"); how each was chosen: docs/experiments.md ("The robust ITD extractors").
 
 The noise floor, the previous frame, the coherence averages, the dereverberation's past frames and filters and the
 noise's cross-spectrum are state carried from frame to frame: these methods run in streaming form (``PairStream``),
@@ -335,10 +335,11 @@ class RobustGccPhat(FrameMethod):
     exponent (see the module docstring).
 
     Defaults that differ from :class:`FrameMethod`'s (measured: module docstring): ``flatness_power`` and
-    ``frame_snr_power`` 8, ``dereverb_taps`` 3, ``noise_cross_s`` 1 s, ``over_subtraction`` 3. The last because the phase transform gives
-    every bin one vote and the running minimum lies well below a steady noise's mean power (Martin 2001): three times
-    the floor (the over-subtraction of Berouti, Schwartz and Makhoul 1979) leaves little weight to the bins of a
-    steady noise from one direction (a kitchen, a fan), which would otherwise take a lone talker's windows.
+    ``frame_snr_power`` 8, ``dereverb_taps`` 3, ``noise_cross_s`` 1 s, ``over_subtraction`` 3. The last because the
+    phase transform gives every bin one vote and the running minimum lies well below a steady noise's mean power
+    (Martin 2001): three times the floor (the over-subtraction of Berouti, Schwartz and Makhoul 1979) leaves little
+    weight to the bins of a steady noise from one direction (a kitchen, a fan), which would otherwise take a lone
+    talker's windows.
 
     Extra parameter ``frame_corr_power`` (2): each frame's weighted phase-transform correlation, normalised by the
     frame's total weight to ``[-1, 1]``, is clipped at 0 and raised to this power before the window sums the
