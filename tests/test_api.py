@@ -43,7 +43,7 @@ def test_a_script_beside_the_clone_imports_the_package(tmp_path) -> None:  # noq
 def test_a_robot_with_an_array_hears_the_talker_out_of_view() -> None:
     """S4 with NAO's four microphones: the talker outside the view (53 degrees to the left, who counts first) is
     among the results as a voice to the left; with the default pair, results carry no voices. Four seconds: the
-    talker's first two numbers (in three, one number, whose few windows hang on single pairs' lags)."""
+    talker's first two numbers."""
     import math
 
     voices = [v for r in avhear.results("sim:S4", duration_s=4, mics="nao") for v in r.voices]

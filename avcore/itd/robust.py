@@ -257,12 +257,12 @@ class FrameMethod(ItdMethod):
         """Subtract the steady noise's learnt cross-spectrum from frame ``j``'s (in place), then learn from it.
 
         A point noise (a fan, a kitchen) is coherent: in every bin it holds a fixed phase, its direction's, and the
-        phase transform gives each bin one vote, so at 10 dB it takes a lone talker's windows on every pair. Its
+        phase transform gives each bin one vote, so it can take a lone talker's windows on every pair. Its
         cross-spectrum's mean, subtracted, leaves the talker's (the two are uncorrelated: Boll 1979's spectral
         subtraction, on the cross-spectrum rather than the power). It is learnt, with time constant ``noise_cross_s``,
         in the frames whose share above the noise floor is below ``noise_cross_gate`` (a talker's frames lie
-        above it), and there in each bin by how close it lies to the floor: fully at or below
-        ``over_subtraction`` times the floor, not at all where the floor is nothing to the bin.
+        above it), and there in each bin by how close it lies to the floor: fully at or below ``over_subtraction``
+        times the floor (at least once the floor), not at all where the floor is nothing to the bin.
         """
         if state.noise_cross is None:
             state.noise_cross = np.zeros_like(cross[j])
