@@ -14,6 +14,13 @@ eventually retrieve a clean speech signal". :class:`VoiceSeparator` is the strea
   while they talk less ``R``'s), so that MVDR also turns down what reaches the array from every direction while
   they talk (a room's late reverberation; MVDR against a diffuse field is the superdirective beamformer, Bitzer
   and Simmer 2001), measured in docs/results.md;
+* two more beams, also distortionless at the person: one takes the covariance of the frames where nobody speaks
+  (the noise alone) plus the same diffuse term, the other the diffuse field alone (superdirective); in each bin of
+  each frame the stream keeps whichever of the three beams lets least through (``quiet_beams``). All pass the
+  person's direct sound unchanged, so the quietest has taken out most of the rest (MPDR's minimum-power choice, Cox
+  1973, made between constrained beams): while the person talks alone the first beam spends its degrees of freedom
+  on talkers who are silent now; in overlap it nulls them. The speaking states come ``learn_delay_s`` late, so the
+  frame, not the states, chooses (docs/results.md);
 * the output is resampled to ``out_rate_hz`` (16 kHz, what recognisers take) in the same inverse transform (the
   bins up to its Nyquist frequency), and overlap-added: a stream per person that goes on through their silence.
 
@@ -88,8 +95,8 @@ class VoiceSeparator:
 
     def __init__(self, mic_positions_m: np.ndarray, samplerate_hz: float, *, out_rate_hz: int = 16000,
                  frame_s: float = 0.032, learn_delay_s: float = 0.3, memory_s: float = 3.0, loading: float = 1e-2,
-                 diffuse: float = 1.0, max_wait_s: float | None = None, forget_s: float = 10.0,
-                 speed_of_sound: float = SPEED_OF_SOUND) -> None:
+                 diffuse: float = 1.0, quiet_beams: bool = True, max_wait_s: float | None = None,
+                 forget_s: float = 10.0, speed_of_sound: float = SPEED_OF_SOUND) -> None:
         self.mics = np.asarray(mic_positions_m, dtype=np.float64).reshape(-1, 3)
         if self.mics.shape[0] < 2:
             raise ValueError(f"a voice needs at least 2 microphones, got {self.mics.shape[0]}")
@@ -101,9 +108,11 @@ class VoiceSeparator:
         self.hop_in, self.hop_out = self.n_in // 2, self.n_out // 2
         self.learn_delay_s, self.max_wait_s, self.forget_s = learn_delay_s, max_wait_s, forget_s
         self.loading, self.diffuse, self.speed_of_sound = loading, diffuse, speed_of_sound
+        self.quiet_beams = quiet_beams
         self.bins = min(self.n_in, self.n_out) // 2 + 1  # the input's bins the output keeps
         self.freqs_hz = np.arange(self.bins) * self.samplerate_hz / self.n_in
         self._coherence = bf.diffuse_coherence(self.mics, self.freqs_hz, speed_of_sound)  # (F, Q, Q)
+        self._coherence_inv = np.linalg.inv(self._coherence + loading * np.eye(self.mics.shape[0]))  # superdirective
         self._win_in = np.sqrt(np.hanning(self.n_in + 1)[:-1])  # periodic: sqrt-Hann analysis and synthesis
         self._win_out = np.sqrt(np.hanning(self.n_out + 1)[:-1]) * (self.n_out / self.n_in)
         self._decay = math.exp(-self.hop_in / self.samplerate_hz / memory_s)
@@ -114,6 +123,7 @@ class VoiceSeparator:
         self._updates: collections.deque[_Update] = collections.deque()
         self._pending: collections.deque[tuple[float, np.ndarray]] = collections.deque()  # frames to learn from
         self._cov: dict[int, np.ndarray] = {}  # person -> (F, Q, Q)
+        self._noise: np.ndarray | None = None  # (F, Q, Q) the frames where nobody speaks
         self._power: dict[int, np.ndarray] = {}  # person -> (F,) the microphones' mean power while they talk
         self._seen: dict[int, float] = {}  # person -> the last frame time they were there
         self._tails: dict[int, tuple[float, np.ndarray]] = {}  # person -> (stamp, second half of their last frame)
@@ -217,13 +227,17 @@ class VoiceSeparator:
                 self._seen[pid] = centre_s
                 steer = bf.steering(self.mics, pos, self.freqs_hz, self.speed_of_sound)
                 cov, power = self._cov.get(pid), self._power.get(pid)
+                reverb = 0.0
                 if cov is not None and power is not None and self.diffuse > 0:
                     # the voice's own power: what the microphones hear while the person talks less what they
                     # hear while the person is silent (the others and the noise, already in ``cov``)
                     own = np.maximum(power - np.real(np.trace(cov, axis1=1, axis2=2)) / cov.shape[1], 0.0)
-                    cov = cov + self.diffuse * own[:, None, None] * self._coherence
-                w = steer / steer.shape[1] if cov is None else bf.mvdr_weights(cov, steer, self.loading)
-                self._emit(pid, start_s, np.einsum("fq,fq->f", np.conj(w), spec))
+                    reverb = self.diffuse * own[:, None, None] * self._coherence
+                w = steer / steer.shape[1] if cov is None else bf.mvdr_weights(cov + reverb, steer, self.loading)
+                out = np.einsum("fq,fq->f", np.conj(w), spec)
+                if self.quiet_beams:
+                    out = self._quietest(out, spec, steer, reverb)
+                self._emit(pid, start_s, out)
         for pid in [p for p in self._tails if p not in present]:
             self._end_tail(pid)
         for pid in [p for p, t in self._seen.items() if centre_s - t > self.forget_s]:
@@ -231,9 +245,21 @@ class VoiceSeparator:
             self._cov.pop(pid, None)
             self._power.pop(pid, None)
 
+    def _quietest(self, out: np.ndarray, spec: np.ndarray, steer: np.ndarray, reverb: np.ndarray | float
+                  ) -> np.ndarray:
+        """``out`` (F,), the first beam's bins, each replaced by the noise's beam's or the superdirective beam's
+        where that lets less through (module docstring)."""
+        ra = np.einsum("fqp,fp->fq", self._coherence_inv, steer)
+        superdirective = ra / np.einsum("fq,fq->f", np.conj(steer), ra)[:, None]
+        for w in [superdirective] + ([] if self._noise is None else
+                                     [bf.mvdr_weights(self._noise + reverb, steer, self.loading)]):
+            other = np.einsum("fq,fq->f", np.conj(w), spec)
+            out = np.where(np.abs(other) < np.abs(out), other, out)
+        return out
+
     def _learn(self, centre_s: float, spec: np.ndarray) -> None:
         """Each person's covariance takes the frames, ``learn_delay_s`` old, where that person was silent; their
-        power, the frames where they talked."""
+        power, the frames where they talked; the noise's covariance, the frames where nobody in view talked."""
         self._pending.append((centre_s, spec))
         outer = None
         while self._pending and self._pending[0][0] <= centre_s - self.learn_delay_s:
@@ -243,6 +269,9 @@ class VoiceSeparator:
                 continue
             outer = np.einsum("fq,fp->fqp", x, np.conj(x))
             now = np.mean(np.abs(x) ** 2, axis=1)  # (F,) the microphones' mean power
+            if not state.speaking.any():
+                self._noise = (1 - self._decay) * outer if self._noise is None else (
+                    self._decay * self._noise + (1 - self._decay) * outer)
             for pid, talking in zip(state.ids.tolist(), state.speaking.tolist()):
                 if talking:
                     power = self._power.get(pid)

@@ -9,8 +9,9 @@ the truth's speaking states (what a perfect speaking state would give):
   person is silent; ``ds+mask``, ``mvdr+mask``: either, with the bins another visible person's direction explains
   better kept at -20 dB (:func:`avcore.beamform.direction_mask`);
 * ``stream``: what the pipeline hands out (:class:`avcore.separation.VoiceSeparator`: MVDR learned online, from
-  the people of ``voice_delay_s`` earlier, with the person's own reverberation as a diffuse field, resampled and
-  overlap-added), fed the truth's places and states;
+  the people of ``voice_delay_s`` earlier, with the person's own reverberation as a diffuse field, each bin the
+  quietest of it, the noise's beam and the superdirective beam, resampled and overlap-added), fed the truth's
+  places and states;
 * ``oracle-mask``: the reference microphone under the ideal ratio mask of the person's own image (the upper bound
   of a mask on one microphone, which keeps the image's reverberation);
 * ``oracle-image``: the person's own image at the reference microphone, alone (perfect separation that keeps the
