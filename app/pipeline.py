@@ -26,6 +26,7 @@ Ctrl-C (or :meth:`Pipeline.stop`, e.g. from a SIGTERM handler) stops every threa
 from __future__ import annotations
 
 import logging
+import signal
 import threading
 import time
 from collections.abc import Callable
@@ -41,6 +42,7 @@ from app.events import AudioBlock, StereoFrame
 from app.hearing import SelfCalibrating, Vision, hearing_mode
 from app.queues import DropOldestQueue
 from app.result import Result
+from app.signals import stop_on_signals
 from avcore.faces import FaceDetector
 from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
@@ -271,7 +273,9 @@ class Pipeline:
 
         Re-raises the first exception of a worker thread after all threads have been joined. With ``whole`` (an
         evaluation, whose figures would be a cut run's), Ctrl-C or SIGTERM raises ``KeyboardInterrupt`` once the
-        threads are joined, instead of returning the stats with ``interrupted`` set.
+        threads are joined, instead of returning the stats with ``interrupted`` set. In the main thread, Ctrl-C
+        (SIGINT) only sets a flag while the run waits, so it cannot be lost in whatever the interpreter is running
+        when it comes (a ``KeyboardInterrupt`` raised inside a finaliser is discarded).
         """
         workers = [
             ("voices", self._voices_loop), ("fusion", self._fusion_loop), ("itd", self._itd_loop),
@@ -285,17 +289,21 @@ class Pipeline:
         threads = [threading.Thread(target=self._guard, args=(name, fn), name=f"avhear-{name}", daemon=True)
                    for name, fn in workers]
         self.stats.started_s = time.perf_counter()
+        ctrl_c = threading.Event()
         try:
-            for t in threads:
-                t.start()
-            deadline = None if duration_s is None else time.perf_counter() + duration_s
-            last = "fusion" if self._q_voices is None else "voices"
-            while not self._done[last].wait(0.05):
-                if self._stop.is_set() or (deadline is not None and time.perf_counter() >= deadline):
-                    break
+            with stop_on_signals(ctrl_c, (signal.SIGINT,)):
+                for t in threads:
+                    t.start()
+                deadline = None if duration_s is None else time.perf_counter() + duration_s
+                last = "fusion" if self._q_voices is None else "voices"
+                while not self._done[last].wait(0.05):
+                    if ctrl_c.is_set() or self._stop.is_set() or (
+                            deadline is not None and time.perf_counter() >= deadline):
+                        break
         except KeyboardInterrupt:
             self.stats.interrupted = True
         finally:
+            self.stats.interrupted = self.stats.interrupted or ctrl_c.is_set()
             self._stop.set()
             for t in reversed(threads):  # reverse start order: producers first
                 t.join(self.config.join_timeout_s)

@@ -13,9 +13,9 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 @contextmanager
-def stop_on_signals(stop: threading.Event) -> Iterator[threading.Event]:
-    """Within the block, SIGINT and SIGTERM set ``stop`` (and remember which came in ``stop.signal``) instead of
-    raising in whatever the main thread was doing; outside the main thread, nothing is installed."""
+def stop_on_signals(stop: threading.Event, signals: tuple[int, ...] = SIGNALS) -> Iterator[threading.Event]:
+    """Within the block, ``signals`` (SIGINT and SIGTERM) set ``stop`` (and remember which came in ``stop.signal``)
+    instead of raising in whatever the main thread was doing; outside the main thread, nothing is installed."""
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
@@ -24,8 +24,8 @@ def stop_on_signals(stop: threading.Event) -> Iterator[threading.Event]:
         stop.signal = signum  # type: ignore[attr-defined]
         stop.set()
 
-    previous = {sig: signal.getsignal(sig) for sig in SIGNALS}
-    for sig in SIGNALS:
+    previous = {sig: signal.getsignal(sig) for sig in signals}
+    for sig in signals:
         signal.signal(sig, handler)
     try:
         yield stop
