@@ -143,9 +143,12 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
         "talker's signals: the ideal mask, the talker's own image, the multichannel Wiener filter), steered at the "
         "person's face and told when "
         "they are silent by the truth. Prints each candidate's SI-SDR improvement over the reference microphone "
-        "against the person's dry speech, where they talk alone and where another talks at once.",
+        "against the person's dry speech, where they talk alone and where another talks at once. With --scenario, "
+        "the simulated scenarios S1-S5 (counting; people who walk are steered at each frame's place) instead.",
     )
     _add_room_arguments(voices)
+    voices.add_argument("--scenario", nargs="+", default=None, choices=("S1", "S2", "S3", "S4", "S5"),
+                        metavar="S", help="scenarios S1..S5 drawn with each --seed, instead of the rooms")
     add_mics_argument(voices)
     voices.add_argument("--json", action="store_true", help="print the results as JSON instead of the table")
     voices.set_defaults(func=run_voices)
@@ -435,15 +438,18 @@ def run_voices(args: argparse.Namespace) -> int:
         raise UserError(f"--duration must be between 5 and 3600 seconds, got {args.duration}")
     start = time.perf_counter()
     rows = []
-    for seed in args.seed:
-        _progress(f"room {seed}: rendering with each talker's own signals, then every person's voice ...")
-        found = evaluate_voices(seed, mic_array=args.mics, duration_s=args.duration)
-        _progress(f"room {seed}: {len({r.person for r in found})} people, {len(found)} rows")
-        rows += found
+    for scenario in args.scenario or [None]:
+        for seed in args.seed:
+            name = f"room {seed}" if scenario is None else f"{scenario} seed {seed}"
+            _progress(f"{name}: rendering with each talker's own signals, then every person's voice ...")
+            found = evaluate_voices(seed, mic_array=args.mics, duration_s=args.duration, scenario=scenario)
+            _progress(f"{name}: {len({r.person for r in found})} people, {len(found)} rows")
+            rows += found
     if args.json:
-        print(json.dumps({"mics": args.mics, "seeds": list(args.seed), "reference": "dry speech, direct path",
-                          "summary": summarise(rows), "rows": [r.as_dict() for r in rows]}, indent=2))
+        print(json.dumps({"mics": args.mics, "seeds": list(args.seed), "scenarios": args.scenario,
+                          "reference": "dry speech, direct path", "summary": summarise(rows),
+                          "rows": [r.as_dict() for r in rows]}, indent=2))
     else:
-        print(format_voice_table(args.mics, list(args.seed), summarise(rows)))
+        print(format_voice_table(args.mics, list(args.seed), summarise(rows), args.scenario))
         print(f"\n({time.perf_counter() - start:.1f} s)")
     return 0

@@ -373,12 +373,14 @@ def format_room_table(scores: list[RoomScore]) -> str:
     return "\n".join(lines)
 
 
-def format_voice_table(mics: str, seeds: list[int], summary: dict[str, dict[str, float]]) -> str:
+def format_voice_table(mics: str, seeds: list[int], summary: dict[str, dict[str, float]],
+                       scenarios: list[str] | None = None) -> str:
     """Each voice candidate's SI-SDR improvement (dB, mean over the seconds, and the worst person's), alone and in
-    overlap (:func:`app.eval.voices.summarise`)."""
+    overlap (:func:`app.eval.voices.summarise`), of the rooms ``seeds`` or of ``scenarios`` drawn with them."""
     from app.eval.voices import CANDIDATES
 
-    lines = [f"Each person's voice, rooms {', '.join(str(s) for s in seeds)} ({mics}): SI-SDR improvement over the "
+    where = "rooms" if not scenarios else f"{', '.join(scenarios)} seeds"
+    lines = [f"Each person's voice, {where} {', '.join(str(s) for s in seeds)} ({mics}): SI-SDR improvement over the "
              "reference microphone, dB (against the dry speech; mean over the seconds / worst person), and STOI", "",
              f"{'candidate':<14}" + "".join(f"{kind + ' (' + _num(summary[kind]['seconds'], '.0f') + ' s)':>22}"
                                             f"{'STOI':>7}" for kind in summary)]

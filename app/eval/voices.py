@@ -89,51 +89,76 @@ def _oracle_mwf(spec: np.ndarray, target: np.ndarray, loading: float = 1e-9) -> 
     return np.einsum("fq,qft->ft", weights.conj(), spec)
 
 
-def _delayed(signal: np.ndarray, delay_s: float) -> np.ndarray:
-    """``signal`` delayed by ``delay_s`` (a fractional delay, by the Fourier transform; zero-padded, no wrap)."""
+def _delayed(signal: np.ndarray, times_s: np.ndarray, delays_s: np.ndarray) -> np.ndarray:
+    """``signal`` delayed by ``delays_s`` at ``times_s`` (a talker who walks: the delay between, linear). One
+    delay: by the Fourier transform (fractional, zero-padded, no wrap); several: by linear interpolation."""
     n = signal.size
-    spec = np.fft.rfft(signal, 2 * n) * np.exp(-2j * np.pi * np.fft.rfftfreq(2 * n, 1 / _FS) * delay_s)
-    return np.fft.irfft(spec, 2 * n)[:n]
+    delays = np.asarray(delays_s, dtype=np.float64)
+    if np.ptp(delays) < 0.5 / _FS / 100:
+        spec = np.fft.rfft(signal, 2 * n) * np.exp(-2j * np.pi * np.fft.rfftfreq(2 * n, 1 / _FS) * delays[0])
+        return np.fft.irfft(spec, 2 * n)[:n]
+    t = np.arange(n) / _FS
+    return np.interp(t - np.interp(t, times_s, delays), t, signal, left=0.0, right=0.0)
 
 
 def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | None = None,
-                    data_dir: str | None = None, progress: Progress | None = None) -> list[VoiceRow]:
-    """Room ``seed`` with ``mic_array``: every person's rows (module docstring)."""
+                    data_dir: str | None = None, progress: Progress | None = None,
+                    scenario: str | None = None) -> list[VoiceRow]:
+    """Room ``seed`` with ``mic_array``, or with ``scenario`` ("S1" ... "S5") that preset of
+    :func:`sim.scenario.make_scenario` drawn with ``seed`` (its digits and its fan): every person's rows (module
+    docstring). People who walk are steered at where they are in each frame."""
+    from sim.audio import load_background, load_clip_bank, load_sentence_bank, render_audio
+    from sim.rooms import ROOM_DURATION_S, make_room
+    from sim.scenario import make_scenario
+
+    if scenario is None:
+        bank = load_sentence_bank(_FS, data_dir, seed=seed)
+        world, draw = make_room(seed, clip_durations_s=bank.durations_s, mics=mic_array,
+                                duration_s=ROOM_DURATION_S if duration_s is None else duration_s)
+        background = load_background(draw.noise_position_m, draw.noise_snr_db, _FS, data_dir, seed=seed)
+        audio = render_audio(world, bank, background=background, images=True, progress=progress)
+    else:
+        bank = load_clip_bank(_FS, data_dir, seed=seed)
+        world = make_scenario(scenario, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,
+                              mics=mic_array)
+        audio = render_audio(world, bank, images=True, progress=progress)
+    return _score(world, audio, seed, mic_array)
+
+
+def _score(scenario: Any, audio: Any, seed: int, mic_array: str) -> list[VoiceRow]:
+    """Every person's rows of a rendered world (``render_audio(images=True)``)."""
     from scipy.signal import istft, stft
 
-    from sim.audio import SOURCE_OFFSETS_M, load_background, load_sentence_bank, render_audio
-    from sim.rooms import ROOM_DURATION_S, make_room
+    from sim.audio import SOURCE_OFFSETS_M
 
-    bank = load_sentence_bank(_FS, data_dir, seed=seed)
-    scenario, draw = make_room(seed, clip_durations_s=bank.durations_s, mics=mic_array,
-                               duration_s=ROOM_DURATION_S if duration_s is None else duration_s)
-    background = load_background(draw.noise_position_m, draw.noise_snr_db, _FS, data_dir, seed=seed)
-    audio = render_audio(scenario, bank, background=background, images=True, progress=progress)
     assert audio.images is not None
     x = audio.samples.T.astype(np.float64) / 32768.0  # (Q, n)
     n = x.shape[1]
     freqs, frames, spec = stft(x, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)  # (Q, F, T)
     mics = np.asarray(scenario.array.positions, dtype=np.float64)
-    faces = scenario.positions(0.0)  # the rooms' people stay where they are
-    steers = np.stack([bf.steering(mics, p, freqs, scenario.array.speed_of_sound) for p in faces])
+    c = scenario.array.speed_of_sound
+    places = np.stack([scenario.positions(float(t)) for t in frames])  # (T, N, 3) each frame's faces
+    steers = [_steering_path(mics, places[:, k], freqs, c) for k in range(places.shape[1])]  # each (T, F, Q)
     talking_frames = scenario.speaking_at(frames)  # (T, N)
     talking = scenario.speaking_at(np.arange(0, n, _GRID) / _FS)  # (n / 10 ms, N)
 
     def wave(y: np.ndarray) -> np.ndarray:
         return istft(y, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[1][:n]
 
-    streams = _streams(x, mics, faces, scenario, n)
+    streams = _streams(x, mics, scenario, n)
     rows: list[VoiceRow] = []
-    for k in range(len(faces)):
-        mouth = faces[k] + np.asarray(SOURCE_OFFSETS_M["speech"])
-        reference = _delayed(audio.dry[k].astype(np.float64),
-                             float(np.linalg.norm(mouth - mics[0])) / scenario.array.speed_of_sound)
+    for k in range(places.shape[1]):
+        mouth = places[:, k] + np.asarray(SOURCE_OFFSETS_M["speech"])  # (T, 3)
+        reference = _delayed(audio.dry[k].astype(np.float64), frames, np.linalg.norm(mouth - mics[0], axis=1) / c)
         own = stft(audio.images[k, 0].astype(np.float64), fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[2]
         rest = spec[0] - own
         ideal = np.abs(own) ** 2 / np.maximum(np.abs(own) ** 2 + np.abs(rest) ** 2, 1e-20)
-        weights = bf.mvdr_weights(bf.covariance(spec, ~talking_frames[:, k]), steers[k])
-        mask = bf.direction_mask(spec, steers, k)
-        ds, mvdr = bf.delay_and_sum(spec, steers[k]), bf.apply(weights, spec)
+        cov = bf.covariance(spec, ~talking_frames[:, k])
+        ds = np.einsum("tfq,qft->ft", np.conj(steers[k]), spec) / spec.shape[0]
+        mvdr = np.stack([bf.apply(bf.mvdr_weights(cov, steers[k][t]), spec[:, :, t:t + 1])[:, 0]
+                         for t in range(spec.shape[2])], axis=1) if _moves(places[:, k]) else \
+            bf.apply(bf.mvdr_weights(cov, steers[k][0]), spec)
+        mask = _direction_mask(spec, steers, k)
         dry = stft(reference, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[2]
         outputs = {"ds": ds, "mvdr": mvdr, "ds+mask": ds * mask, "mvdr+mask": mvdr * mask,
                    "oracle-mask": spec[0] * ideal, "oracle-mwf": _oracle_mwf(spec, dry)}
@@ -155,15 +180,37 @@ def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | N
     return rows
 
 
-def _streams(x: np.ndarray, mics: np.ndarray, faces: np.ndarray, scenario: Any, n: int,
-             block: int = 512, result_every_s: float = 1 / 30) -> list[np.ndarray]:
+def _moves(path: np.ndarray) -> bool:
+    """Whether the places (T, 3) of one person move by more than a millimetre."""
+    return bool(np.ptp(path, axis=0).max() > 1e-3)
+
+
+def _steering_path(mics: np.ndarray, path: np.ndarray, freqs: np.ndarray, c: float) -> np.ndarray:
+    """(T, F, Q): the steering vectors of a person at their places (T, 3), one per frame (a view of one when they
+    stay)."""
+    if not _moves(path):
+        one = bf.steering(mics, path[0], freqs, c)
+        return np.broadcast_to(one[None], (path.shape[0], *one.shape))
+    return np.stack([bf.steering(mics, p, freqs, c) for p in path])
+
+
+def _direction_mask(spec: np.ndarray, steers: list[np.ndarray], target: int, floor: float = 0.1) -> np.ndarray:
+    """:func:`avcore.beamform.direction_mask` with each frame's steering vectors (each person's (T, F, Q))."""
+    if len(steers) < 2:
+        return np.ones(spec.shape[1:], dtype=np.float64)
+    power = np.stack([np.abs(np.einsum("tfq,qft->ft", np.conj(a), spec)) ** 2 for a in steers])  # (N, F, T)
+    return np.where(power.argmax(axis=0) == target, 1.0, floor)
+
+
+def _streams(x: np.ndarray, mics: np.ndarray, scenario: Any, n: int, block: int = 512,
+             result_every_s: float = 1 / 30) -> list[np.ndarray]:
     """Each person's stream as the pipeline makes it, fed the truth (a result every ``result_every_s``), on the
     samples' own grid (zeros before it starts)."""
     from avcore.separation import VoiceSeparator
 
     separator = VoiceSeparator(mics, _FS, speed_of_sound=scenario.array.speed_of_sound)
-    out = np.zeros((len(faces), n), dtype=np.float64)
-    ids = np.arange(len(faces))
+    out = np.zeros((len(scenario.actors), n), dtype=np.float64)
+    ids = np.arange(len(scenario.actors))
     next_result = 0.0
 
     def take(chunks: list) -> None:
@@ -174,7 +221,8 @@ def _streams(x: np.ndarray, mics: np.ndarray, faces: np.ndarray, scenario: Any, 
 
     for start in range(0, n, block):
         while next_result <= (start + block) / _FS:
-            separator.push_people(next_result, ids, faces, scenario.speaking_at(np.array([next_result]))[0])
+            separator.push_people(next_result, ids, scenario.positions(next_result),
+                                  scenario.speaking_at(np.array([next_result]))[0])
             next_result += result_every_s
         separator.push_audio(start / _FS, x[:, start:start + block].T)
         take(separator.pop())
