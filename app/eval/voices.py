@@ -58,10 +58,11 @@ class VoiceRow:
     reference_db: float
     improvement_db: dict[str, float]
     stoi: dict[str, float]  # the reference microphone's ("reference") and each candidate's
+    scenario: str | None = None  # S1..S5, or None: the room drawn from ``seed``
 
     def as_dict(self) -> dict[str, Any]:
-        return {"seed": self.seed, "mics": self.mics, "person": self.person, "kind": self.kind,
-                "seconds": round(self.seconds, 1), "reference_db": round(self.reference_db, 2),
+        return {"scenario": self.scenario, "seed": self.seed, "mics": self.mics, "person": self.person,
+                "kind": self.kind, "seconds": round(self.seconds, 1), "reference_db": round(self.reference_db, 2),
                 "improvement_db": {k: round(v, 2) for k, v in self.improvement_db.items()},
                 "stoi": {k: round(v, 3) for k, v in self.stoi.items()}}
 
@@ -122,11 +123,11 @@ def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | N
         world = make_scenario(scenario, clip_durations_s=bank.durations_s, duration_s=duration_s, seed=seed,
                               mics=mic_array)
         audio = render_audio(world, bank, images=True, progress=progress)
-    return _score(world, audio, seed, mic_array)
+    return _score(world, audio, seed, mic_array, scenario)
 
 
-def _score(scenario: Any, audio: Any, seed: int, mic_array: str) -> list[VoiceRow]:
-    """Every person's rows of a rendered world (``render_audio(images=True)``)."""
+def _score(scenario: Any, audio: Any, seed: int, mic_array: str, preset: str | None) -> list[VoiceRow]:
+    """Every person's rows of a rendered world (``render_audio(images=True)``), a room's or ``preset``'s."""
     from scipy.signal import istft, stft
 
     from sim.audio import SOURCE_OFFSETS_M
@@ -162,7 +163,7 @@ def _score(scenario: Any, audio: Any, seed: int, mic_array: str) -> list[VoiceRo
         dry = stft(reference, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[2]
         outputs = {"ds": ds, "mvdr": mvdr, "ds+mask": ds * mask, "mvdr+mask": mvdr * mask,
                    "oracle-mask": spec[0] * ideal, "oracle-mwf": _oracle_mwf(spec, dry)}
-        waves = {name: wave(y) for name, y in outputs.items()}
+        waves = {c: wave(y) for c, y in outputs.items()}
         waves["stream"] = streams[k]
         waves["oracle-image"] = audio.images[k, 0].astype(np.float64)
         mixture = x[0]
@@ -173,10 +174,10 @@ def _score(scenario: Any, audio: Any, seed: int, mic_array: str) -> list[VoiceRo
                 continue
             base = _si_sdr(reference[samples], mixture[samples])
             stois = {"reference": _stoi(reference[samples], mixture[samples])}
-            stois.update({name: _stoi(reference[samples], w[samples]) for name, w in waves.items()})
+            stois.update({c: _stoi(reference[samples], w[samples]) for c, w in waves.items()})
             rows.append(VoiceRow(seed, mic_array, k, kind, float(samples.sum()) / _FS, base,
-                                 {name: _si_sdr(reference[samples], w[samples]) - base for name, w in waves.items()},
-                                 stois))
+                                 {c: _si_sdr(reference[samples], w[samples]) - base for c, w in waves.items()},
+                                 stois, preset))
     return rows
 
 

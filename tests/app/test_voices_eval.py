@@ -66,5 +66,6 @@ def test_eval_voices_on_a_scenario_follows_the_person_who_walks(capsys: pytest.C
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["scenarios"] == ["S5"] and {r["person"] for r in out["rows"]} == {0, 1, 2}
+    assert {r["scenario"] for r in out["rows"]} == {"S5"}
     walker = next(r for r in out["rows"] if r["person"] == 1 and r["kind"] == "overlap")
     assert walker["improvement_db"]["ds"] > 2.0 and walker["reference_db"] > -11.0
