@@ -9,7 +9,8 @@ Two signs, per pair, from what the run hears anyway:
   pair's axis (its ITD over ``endfire_share`` of the reach) are counted apart, with ``endfire_beyond_share``: a
   pair that points at its talkers (a flat array's front-back pair, people ahead) hears them at the reach itself,
   and the measurement's spread puts a share past it, up to the search's edge (docs/experiments.md, 2026-11-29);
-  microphones farther apart than declared put most of them there;
+  microphones farther apart than declared put most of them there. So are the results with no face in view: their
+  sound may come from the axis too;
 - one-source ITDs that are a steady multiple of what the geometry predicts for the face that talks: a time frame
   whose ITDs on a pair spread less than ``max_spread_s`` (one source, as :mod:`avcore.selfcal` takes them) gives
   the ratio of their median to the raw ITD (eq. itd) of the face that explains it (with one pair: the one face in
@@ -98,6 +99,8 @@ class MicCheck:
         faces = np.asarray(faces_xyz, dtype=np.float64).reshape(-1, 3)
         raw = self.array.raw_itd(faces).reshape(faces.shape[0], self.array.n_pairs)  # (N, P)
         endfire = (np.abs(raw) > self.endfire_share * self._reach).any(axis=0).astype(int)  # (P,) 0 or 1
+        if faces.shape[0] == 0:  # nothing says where the sound comes from: the axis too
+            endfire[:] = 1
         columns = np.arange(self.array.n_pairs)
         np.add.at(self._counts, (endfire, columns), finite.sum(axis=0))
         out = finite & (np.abs(np.where(finite, itds, 0.0)) > self.beyond_margin * self._reach)

@@ -99,3 +99,21 @@ def test_a_pair_that_points_at_its_talkers_is_judged_on_a_share_of_its_own() -> 
         said = check.findings()
         assert {f.pair for f in said} == said_on, [f.message() for f in said]
         assert all(f.kind == "beyond" and f.implied_m > 1.1 * f.declared_m for f in said)
+
+
+def test_results_with_no_face_in_view_count_as_if_a_face_were_on_the_axis() -> None:
+    """A front-back pair hears its talker at the reach itself; in results where vision found no face (a camera that
+    starts late, a frame without depth) nothing says the sound comes from the axis, so those results are counted
+    with the lenient share too: right microphones are not said wrong, and microphones a third farther apart still
+    are."""
+    ahead = np.array([[-0.10, -0.10, 1.5], [0.05, -0.12, 2.0], [0.20, -0.10, 2.5]])
+    declared = MicArray.preset("respeaker4")
+    reach = np.array([declared.pair(k).max_itd_s for k in range(declared.n_pairs)])
+    for factor, said in ((1.0, False), (40.5 / 32.0, True)):
+        heard = _scaled(declared, factor)
+        rng = np.random.default_rng(3)
+        check = MicCheck(declared)
+        for k in range(400):
+            tau = PULL * heard.raw_itd(ahead[(k // 20) % 3][None]).reshape(1, -1) + rng.normal(0.0, 20e-6, (10, 6))
+            check.push(ahead if k % 2 else np.zeros((0, 3)), np.where(np.abs(tau) <= 1.2 * reach, tau, np.nan))
+        assert bool(check.findings()) is said, [f.message() for f in check.findings()]
