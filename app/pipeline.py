@@ -274,8 +274,7 @@ class Pipeline:
         Re-raises the first exception of a worker thread after all threads have been joined. With ``whole`` (an
         evaluation, whose figures would be a cut run's), Ctrl-C or SIGTERM raises ``KeyboardInterrupt`` once the
         threads are joined, instead of returning the stats with ``interrupted`` set. In the main thread, Ctrl-C
-        (SIGINT) only sets a flag while the run waits, so it cannot be lost in whatever the interpreter is running
-        when it comes (a ``KeyboardInterrupt`` raised inside a finaliser is discarded).
+        (SIGINT) only sets a flag while the run waits, rather than raising wherever the interpreter happens to be.
         """
         workers = [
             ("voices", self._voices_loop), ("fusion", self._fusion_loop), ("itd", self._itd_loop),

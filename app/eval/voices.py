@@ -1,9 +1,10 @@
 """Each person's voice scored where the truth is known (issue 59's candidates, before any is built in).
 
-A room of :mod:`sim.rooms` is rendered with each talker's own signals kept (``render_audio(images=True)``); every
-person's voice is then taken from all the microphones by each candidate of :mod:`avcore.beamform`, steered at the
-person's face (the truth's, which the cameras find within a centimetre or two) and told when the person is silent by
-the truth's speaking states (what a perfect speaking state would give):
+A room of :mod:`sim.rooms`, or a scenario S1-S5 of :mod:`sim.scenario`, is rendered with each talker's own signals
+kept (``render_audio(images=True)``); every person's voice is then taken from all the microphones by each candidate
+of :mod:`avcore.beamform`, steered at the person's face in each frame (the truth's, which the cameras find within a
+centimetre or two) and told when the person is silent by the truth's speaking states (what a perfect speaking state
+would give):
 
 * ``ds``: delay-and-sum (ODAS's default, the baseline); ``mvdr``: MVDR, the covariance of the frames where the
   person is silent; ``ds+mask``, ``mvdr+mask``: either, with the bins another visible person's direction explains
@@ -95,7 +96,7 @@ def _delayed(signal: np.ndarray, times_s: np.ndarray, delays_s: np.ndarray) -> n
     delay: by the Fourier transform (fractional, zero-padded, no wrap); several: by linear interpolation."""
     n = signal.size
     delays = np.asarray(delays_s, dtype=np.float64)
-    if np.ptp(delays) < 0.5 / _FS / 100:
+    if np.ptp(delays) < 1e-9:  # one place all along
         spec = np.fft.rfft(signal, 2 * n) * np.exp(-2j * np.pi * np.fft.rfftfreq(2 * n, 1 / _FS) * delays[0])
         return np.fft.irfft(spec, 2 * n)[:n]
     t = np.arange(n) / _FS
@@ -126,7 +127,7 @@ def evaluate_voices(seed: int, *, mic_array: str = "pair", duration_s: float | N
     return _score(world, audio, seed, mic_array, scenario)
 
 
-def _score(scenario: Any, audio: Any, seed: int, mic_array: str, preset: str | None) -> list[VoiceRow]:
+def _score(world: Any, audio: Any, seed: int, mic_array: str, preset: str | None) -> list[VoiceRow]:
     """Every person's rows of a rendered world (``render_audio(images=True)``), a room's or ``preset``'s."""
     from scipy.signal import istft, stft
 
@@ -136,17 +137,17 @@ def _score(scenario: Any, audio: Any, seed: int, mic_array: str, preset: str | N
     x = audio.samples.T.astype(np.float64) / 32768.0  # (Q, n)
     n = x.shape[1]
     freqs, frames, spec = stft(x, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)  # (Q, F, T)
-    mics = np.asarray(scenario.array.positions, dtype=np.float64)
-    c = scenario.array.speed_of_sound
-    places = np.stack([scenario.positions(float(t)) for t in frames])  # (T, N, 3) each frame's faces
+    mics = np.asarray(world.array.positions, dtype=np.float64)
+    c = world.array.speed_of_sound
+    places = np.stack([world.positions(float(t)) for t in frames])  # (T, N, 3) each frame's faces
     steers = [_steering_path(mics, places[:, k], freqs, c) for k in range(places.shape[1])]  # each (T, F, Q)
-    talking_frames = scenario.speaking_at(frames)  # (T, N)
-    talking = scenario.speaking_at(np.arange(0, n, _GRID) / _FS)  # (n / 10 ms, N)
+    talking_frames = world.speaking_at(frames)  # (T, N)
+    talking = world.speaking_at(np.arange(0, n, _GRID) / _FS)  # (n / 10 ms, N)
 
     def wave(y: np.ndarray) -> np.ndarray:
         return istft(y, fs=_FS, nperseg=_NFFT, noverlap=_NFFT - _HOP)[1][:n]
 
-    streams = _streams(x, mics, scenario, n)
+    streams = _streams(x, mics, world, n)
     rows: list[VoiceRow] = []
     for k in range(places.shape[1]):
         mouth = places[:, k] + np.asarray(SOURCE_OFFSETS_M["speech"])  # (T, 3)

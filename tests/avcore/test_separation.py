@@ -110,8 +110,7 @@ def test_mvdr_learns_the_other_talker_from_the_persons_silence() -> None:
 def test_a_beam_on_the_noise_alone_while_the_person_talks_alone() -> None:
     """Three noises all along, nobody for 1 s, another talker for 2 s, then the person alone: their silence taught
     the first beam the other talker, who is silent now; the beam on the frames where nobody spoke spends the four
-    microphones on the noises, and the stream keeps it where it lets less through (SNR up by more than 0.5 dB: 1.7
-    with that beam alone, 0.9 with the superdirective beam too)."""
+    microphones on the noises, and the stream keeps it where it lets less through: more than 0.5 dB of SNR gained."""
     fs, seconds = 16000, 6.0
     n = int(fs * seconds)
     at = np.arange(n)
