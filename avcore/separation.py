@@ -5,8 +5,9 @@ eventually retrieve a clean speech signal". :class:`VoiceSeparator` is the strea
 :mod:`avcore.beamform`'s MVDR (``w = R^-1 a / (a^H R^-1 a)``; Capon 1969), the candidate that measured best
 (docs/results.md, "Each person's voice"):
 
-* the microphones' short-time spectra (sqrt-Hann frames of about 32 ms, half overlapping) are steered at each
-  person's place (``a``: the direct path's relative transfer, :func:`avcore.beamform.steering`);
+* the microphones' short-time spectra (sqrt-Hann frames of about 32 ms, half overlapping) are first dereverberated
+  (``dereverb``: :class:`avcore.dereverb.Dereverberator`, streaming multichannel WPE, one filter for the room), then
+  steered at each person's place (``a``: the direct path's relative transfer, :func:`avcore.beamform.steering`);
 * ``R``, one per person, is the covariance of the frames where that person is silent -- the other talkers and the
   noise -- averaged with a memory of ``memory_s``; the speaking states say when;
 * plus the person's own reverberation, which their silences cannot show: a diffuse field
@@ -43,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from avcore import beamform as bf
+from avcore.dereverb import Dereverberator
 from avcore.geometry import SPEED_OF_SOUND
 
 __all__ = ["VoiceChunk", "VoiceSeparator", "frame_sizes"]
@@ -95,7 +97,7 @@ class VoiceSeparator:
 
     def __init__(self, mic_positions_m: np.ndarray, samplerate_hz: float, *, out_rate_hz: int = 16000,
                  frame_s: float = 0.032, learn_delay_s: float = 0.3, memory_s: float = 3.0, loading: float = 1e-2,
-                 diffuse: float = 1.0, quiet_beams: bool = True, max_wait_s: float | None = None,
+                 diffuse: float = 1.0, quiet_beams: bool = True, dereverb: bool = True, max_wait_s: float | None = None,
                  forget_s: float = 10.0, speed_of_sound: float = SPEED_OF_SOUND) -> None:
         self.mics = np.asarray(mic_positions_m, dtype=np.float64).reshape(-1, 3)
         if self.mics.shape[0] < 2:
@@ -116,6 +118,9 @@ class VoiceSeparator:
         self._win_in = np.sqrt(np.hanning(self.n_in + 1)[:-1])  # periodic: sqrt-Hann analysis and synthesis
         self._win_out = np.sqrt(np.hanning(self.n_out + 1)[:-1]) * (self.n_out / self.n_in)
         self._decay = math.exp(-self.hop_in / self.samplerate_hz / memory_s)
+        frames_per_s = self.samplerate_hz / self.hop_in
+        self._dereverb = Dereverberator(self.bins, self.mics.shape[0], taps=6, delay=2, memory=5.0 * frames_per_s,
+                                        every=16, warm=int(2.0 * frames_per_s)) if dereverb else None
         self._buf = np.zeros((0, self.mics.shape[0]))
         self._buf_stamp: float | None = None  # stamp of the buffer's first sample
         self._next_stamp: float | None = None  # where the next block should start
@@ -141,6 +146,8 @@ class VoiceSeparator:
         if self._next_stamp is not None and abs(stamp_s - self._next_stamp) > self.hop_in / self.samplerate_hz:
             self._drain(math.inf)  # a gap: what is buffered is final with the updates known, then start again
             self._end_tails()
+            if self._dereverb is not None:
+                self._dereverb.gap()
             self._buf = np.zeros((0, self.mics.shape[0]))
             self._buf_stamp = None
         if self._buf_stamp is None:
@@ -215,6 +222,8 @@ class VoiceSeparator:
 
     def _frame(self, start_s: float, centre_s: float, block: np.ndarray) -> None:
         spec = np.fft.rfft(block * self._win_in[:, None], axis=0)[: self.bins]  # (F, Q)
+        if self._dereverb is not None:
+            spec = self._dereverb(spec)
         self.frames += 1
         self._learn(centre_s, spec)
         now = self._state_at(centre_s - self.learn_delay_s)
