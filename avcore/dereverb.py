@@ -29,6 +29,8 @@ the same).
 """
 from __future__ import annotations
 
+import collections
+
 import numpy as np
 
 __all__ = ["Dereverberator"]
@@ -48,43 +50,49 @@ class Dereverberator:
         dim = channels * taps
         self._r = np.zeros((bins, dim, dim), dtype=np.complex128)
         self._p = np.zeros((bins, dim, channels), dtype=np.complex128)
-        self._filter: np.ndarray | None = None  # (F, QK, Q)
+        self._apply: np.ndarray | None = None  # (F, Q, QK): G^H, once warm
+        self._batch_past = np.zeros((bins, every, dim), dtype=np.complex128)
+        self._batch_x = np.zeros((bins, every, channels), dtype=np.complex128)
+        self._batch_power = np.ones((bins, every))
         self.frames = 0
         self.gap()
 
     def gap(self) -> None:
         """The audio jumped: the frames before it predict nothing of the next ones."""
-        self._history = np.zeros((self.delay + self.taps - 1, self.bins, self.channels), dtype=np.complex128)
-        self._batch: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._past = np.zeros((self.bins, self.channels * self.taps), dtype=np.complex128)  # x~ of the next frame
+        self._recent: collections.deque[np.ndarray] = collections.deque()  # the frames not yet ``delay`` old
+        self._filled = 0  # frames in the batch
 
     def __call__(self, spectrum: np.ndarray) -> np.ndarray:
         x = np.asarray(spectrum, dtype=np.complex128)
         if x.shape != (self.bins, self.channels):
             raise ValueError(f"a frame must be ({self.bins}, {self.channels}), got {x.shape}")
-        # the frames delay .. delay + taps - 1 back, newest first, stacked per bin as (QK,)
-        past = self._history[self.delay - 1:].transpose(1, 0, 2).reshape(self.bins, -1)
-        y = x if self._filter is None else x - np.einsum("fkq,fk->fq", np.conj(self._filter), past)
-        power = np.maximum(np.mean(np.abs(y) ** 2, axis=1), 1e-12)
-        self._batch.append((past, x, power))
+        y = x if self._apply is None else x - (self._apply @ self._past[:, :, None])[:, :, 0]
+        b = self._filled
+        self._batch_past[:, b] = self._past
+        self._batch_x[:, b] = x
+        self._batch_power[:, b] = np.maximum(np.mean(y.real ** 2 + y.imag ** 2, axis=1), 1e-12)
+        self._filled += 1
         self.frames += 1
-        if len(self._batch) == self.every:
+        if self._filled == self.every:
             self._solve()
-        self._history = np.roll(self._history, 1, axis=0)
-        self._history[0] = x
+        # the next frame's past: the frames delay .. delay + taps - 1 before it, newest first
+        self._recent.append(x)
+        if len(self._recent) == self.delay:
+            self._past = np.concatenate([self._recent.popleft(), self._past[:, : -self.channels]], axis=1)
         return y
 
     def _solve(self) -> None:
         """Add the batch to R and P (each frame by 1/lambda and its age), and solve for G once warm."""
-        past = np.stack([b[0] for b in self._batch], axis=1)  # (F, B, QK)
-        x = np.stack([b[1] for b in self._batch], axis=1)  # (F, B, Q)
-        scale = self._weights[None, :] / np.stack([b[2] for b in self._batch], axis=1)  # (F, B)
-        weighted = np.swapaxes(past * scale[:, :, None], 1, 2)  # (F, QK, B)
-        decay = self._forget ** len(self._batch)
-        self._r = decay * self._r + weighted @ np.conj(past)
-        self._p = decay * self._p + weighted @ np.conj(x)
-        self._batch = []
+        scale = self._weights[None, :] / self._batch_power  # (F, B)
+        weighted = np.swapaxes(self._batch_past * scale[:, :, None], 1, 2)  # (F, QK, B)
+        decay = self._forget ** self.every
+        self._r = decay * self._r + weighted @ np.conj(self._batch_past)
+        self._p = decay * self._p + weighted @ np.conj(self._batch_x)
+        self._filled = 0
         if self.frames < self.warm:
             return
         dim = self._r.shape[1]
         load = self.loading * np.real(np.trace(self._r, axis1=1, axis2=2)) / dim + 1e-12
-        self._filter = np.linalg.solve(self._r + load[:, None, None] * np.eye(dim), self._p)
+        g = np.linalg.solve(self._r + load[:, None, None] * np.eye(dim), self._p)  # (F, QK, Q)
+        self._apply = np.ascontiguousarray(np.conj(np.swapaxes(g, 1, 2)))
