@@ -120,7 +120,7 @@ class VoiceSeparator:
         self._decay = math.exp(-self.hop_in / self.samplerate_hz / memory_s)
         frames_per_s = self.samplerate_hz / self.hop_in
         self._dereverb = Dereverberator(self.bins, self.mics.shape[0], taps=6, delay=2, memory=5.0 * frames_per_s,
-                                        every=16, warm=int(2.0 * frames_per_s)) if dereverb else None
+                                        every=32, warm=int(2.0 * frames_per_s)) if dereverb else None
         self._buf = np.zeros((0, self.mics.shape[0]))
         self._buf_stamp: float | None = None  # stamp of the buffer's first sample
         self._next_stamp: float | None = None  # where the next block should start
@@ -131,6 +131,7 @@ class VoiceSeparator:
         self._noise: np.ndarray | None = None  # (F, Q, Q) the frames where nobody speaks
         self._power: dict[int, np.ndarray] = {}  # person -> (F,) the microphones' mean power while they talk
         self._seen: dict[int, float] = {}  # person -> the last frame time they were there
+        self._steer: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}  # person -> (place, steering, SD)
         self._tails: dict[int, tuple[float, np.ndarray]] = {}  # person -> (stamp, second half of their last frame)
         self._out: list[VoiceChunk] = []
         self.frames = 0
@@ -234,7 +235,7 @@ class VoiceSeparator:
             for pid, pos in zip(now.ids.tolist(), now.positions):
                 present.add(pid)
                 self._seen[pid] = centre_s
-                steer = bf.steering(self.mics, pos, self.freqs_hz, self.speed_of_sound)
+                steer, superdirective = self._steering(pid, pos)
                 cov, power = self._cov.get(pid), self._power.get(pid)
                 reverb = 0.0
                 if cov is not None and power is not None and self.diffuse > 0:
@@ -245,7 +246,7 @@ class VoiceSeparator:
                 w = steer / steer.shape[1] if cov is None else bf.mvdr_weights(cov + reverb, steer, self.loading)
                 out = np.einsum("fq,fq->f", np.conj(w), spec)
                 if self.quiet_beams:
-                    out = self._quietest(out, spec, steer, reverb)
+                    out = self._quietest(out, spec, steer, superdirective, reverb)
                 self._emit(pid, start_s, out)
         for pid in [p for p in self._tails if p not in present]:
             self._end_tail(pid)
@@ -253,13 +254,23 @@ class VoiceSeparator:
             self._seen.pop(pid)
             self._cov.pop(pid, None)
             self._power.pop(pid, None)
+            self._steer.pop(pid, None)
 
-    def _quietest(self, out: np.ndarray, spec: np.ndarray, steer: np.ndarray, reverb: np.ndarray | float
-                  ) -> np.ndarray:
-        """``out`` (F,), the first beam's bins, each replaced by the noise's beam's or the superdirective beam's
-        where that lets less through (module docstring)."""
+    def _steering(self, pid: int, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(steering (F, Q), the superdirective beam's weights (F, Q)) at the person's place, kept while it stays."""
+        kept = self._steer.get(pid)
+        if kept is not None and np.array_equal(kept[0], position):
+            return kept[1], kept[2]
+        steer = bf.steering(self.mics, position, self.freqs_hz, self.speed_of_sound)
         ra = np.einsum("fqp,fp->fq", self._coherence_inv, steer)
         superdirective = ra / np.einsum("fq,fq->f", np.conj(steer), ra)[:, None]
+        self._steer[pid] = (position.copy(), steer, superdirective)
+        return steer, superdirective
+
+    def _quietest(self, out: np.ndarray, spec: np.ndarray, steer: np.ndarray, superdirective: np.ndarray,
+                  reverb: np.ndarray | float) -> np.ndarray:
+        """``out`` (F,), the first beam's bins, each replaced by the noise's beam's or the superdirective beam's
+        where that lets less through (module docstring)."""
         for w in [superdirective] + ([] if self._noise is None else
                                      [bf.mvdr_weights(self._noise + reverb, steer, self.loading)]):
             other = np.einsum("fq,fq->f", np.conj(w), spec)
