@@ -4,10 +4,13 @@
 ```
 source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] (--q--> [lips]) --+
                                                                                          +--q--> [fusion: TimeFrame
-source.audio()  --> [audio]   --q--> [ITD worker: PairsItdStream] -----------------------+   -> inference]
+source.audio()  --> [audio]   --q--> [ITD worker: (WPE) PairsItdStream] -----------------+   -> inference]
                                                                                                 --> on_result
          [audio] --q--> [voices: VoiceSeparator] <--q-- the results' people (their places, who speaks) --> on_voice
 ```
+
+The ITD worker first takes the room's late reverberation out of the array's microphones (``dereverb``,
+:class:`avcore.dereverb.SignalDereverberator`): its ITDs then come half a 32-ms frame later, on the same clock.
 
 With the lips' cue (face-guided), the face mesh reads the lips in a thread of its own after vision's, so that the
 mesh of one frame runs while the next frame's faces are found (OpenCV's DNN lets go of the GIL).
@@ -48,6 +51,7 @@ from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.lips import frame_powers
 from avcore.mic_check import MicCheck
+from avcore.dereverb import SignalDereverberator
 from avcore.separation import VoiceChunk, VoiceSeparator
 from avcore.speaking import RescueContinuity
 from avcore.stereo import StereoRig
@@ -124,6 +128,7 @@ def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
     """Several pairs' ITD vectors (K, P) as a track (no confidence or energy: they are per pair)."""
     nan = np.full(times.size, np.nan)
     return ItdTrack(times, itds, nan, nan)
+_ITD_MAX_HZ = 5000.0  # the widest band an ITD method takes (avcore.itd): the dereverberation's bins stop there
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
 
@@ -420,7 +425,10 @@ class Pipeline:
         stream: PairsItdStream | None = None
         frame_itds = self.mode.frame_itds
         envelope = self.mode.envelope is not None
+        columns = sorted(set(array.channels))  # the microphones the ITDs take, dereverberated together
+        dereverb = SignalDereverberator(src.samplerate_hz, len(columns), max_hz=_ITD_MAX_HZ) if c.dereverb else None
         start_s = expected_s = 0.0
+        pushed = 0  # samples into the ITD stream since start_s
         n = 0
         while True:
             block = self._take(self._q_audio, "audio")
@@ -441,14 +449,21 @@ class Pipeline:
                 stream = PairsItdStream(array, src.samplerate_hz, method=c.itd_method, window_s=c.window_s,
                                         hop_s=c.hop_s, energy_threshold=c.energy_threshold, frame_itds=frame_itds,
                                         frame_bins=frame_itds)
-                start_s = block.stamp_s
+                if dereverb is not None:
+                    dereverb.gap()
+                start_s, pushed = block.stamp_s, 0
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
             if envelope:  # before the ITDs that complete a frame, so that its lips find the sound there
                 self._offer(self._q_fusion, EnvelopeMessage(block.stamp_s, *frame_powers(
                     samples[:, list(array.channels)], src.samplerate_hz)))
+            if dereverb is not None:  # the same samples, each at its place, half a frame later
+                clean = dereverb.push(samples[:, columns])
+                samples = np.zeros((clean.shape[0], samples.shape[1]))
+                samples[:, columns] = clean
+            pushed += samples.shape[0]
             self._pass_itds(stream.push(samples), stream, start_s, frame_itds)
             # the audio clock: windows centred before this time are all extracted
-            self._offer(self._q_fusion, ClockMessage(expected_s - c.window_s / 2))
+            self._offer(self._q_fusion, ClockMessage(start_s + pushed / src.samplerate_hz - c.window_s / 2))
             n += 1
             self.stats.audio_blocks = n
             self._timed("itd", t0, n)

@@ -53,6 +53,9 @@ class PipelineConfig:
         one within ``lip_face_within_m`` of them horizontally, and the veto applies to the person.
         ``lip_mesh_every``: the face mesh on every n-th frame only (its cost over n; the 0.4 s of a lip activity
         then rest on 12 / n openings at 30 frames a second, and at least 6 / n of them give an opinion).
+    dereverb : the ITDs from the microphones with the room's late reverberation taken out first (streaming
+        multichannel WPE over the whole array, :class:`avcore.dereverb.SignalDereverberator`; the ITDs then come
+        half a 32-ms frame later); off for the paper's method.
     voices : each person's voice as a 16 kHz stream, MVDR steered at them (:class:`avcore.separation.
         VoiceSeparator`), from the people ``voice_delay_s`` old (the results' own wait, 0.43 s, fits within it).
     """
@@ -72,6 +75,7 @@ class PipelineConfig:
     self_calibrate: bool = False
     own_itds: bool = True
     bin_spill: bool = False
+    dereverb: bool = True
     face_model: str | None = None
     tflite_runtime: Literal["opencv", "litert"] = "opencv"
     lips: bool = False

@@ -33,7 +33,7 @@ import collections
 
 import numpy as np
 
-__all__ = ["Dereverberator"]
+__all__ = ["Dereverberator", "SignalDereverberator"]
 
 
 class Dereverberator:
@@ -96,3 +96,54 @@ class Dereverberator:
         load = self.loading * np.real(np.trace(self._r, axis1=1, axis2=2)) / dim + 1e-12
         g = np.linalg.solve(self._r + load[:, None, None] * np.eye(dim), self._p)  # (F, QK, Q)
         self._apply = np.ascontiguousarray(np.conj(np.swapaxes(g, 1, 2)))
+
+
+class SignalDereverberator:
+    """The same WPE on a stream of samples: (n, Q) blocks in, the same samples dereverberated out.
+
+    sqrt-Hann frames of ``frame_s`` (about 32 ms, half overlapping: analysis and synthesis windows whose squares
+    sum to one), :class:`Dereverberator` on the bins up to ``max_hz`` (the ones above pass as they came), overlap-add.
+    A sample is out once both frames over it are in: the output runs :attr:`lag` samples behind the input, each
+    sample at its own place (the first ``lag`` samples out are the input's first). :meth:`gap` starts again after
+    lost samples, keeping the room's filter.
+    """
+
+    def __init__(self, samplerate_hz: float, channels: int, *, frame_s: float = 0.032, max_hz: float | None = None,
+                 taps: int = 6, delay: int = 2, memory_s: float = 5.0, every: int = 32, warm_s: float = 2.0) -> None:
+        if samplerate_hz <= 0 or frame_s <= 0:
+            raise ValueError(f"samplerate_hz and frame_s must be > 0, got {samplerate_hz!r} and {frame_s!r}")
+        n = max(4, 2 * int(round(frame_s * samplerate_hz / 2)))
+        self.frame, self.lag = n, n // 2
+        bins = n // 2 + 1
+        self.bins = bins if max_hz is None else max(1, min(bins, int(max_hz * n / samplerate_hz) + 1))
+        per_s = samplerate_hz / self.lag  # frames a second
+        self.wpe = Dereverberator(self.bins, channels, taps=taps, delay=delay, memory=memory_s * per_s, every=every,
+                                  warm=int(warm_s * per_s))
+        self.channels = channels
+        self._window = np.sqrt(np.hanning(n + 1)[:-1])[:, None]
+        self.gap()
+
+    def gap(self) -> None:
+        """Samples were lost: the next block starts a new stream (the filter stays)."""
+        self.wpe.gap()
+        self._input = np.zeros((self.lag, self.channels))  # a silent half frame before the first sample
+        self._sum = np.zeros((self.frame, self.channels))  # the overlap-add from the input's first sample on
+        self._first = True
+
+    def push(self, samples: np.ndarray) -> np.ndarray:
+        """(m, Q) samples out, following the ones given before: every sample both of whose frames are in."""
+        x = np.asarray(samples, dtype=np.float64)
+        if x.ndim != 2 or x.shape[1] != self.channels:
+            raise ValueError(f"samples must be (n, {self.channels}), got {x.shape}")
+        self._input = np.concatenate([self._input, x])
+        out = []
+        while self._input.shape[0] >= self.frame:
+            spec = np.fft.rfft(self._input[: self.frame] * self._window, axis=0)
+            spec[: self.bins] = self.wpe(spec[: self.bins])
+            self._sum += np.fft.irfft(spec, self.frame, axis=0) * self._window
+            if not self._first:  # the first half frame out is the silence before the stream
+                out.append(self._sum[: self.lag].copy())
+            self._first = False
+            self._sum = np.concatenate([self._sum[self.lag:], np.zeros((self.lag, self.channels))])
+            self._input = self._input[self.lag:]
+        return np.concatenate(out) if out else np.zeros((0, self.channels))

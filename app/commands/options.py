@@ -156,6 +156,9 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                         "a talker's ITDs towards the front, onto a neighbour) and hear them there (default; not "
                         "with a calibration's c1, c0, which already say it); --no-own-itds keeps each person at the "
                         "free-field mapping of their face")
+    p.add_argument("--dereverb", action=argparse.BooleanOptionalAction, default=True,
+                   help="take the room's late reverberation out of the microphones before the ITDs (streaming "
+                        "multichannel WPE; default); --no-dereverb hears them as they come, as the paper does")
     p.add_argument("--bin-spill", action=argparse.BooleanOptionalAction, default=False,
                    help="face-guided, several microphone pairs: learn how much of each talker's voice reaches each "
                         "neighbour's direction while the talker is heard alone, and call a neighbour speaking by the "
@@ -290,7 +293,7 @@ def pipeline_config(args: argparse.Namespace, *, one_camera: bool | None = None)
                                 latency=args.latency, face_model=args.face_model,
                                 tflite_runtime=args.tflite_runtime,
                                 self_calibrate=args.self_calibrate, own_itds=args.own_itds,
-                                bin_spill=args.bin_spill,
+                                bin_spill=args.bin_spill, dereverb=args.dereverb,
                                 lips=wants_read_lips(args),
                                 lip_mesh_every=getattr(args, "lip_mesh_every", 1),
                                 voices=(getattr(args, "voices_dir", None) is not None or getattr(args, "publish", False)

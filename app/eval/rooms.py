@@ -43,7 +43,7 @@ def method_config(config: PipelineConfig, method: str) -> PipelineConfig:
         return config
     if method == "paper":
         return replace(config, inference="face", face_variant="paper", itd_method="correlogram", frame_itds=False,
-                       vote_frames=1, lips=False, rescue_gap_s=None)
+                       vote_frames=1, lips=False, rescue_gap_s=None, dereverb=False)
     if method == "all-rescues":
         return replace(config, rescue_gap_s=None)
     raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")

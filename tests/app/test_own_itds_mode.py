@@ -64,12 +64,13 @@ def test_a_calibrated_mapping_is_not_learned_on_top_of() -> None:
     assert given[-1] is not None and given[-1][0, 0] > 5e-6
 
 
-@pytest.mark.parametrize(("argv", "expected"), [([], True), (["--no-own-itds"], False)])
-def test_the_option_reaches_the_config(argv: list[str], expected: bool) -> None:
+@pytest.mark.parametrize(("argv", "field", "expected"), [([], "own_itds", True), (["--no-own-itds"], "own_itds", False),
+                                                         ([], "dereverb", True), (["--no-dereverb"], "dereverb", False)])
+def test_the_option_reaches_the_config(argv: list[str], field: str, expected: bool) -> None:
     import argparse
 
     from app.commands.options import add_method_arguments, pipeline_config
 
     parser = argparse.ArgumentParser()
     add_method_arguments(parser)
-    assert pipeline_config(parser.parse_args(argv), one_camera=False).own_itds is expected
+    assert getattr(pipeline_config(parser.parse_args(argv), one_camera=False), field) is expected

@@ -397,6 +397,22 @@ def test_a_fast_replay_loses_no_itds_when_vision_is_slow(monkeypatch: pytest.Mon
     assert not any(pipe.stats.drops.values()), pipe.stats.drops
 
 
+def test_the_dereverberated_itds_keep_the_audios_clock() -> None:
+    """The ITD worker's dereverberation hands the ITD stream the same samples half a frame later: every time frame
+    gets the windows it gets without it, and the talker's ITD."""
+    runs = {}
+    for dereverb in (False, True):
+        source = FakeSource(duration_s=4.0, fps=10.0)
+        results, pipe = _run(source, dereverb=dereverb)
+        runs[dereverb] = {round(r.stamp_s - source.t0, 6): r for r in results}
+        assert pipe.stats.audio_gaps == 0
+    assert runs[True].keys() == runs[False].keys() and len(runs[True]) == 40
+    inner = [t for t in runs[True] if 0.4 < t < 3.5]
+    for t in inner:
+        assert abs(runs[True][t].n_itds - runs[False][t].n_itds) <= 1
+        assert np.median(runs[True][t].itds_s) == pytest.approx(FakeSource().expected_itd, abs=40e-6)
+
+
 def test_real_time_and_as_fast_as_possible_give_the_same_results() -> None:
     """Pacing alone changes nothing. The frames' queue holds all 30 frames: on a busy machine (the suite in two
     workers) vision may fall a few frames behind real time, where a live run drops the oldest by design."""

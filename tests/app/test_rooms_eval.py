@@ -22,8 +22,8 @@ def test_a_short_room_runs_through_the_pipeline_and_is_scored() -> None:
 
 def test_the_papers_method_is_algorithm_2_as_written() -> None:
     cfg = method_config(PipelineConfig(lips=True), "paper")
-    assert (cfg.face_variant, cfg.itd_method, cfg.frame_itds, cfg.vote_frames, cfg.lips) == \
-        ("paper", "correlogram", False, 1, False)
+    assert (cfg.face_variant, cfg.itd_method, cfg.frame_itds, cfg.vote_frames, cfg.lips, cfg.dereverb) == \
+        ("paper", "correlogram", False, 1, False, False)
     assert method_config(PipelineConfig(), "avhear") == PipelineConfig()
     assert PipelineConfig().rescue_gap_s == 0.1 and method_config(PipelineConfig(), "all-rescues") == \
         PipelineConfig(rescue_gap_s=None)

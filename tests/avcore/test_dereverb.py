@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from avcore.dereverb import Dereverberator
+from avcore.dereverb import Dereverberator, SignalDereverberator
 
 FS, FRAME, HOP = 16000, 512, 256
 WINDOW = np.sqrt(np.hanning(FRAME + 1)[:-1])
@@ -76,3 +76,27 @@ def test_bad_frames_and_settings_are_named() -> None:
         wpe(np.zeros((257, 2), dtype=complex))
     with pytest.raises(ValueError, match="taps"):
         Dereverberator(257, 4, taps=0)
+
+
+def test_a_stream_of_samples_comes_back_in_place_and_dereverberated() -> None:
+    """Blocks of any size: before the filter is warm the samples come back exactly, ``lag`` behind; once warm the
+    first microphone lies at least 6 dB nearer its direct sound; the bins above ``max_hz`` pass as they came."""
+    mixture, direct = _room(10.0, 4, seed=3)
+    cold = SignalDereverberator(FS, 4, warm_s=100.0)
+    out = np.concatenate([cold.push(mixture[i:i + 333]) for i in range(0, mixture.shape[0], 333)])
+    assert cold.lag == 256 and mixture.shape[0] - 2 * cold.lag < out.shape[0] <= mixture.shape[0] - cold.lag
+    np.testing.assert_allclose(out, mixture[: out.shape[0]], atol=1e-12)
+    warm = SignalDereverberator(FS, 4)
+    out = np.concatenate([warm.push(mixture[i:i + 1000]) for i in range(0, mixture.shape[0], 1000)])
+    later = slice(3 * FS, out.shape[0])
+    assert _sdr_db(direct[later], out[later, 0]) > _sdr_db(direct[later], mixture[later, 0]) + 6.0
+    low = SignalDereverberator(FS, 4, max_hz=1000.0)
+    out = np.concatenate([low.push(mixture[i:i + 1000]) for i in range(0, mixture.shape[0], 1000)])
+    change = np.fft.rfft(out[later, 0] - mixture[later, 0])
+    heard = np.fft.rfft(mixture[later, 0])
+    freqs = np.fft.rfftfreq(out[later].shape[0], 1 / FS)
+
+    def changed(band: np.ndarray) -> float:  # the share of the band's energy the dereverberation changed
+        return float(np.sum(np.abs(change[band]) ** 2) / np.sum(np.abs(heard[band]) ** 2))
+
+    assert changed(freqs > 1500) < 1e-3 and changed((freqs > 200) & (freqs < 800)) > 0.1
