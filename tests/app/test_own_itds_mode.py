@@ -64,8 +64,9 @@ def test_a_calibrated_mapping_is_not_learned_on_top_of() -> None:
     assert given[-1] is not None and given[-1][0, 0] > 5e-6
 
 
-@pytest.mark.parametrize(("argv", "field", "expected"), [([], "own_itds", True), (["--no-own-itds"], "own_itds", False),
-                                                         ([], "dereverb", True), (["--no-dereverb"], "dereverb", False)])
+@pytest.mark.parametrize(("argv", "field", "expected"), [
+    ([], "own_itds", True), (["--no-own-itds"], "own_itds", False),
+    ([], "dereverb", True), (["--no-dereverb"], "dereverb", False)])
 def test_the_option_reaches_the_config(argv: list[str], field: str, expected: bool) -> None:
     import argparse
 
