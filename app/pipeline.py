@@ -9,8 +9,8 @@ source.audio()  --> [audio]   --q--> [ITD worker: (WPE) PairsItdStream] --------
          [audio] --q--> [voices: VoiceSeparator] <--q-- the results' people (their places, who speaks) --> on_voice
 ```
 
-The ITD worker first takes the room's late reverberation out of the array's microphones (``dereverb``,
-:class:`avcore.dereverb.SignalDereverberator`): its ITDs then come half a 32-ms frame later, on the same clock.
+With ``dereverb`` the ITD worker first takes the room's late reverberation out of the array's microphones
+(:class:`avcore.dereverb.SignalDereverberator`): its ITDs then come half a 32-ms frame later, on the same clock.
 
 With the lips' cue (face-guided), the face mesh reads the lips in a thread of its own after vision's, so that the
 mesh of one frame runs while the next frame's faces are found (OpenCV's DNN lets go of the GIL).

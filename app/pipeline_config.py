@@ -55,7 +55,8 @@ class PipelineConfig:
         then rest on 12 / n openings at 30 frames a second, and at least 6 / n of them give an opinion).
     dereverb : the ITDs from the microphones with the room's late reverberation taken out first (streaming
         multichannel WPE over the whole array, :class:`avcore.dereverb.SignalDereverberator`; the ITDs then come
-        half a 32-ms frame later); off for the paper's method.
+        half a 32-ms frame later). Off by default: on the drawn rooms it raises recall and costs precision
+        (docs/experiments.md, 2026-11-30); the voices dereverberate on their own.
     voices : each person's voice as a 16 kHz stream, MVDR steered at them (:class:`avcore.separation.
         VoiceSeparator`), from the people ``voice_delay_s`` old (the results' own wait, 0.43 s, fits within it).
     """
@@ -75,7 +76,7 @@ class PipelineConfig:
     self_calibrate: bool = False
     own_itds: bool = True
     bin_spill: bool = False
-    dereverb: bool = True
+    dereverb: bool = False
     face_model: str | None = None
     tflite_runtime: Literal["opencv", "litert"] = "opencv"
     lips: bool = False

@@ -156,9 +156,10 @@ def add_method_arguments(p: argparse.ArgumentParser) -> None:
                         "a talker's ITDs towards the front, onto a neighbour) and hear them there (default; not "
                         "with a calibration's c1, c0, which already say it); --no-own-itds keeps each person at the "
                         "free-field mapping of their face")
-    p.add_argument("--dereverb", action=argparse.BooleanOptionalAction, default=True,
+    p.add_argument("--dereverb", action=argparse.BooleanOptionalAction, default=False,
                    help="take the room's late reverberation out of the microphones before the ITDs (streaming "
-                        "multichannel WPE; default); --no-dereverb hears them as they come, as the paper does")
+                        "multichannel WPE): more of the quieter talkers heard, a little less precision on the drawn "
+                        "rooms; default off, as the paper")
     p.add_argument("--bin-spill", action=argparse.BooleanOptionalAction, default=False,
                    help="face-guided, several microphone pairs: learn how much of each talker's voice reaches each "
                         "neighbour's direction while the talker is heard alone, and call a neighbour speaking by the "

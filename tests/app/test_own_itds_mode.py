@@ -66,7 +66,7 @@ def test_a_calibrated_mapping_is_not_learned_on_top_of() -> None:
 
 @pytest.mark.parametrize(("argv", "field", "expected"), [
     ([], "own_itds", True), (["--no-own-itds"], "own_itds", False),
-    ([], "dereverb", True), (["--no-dereverb"], "dereverb", False)])
+    ([], "dereverb", False), (["--dereverb"], "dereverb", True)])
 def test_the_option_reaches_the_config(argv: list[str], field: str, expected: bool) -> None:
     import argparse
 
