@@ -185,6 +185,14 @@ def test_gaps_and_nans_in_the_audio() -> None:
     assert max(c.end_s for c in chunks) == pytest.approx(6.0, abs=0.02)
 
 
+def test_the_choice_of_beams_and_the_rooms_filter_come_with_three_microphones_or_more() -> None:
+    pair, four = VoiceSeparator(MICS[:2], 16000), VoiceSeparator(MICS, 16000)
+    assert not pair.quiet_beams and pair.dereverb is None
+    assert four.quiet_beams and four.dereverb is not None
+    asked = VoiceSeparator(MICS[:2], 16000, quiet_beams=True, dereverb=True)
+    assert asked.quiet_beams and asked.dereverb is not None
+
+
 def test_bad_inputs_are_named() -> None:
     with pytest.raises(ValueError, match="at least 2 microphones"):
         VoiceSeparator(MICS[:1], 16000)
