@@ -55,12 +55,14 @@ __all__ = ["VoiceChunk", "VoiceSeparator", "frame_sizes"]
 @dataclass(frozen=True, eq=False)
 class VoiceChunk:
     """``samples`` (n,) float32 of person ``person_id``'s voice at ``samplerate_hz``, its first sample captured at
-    ``stamp_s`` (the audio's clock)."""
+    ``stamp_s`` (the audio's clock). ``plain`` (n,) float32 or None: the same span from the first beam alone (MVDR,
+    no choice between beams), which a recogniser takes better (with ``quiet_beams``; docs/results.md)."""
 
     person_id: int
     stamp_s: float
     samples: np.ndarray
     samplerate_hz: int
+    plain: np.ndarray | None = None
 
     @property
     def end_s(self) -> float:
@@ -79,8 +81,9 @@ def _join(chunks: list[VoiceChunk]) -> VoiceChunk:
     first = chunks[0]
     if len(chunks) == 1:
         return first
+    plain = None if any(c.plain is None for c in chunks) else np.concatenate([c.plain for c in chunks])
     return VoiceChunk(first.person_id, first.stamp_s, np.concatenate([c.samples for c in chunks]),
-                      first.samplerate_hz)
+                      first.samplerate_hz, plain)
 
 
 def frame_sizes(samplerate_hz: float, out_rate_hz: int = 16000, frame_s: float = 0.032) -> tuple[int, int]:
@@ -249,9 +252,9 @@ class VoiceSeparator:
                     reverb = self.diffuse * own[:, None, None] * self._coherence
                 w = steer / steer.shape[1] if cov is None else bf.mvdr_weights(cov + reverb, steer, self.loading)
                 out = np.einsum("fq,fq->f", np.conj(w), spec)
-                if self.quiet_beams:
-                    out = self._quietest(out, spec, steer, superdirective, reverb)
-                self._emit(pid, start_s, out)
+                if self.quiet_beams:  # the stream, and the first beam alone for a recogniser
+                    out = np.stack([self._quietest(out, spec, steer, superdirective, reverb), out])
+                self._emit(pid, start_s, out.reshape(-1, self.bins))
         for pid in [p for p in self._tails if p not in present]:
             self._end_tail(pid)
         for pid in [p for p, t in self._seen.items() if centre_s - t > self.forget_s]:
@@ -307,22 +310,28 @@ class VoiceSeparator:
                     self._decay * cov + (1 - self._decay) * outer)
         del outer
 
-    def _emit(self, pid: int, start_s: float, spectrum: np.ndarray) -> None:
-        full = np.zeros(self.n_out // 2 + 1, dtype=np.complex128)
-        full[: self.bins] = spectrum
-        y = np.fft.irfft(full, self.n_out) * self._win_out
-        head, tail = y[: self.hop_out], y[self.hop_out:]
+    def _emit(self, pid: int, start_s: float, spectra: np.ndarray) -> None:
+        """(1 or 2, F) spectra of one frame: the stream's, and the plain beam's."""
+        full = np.zeros((spectra.shape[0], self.n_out // 2 + 1), dtype=np.complex128)
+        full[:, : self.bins] = spectra
+        y = np.fft.irfft(full, self.n_out, axis=1) * self._win_out
+        head, tail = y[:, : self.hop_out], y[:, self.hop_out:]
         previous = self._tails.get(pid)
-        if previous is not None and abs(previous[0] - start_s) < 0.5 / self.out_rate_hz + 1e-9:
+        if previous is not None and abs(previous[0] - start_s) < 0.5 / self.out_rate_hz + 1e-9 \
+                and previous[1].shape == tail.shape:
             head = head + previous[1]
         elif previous is not None:
             self._end_tail(pid)
-        self._out.append(VoiceChunk(pid, start_s, head.astype(np.float32), self.out_rate_hz))
+        self._out.append(self._chunk(pid, start_s, head))
         self._tails[pid] = (start_s + self.hop_out / self.out_rate_hz, tail)
+
+    def _chunk(self, pid: int, stamp_s: float, rows: np.ndarray) -> VoiceChunk:
+        rows = rows.astype(np.float32)
+        return VoiceChunk(pid, stamp_s, rows[0], self.out_rate_hz, rows[1] if rows.shape[0] > 1 else None)
 
     def _end_tail(self, pid: int) -> None:
         stamp, tail = self._tails.pop(pid)
-        self._out.append(VoiceChunk(pid, stamp, tail.astype(np.float32), self.out_rate_hz))
+        self._out.append(self._chunk(pid, stamp, tail))
 
     def _end_tails(self) -> None:
         for pid in list(self._tails):

@@ -1,7 +1,8 @@
 """Who said what: each person's voice cut into utterances by their speaking state, recognised in a process of its own.
 
 :class:`Transcriber` takes the results' people (:meth:`result`, from the fusion thread) and each person's voice
-(:meth:`voice`, :class:`avcore.separation.VoiceChunk` s from the voices thread). An utterance starts
+(:meth:`voice`, :class:`avcore.separation.VoiceChunk` s from the voices thread; their ``plain`` beam where there
+is one, which pocketsphinx recognises better than the stream's choice between beams). An utterance starts
 ``preroll_s`` before a person's first result called speaking and ends ``postroll_s`` after the last, once they have
 been silent for ``hangover_s`` (pauses between words stay within one utterance). Its audio goes to the recogniser
 as it arrives, so that partial words come while the person speaks and the final words soon after they stop.
@@ -138,7 +139,7 @@ class Transcriber:
                 lo, hi = max(utt.sent_until_s, c.stamp_s), min(until, c.end_s)
                 if hi > lo:
                     a, b = int(round((lo - c.stamp_s) * _RATE)), int(round((hi - c.stamp_s) * _RATE))
-                    pieces.append(c.samples[a:b])
+                    pieces.append((c.samples if c.plain is None else c.plain)[a:b])
                     utt.sent_until_s = c.stamp_s + b / _RATE
             if pieces:
                 pcm = np.clip(np.round(np.concatenate(pieces) * 32767.0), -32768, 32767).astype("<i2")

@@ -80,10 +80,12 @@ def test_the_recogniser_hears_a_read_sentence_and_keeps_to_a_word_list() -> None
     assert read_word_list("one, two  # a comment\nThree two\n") == ["one", "two", "three"]
 
 
-def test_the_transcriber_cuts_a_persons_voice_by_their_speaking_state() -> None:
+@pytest.mark.parametrize("beam", ["samples", "plain"])
+def test_the_transcriber_cuts_a_persons_voice_by_their_speaking_state(beam: str) -> None:
     """Person 4 says a0010 from 1 s on (the results say so, half a second late as the pipeline's do); person 9 is
     silent. One final utterance for person 4, its times about the speech's, partial words before it, most of the
-    sentence's words; nothing for person 9."""
+    sentence's words; nothing for person 9. A chunk's ``plain`` beam, where it has one, is what is recognised (the
+    stream's samples are silent then)."""
     speech = _sentence("arctic_a0010.wav")
     signal = np.zeros(int(16000 * 6.0))
     signal[16000:16000 + speech.size] = speech
@@ -94,7 +96,9 @@ def test_the_transcriber_cuts_a_persons_voice_by_their_speaking_state() -> None:
     for k, start in enumerate(range(0, signal.size, 512)):
         t = start / 16000
         for pid, samples in ((4, signal), (9, np.zeros_like(signal))):
-            transcriber.voice(VoiceChunk(pid, t, samples[start:start + 512].astype(np.float32), 16000))
+            piece = samples[start:start + 512].astype(np.float32)
+            transcriber.voice(VoiceChunk(pid, t, piece, 16000) if beam == "samples" else
+                              VoiceChunk(pid, t, np.zeros_like(piece), 16000, plain=piece))
         result_t = t - 0.5
         if k % 2 == 0 and result_t >= 0:
             transcriber.result(result_t, [(4, 1.0 <= result_t <= end_s), (9, False)])

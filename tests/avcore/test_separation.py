@@ -185,6 +185,30 @@ def test_gaps_and_nans_in_the_audio() -> None:
     assert max(c.end_s for c in chunks) == pytest.approx(6.0, abs=0.02)
 
 
+def test_each_chunk_carries_the_first_beam_alone_beside_the_choice() -> None:
+    """With the choice between beams, each chunk's ``plain`` is the stream without it, sample for sample."""
+    fs, seconds = 16000, 3.0
+    n = int(fs * seconds)
+    mixture = _at_mics(_speech_like(n, fs, 1), fs, TALKER) + _at_mics(_speech_like(n, fs, 2) * 0.5, fs, OTHER)
+    ids, where = np.array([1, 2]), np.stack([TALKER, OTHER])
+    people = [(t, ids, where, np.array([True, t < 1.5])) for t in np.arange(0, seconds, 1 / 30)]
+    chunks = {}
+    for beams in (True, False):
+        separator, got = VoiceSeparator(MICS, fs, quiet_beams=beams), []
+        for start in range(0, n, 640):
+            while people and people[0][0] <= start / fs:
+                separator.push_people(*people.pop(0))
+            separator.push_audio(start / fs, mixture[start:start + 640])
+            got += separator.pop()
+        chunks[beams] = got + separator.flush()
+        people = [(t, ids, where, np.array([True, t < 1.5])) for t in np.arange(0, seconds, 1 / 30)]
+    assert all(c.plain is None for c in chunks[False]) and all(c.plain is not None for c in chunks[True])
+    assert [(c.person_id, c.stamp_s) for c in chunks[True]] == [(c.person_id, c.stamp_s) for c in chunks[False]]
+    for with_choice, without in zip(chunks[True], chunks[False]):
+        np.testing.assert_array_equal(with_choice.plain, without.samples)
+    assert not all(np.array_equal(a.samples, b.samples) for a, b in zip(chunks[True], chunks[False]))
+
+
 def test_the_choice_of_beams_and_the_rooms_filter_come_with_three_microphones_or_more() -> None:
     pair, four = VoiceSeparator(MICS[:2], 16000), VoiceSeparator(MICS, 16000)
     assert not pair.quiet_beams and pair.dereverb is None
