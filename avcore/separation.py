@@ -8,7 +8,8 @@ eventually retrieve a clean speech signal". :class:`VoiceSeparator` is the strea
 * the microphones' short-time spectra (sqrt-Hann frames of about 32 ms, half overlapping) are first dereverberated
   (``dereverb``: :class:`avcore.dereverb.Dereverberator`, streaming multichannel WPE, one filter for the room; by
   default with three or more microphones: one filter shortens several talkers' responses only with more
-  microphones than talkers, and with the pair the worst talker alone lost 1.2 dB on S1-S5), then steered at each person's place (``a``: the direct path's relative transfer, :func:`avcore.beamform.steering`);
+  microphones than talkers, and with the pair the worst talker alone lost 1.2 dB on S1-S5), then steered at each
+  person's place (``a``: the direct path's relative transfer, :func:`avcore.beamform.steering`);
 * ``R``, one per person, is the covariance of the frames where that person is silent -- the other talkers and the
   noise -- averaged with a memory of ``memory_s``; the speaking states say when;
 * plus the person's own reverberation, which their silences cannot show: a diffuse field
@@ -103,7 +104,8 @@ class VoiceSeparator:
     def __init__(self, mic_positions_m: np.ndarray, samplerate_hz: float, *, out_rate_hz: int = 16000,
                  frame_s: float = 0.032, learn_delay_s: float = 0.3, memory_s: float = 3.0, loading: float = 1e-2,
                  diffuse: float = 1.0, quiet_beams: bool | None = None, dereverb: bool | None = None,
-                 max_wait_s: float | None = None, forget_s: float = 10.0, speed_of_sound: float = SPEED_OF_SOUND) -> None:
+                 max_wait_s: float | None = None, forget_s: float = 10.0,
+                 speed_of_sound: float = SPEED_OF_SOUND) -> None:
         self.mics = np.asarray(mic_positions_m, dtype=np.float64).reshape(-1, 3)
         if self.mics.shape[0] < 2:
             raise ValueError(f"a voice needs at least 2 microphones, got {self.mics.shape[0]}")
