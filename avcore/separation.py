@@ -23,8 +23,8 @@ eventually retrieve a clean speech signal". :class:`VoiceSeparator` is the strea
   person's direct sound unchanged, so the quietest has taken out most of the rest (MPDR's minimum-power choice, Cox
   1973, made between constrained beams): while the person talks alone the first beam spends its degrees of freedom
   on talkers who are silent now; in overlap it nulls them. The speaking states come ``learn_delay_s`` late, so the
-  frame, not the states, chooses (docs/results.md). By default with three or more microphones: the pair's beams
-  have one degree of freedom each, gained 0.2 dB from the choice and its words lost to the choice's artefacts;
+  frame, not the states, chooses (docs/results.md). Each chunk also carries the first beam alone (``plain``):
+  pocketsphinx heard more digits than were said in the choice's output;
 * the output is resampled to ``out_rate_hz`` (16 kHz, what recognisers take) in the same inverse transform (the
   bins up to its Nyquist frequency), and overlap-added: a stream per person that goes on through their silence.
 
@@ -103,7 +103,7 @@ class VoiceSeparator:
 
     def __init__(self, mic_positions_m: np.ndarray, samplerate_hz: float, *, out_rate_hz: int = 16000,
                  frame_s: float = 0.032, learn_delay_s: float = 0.3, memory_s: float = 3.0, loading: float = 1e-2,
-                 diffuse: float = 1.0, quiet_beams: bool | None = None, dereverb: bool | None = None,
+                 diffuse: float = 1.0, quiet_beams: bool = True, dereverb: bool | None = None,
                  max_wait_s: float | None = None, forget_s: float = 10.0,
                  speed_of_sound: float = SPEED_OF_SOUND) -> None:
         self.mics = np.asarray(mic_positions_m, dtype=np.float64).reshape(-1, 3)
@@ -117,9 +117,9 @@ class VoiceSeparator:
         self.hop_in, self.hop_out = self.n_in // 2, self.n_out // 2
         self.learn_delay_s, self.max_wait_s, self.forget_s = learn_delay_s, max_wait_s, forget_s
         self.loading, self.diffuse, self.speed_of_sound = loading, diffuse, speed_of_sound
-        several = self.mics.shape[0] >= 3  # the defaults of quiet_beams and dereverb (module docstring)
-        self.quiet_beams = several if quiet_beams is None else bool(quiet_beams)
-        dereverb = several if dereverb is None else dereverb  # self.dereverb: the room's filter, or None
+        self.quiet_beams = quiet_beams
+        if dereverb is None:  # by default with three microphones or more (module docstring)
+            dereverb = self.mics.shape[0] >= 3
         self.bins = min(self.n_in, self.n_out) // 2 + 1  # the input's bins the output keeps
         self.freqs_hz = np.arange(self.bins) * self.samplerate_hz / self.n_in
         self._coherence = bf.diffuse_coherence(self.mics, self.freqs_hz, speed_of_sound)  # (F, Q, Q)

@@ -209,12 +209,11 @@ def test_each_chunk_carries_the_first_beam_alone_beside_the_choice() -> None:
     assert not all(np.array_equal(a.samples, b.samples) for a, b in zip(chunks[True], chunks[False]))
 
 
-def test_the_choice_of_beams_and_the_rooms_filter_come_with_three_microphones_or_more() -> None:
+def test_the_rooms_filter_comes_with_three_microphones_or_more() -> None:
     pair, four = VoiceSeparator(MICS[:2], 16000), VoiceSeparator(MICS, 16000)
-    assert not pair.quiet_beams and pair.dereverb is None
-    assert four.quiet_beams and four.dereverb is not None
-    asked = VoiceSeparator(MICS[:2], 16000, quiet_beams=True, dereverb=True)
-    assert asked.quiet_beams and asked.dereverb is not None
+    assert pair.dereverb is None and four.dereverb is not None
+    assert VoiceSeparator(MICS[:2], 16000, dereverb=True).dereverb is not None
+    assert VoiceSeparator(MICS, 16000, dereverb=False).dereverb is None
 
 
 def test_bad_inputs_are_named() -> None:
