@@ -25,7 +25,7 @@ multichannel prediction can shorten every talker's response at once (the 2012 pa
 
 Contract: :meth:`__call__` takes each frame's (F, Q) spectrum in time order and returns the (F, Q) dereverberated
 one; :meth:`gap` forgets the frames before a gap in the audio (the filter and its statistics stay: the room is
-the same).
+the same). :class:`SignalDereverberator` runs the same on a stream of samples (before the ITDs, an option).
 """
 from __future__ import annotations
 
