@@ -51,12 +51,8 @@ class PipelineConfig:
         ``lip_earn_trust``: still lips veto only once they have moved with their own voice, or for
         ``lip_synced_s`` with the sound (:class:`avcore.lips.HiddenLips`). Motion-guided, a person's face is the
         one within ``lip_face_within_m`` of them horizontally, and the veto applies to the person.
-        ``lip_mesh_every``: the face mesh on every n-th frame only (its cost over n; the 0.4 s of a lip activity
-        then rest on 12 / n openings at 30 frames a second, and at least 6 / n of them give an opinion).
-    dereverb : the ITDs from the microphones with the room's late reverberation taken out first (streaming
-        multichannel WPE over the whole array, :class:`avcore.dereverb.SignalDereverberator`; the ITDs then come
-        half a 32-ms frame later). Off by default: on the drawn rooms it raises recall and costs precision
-        (docs/experiments.md, 2026-11-30); the voices dereverberate on their own.
+        ``lip_mesh_every``: the face mesh on every n-th frame only (its cost over n; docs/method.md).
+    dereverb : the ITDs from dereverberated microphones (:class:`avcore.dereverb.SignalDereverberator`); off.
     voices : each person's voice as a 16 kHz stream, MVDR steered at them (:class:`avcore.separation.
         VoiceSeparator`), from the people ``voice_delay_s`` old (the results' own wait, 0.43 s, fits within it).
     """

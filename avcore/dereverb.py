@@ -1,9 +1,8 @@
 """Streaming dereverberation of the microphones' spectra: multichannel weighted prediction error (WPE).
 
-A talker 1-4 m away in a room of RT60 0.2-0.7 s reaches the array mostly as reverberation: a perfect separation of
-each talker's image gains only about +5 dB over the reference microphone against their dry speech
-(docs/results.md, "Each person's voice"), and a beamformer steered at the face lets through the late
-reverberation that arrives from its own direction. WPE (Nakatani et al., "Speech dereverberation based on
+A talker a few metres away in a furnished room reaches the array mostly as reverberation: a perfect separation of
+each talker's image leaves most of it (docs/results.md, "Each person's voice"), and a beamformer steered at the
+face lets through the late reverberation that arrives from its own direction. WPE (Nakatani et al., "Speech dereverberation based on
 variance-normalized delayed linear prediction", IEEE TASLP 18(7), 2010; multichannel: Yoshioka and Nakatani, IEEE
 TASLP 20(10), 2012) predicts each bin's late reverberation from the frames ``delay`` to ``delay + taps - 1`` before
 it, on all Q microphones, and subtracts it:

@@ -8,7 +8,7 @@ eventually retrieve a clean speech signal". :class:`VoiceSeparator` is the strea
 * the microphones' short-time spectra (sqrt-Hann frames of about 32 ms, half overlapping) are first dereverberated
   (``dereverb``: :class:`avcore.dereverb.Dereverberator`, streaming multichannel WPE, one filter for the room; by
   default with three or more microphones: one filter shortens several talkers' responses only with more
-  microphones than talkers, and with the pair the worst talker alone lost 1.2 dB on S1-S5), then steered at each
+  microphones than talkers, and the pair's worst talker alone lost to it, docs/results.md), then steered at each
   person's place (``a``: the direct path's relative transfer, :func:`avcore.beamform.steering`);
 * ``R``, one per person, is the covariance of the frames where that person is silent -- the other talkers and the
   noise -- averaged with a memory of ``memory_s``; the speaking states say when;
