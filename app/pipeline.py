@@ -46,12 +46,12 @@ from app.hearing import SelfCalibrating, Vision, hearing_mode
 from app.queues import DropOldestQueue
 from app.result import Result
 from app.signals import stop_on_signals
+from avcore.dereverb import SignalDereverberator
 from avcore.faces import FaceDetector
 from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.lips import frame_powers
 from avcore.mic_check import MicCheck
-from avcore.dereverb import SignalDereverberator
 from avcore.separation import VoiceChunk, VoiceSeparator
 from avcore.speaking import RescueContinuity
 from avcore.stereo import StereoRig
@@ -128,6 +128,8 @@ def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
     """Several pairs' ITD vectors (K, P) as a track (no confidence or energy: they are per pair)."""
     nan = np.full(times.size, np.nan)
     return ItdTrack(times, itds, nan, nan)
+
+
 _ITD_MAX_HZ = 5000.0  # the widest band an ITD method takes (avcore.itd): the dereverberation's bins stop there
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
@@ -428,7 +430,7 @@ class Pipeline:
         columns = sorted(set(array.channels))  # the microphones the ITDs take, dereverberated together
         dereverb = SignalDereverberator(src.samplerate_hz, len(columns), max_hz=_ITD_MAX_HZ) if c.dereverb else None
         start_s = expected_s = 0.0
-        pushed = 0  # samples into the ITD stream since start_s
+        held = 0  # samples the dereverberation holds back from the ITD stream
         n = 0
         while True:
             block = self._take(self._q_audio, "audio")
@@ -451,19 +453,19 @@ class Pipeline:
                                         frame_bins=frame_itds)
                 if dereverb is not None:
                     dereverb.gap()
-                start_s, pushed = block.stamp_s, 0
+                start_s, held = block.stamp_s, 0
             expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
             if envelope:  # before the ITDs that complete a frame, so that its lips find the sound there
                 self._offer(self._q_fusion, EnvelopeMessage(block.stamp_s, *frame_powers(
                     samples[:, list(array.channels)], src.samplerate_hz)))
             if dereverb is not None:  # the same samples, each at its place, half a frame later
                 clean = dereverb.push(samples[:, columns])
+                held += samples.shape[0] - clean.shape[0]
                 samples = np.zeros((clean.shape[0], samples.shape[1]))
                 samples[:, columns] = clean
-            pushed += samples.shape[0]
             self._pass_itds(stream.push(samples), stream, start_s, frame_itds)
             # the audio clock: windows centred before this time are all extracted
-            self._offer(self._q_fusion, ClockMessage(start_s + pushed / src.samplerate_hz - c.window_s / 2))
+            self._offer(self._q_fusion, ClockMessage(expected_s - held / src.samplerate_hz - c.window_s / 2))
             n += 1
             self.stats.audio_blocks = n
             self._timed("itd", t0, n)
