@@ -1,11 +1,11 @@
 """Streaming dereverberation of the microphones' spectra: multichannel weighted prediction error (WPE).
 
 A talker a few metres away in a furnished room reaches the array mostly as reverberation: a perfect separation of
-each talker's image leaves most of it (docs/results.md, "Each person's voice"), and a beamformer steered at the
-face lets through the late reverberation that arrives from its own direction. WPE (Nakatani et al., "Speech dereverberation based on
-variance-normalized delayed linear prediction", IEEE TASLP 18(7), 2010; multichannel: Yoshioka and Nakatani, IEEE
-TASLP 20(10), 2012) predicts each bin's late reverberation from the frames ``delay`` to ``delay + taps - 1`` before
-it, on all Q microphones, and subtracts it:
+each talker's image leaves most of it (docs/results.md, "Each person's voice"), and a beamformer steered at the face
+lets through the late reverberation that arrives from its own direction. WPE (Nakatani et al., "Speech
+dereverberation based on variance-normalized delayed linear prediction", IEEE TASLP 18(7), 2010; multichannel:
+Yoshioka and Nakatani, IEEE TASLP 20(10), 2012) predicts each bin's late reverberation from the frames ``delay`` to
+``delay + taps - 1`` before it, on all Q microphones, and subtracts it:
 
     y_t = x_t - G^H x~_t,   x~_t = [x_{t-D}; ...; x_{t-D-K+1}]   (QK,)       (the delayed linear prediction)
     G = R^-1 P,   R = sum_t x~_t x~_t^H / lambda_t,   P = sum_t x~_t x_t^H / lambda_t
@@ -15,16 +15,16 @@ The 1/lambda weighting is what keeps the prediction off the speech itself (speec
 variance; unweighted linear prediction would whiten it). The frames ``delay`` back do not overlap the current one,
 so the direct sound and the early reflections within ``delay`` hops stay.
 
-Streaming form, as measured in docs/experiments.md (2026-11-30): R and P are sums with a memory of ``memory``
-frames, each frame weighted by the lambda of its output under the filter then in use (one pass, not the offline
-form's iterations), gathered ``every`` frames and then solved with a diagonal loading of ``loading`` times R's mean
-diagonal. For the first ``warm`` frames the filter is not applied (a filter solved from a few frames predicts the
-speech and removes it). The filter is the same for every talker: with more microphones than talkers one
-multichannel prediction can shorten every talker's response at once (the 2012 paper's MIMO result).
+Streaming form, as measured in docs/experiments.md (2026-11-30), on frames ``frames_per_s`` a second: R and P are
+sums with a memory of ``memory_s``, each frame weighted by the lambda of its output under the filter then in use
+(one pass, not the offline form's iterations), gathered ``every`` frames and then solved with a diagonal loading of
+``loading`` times R's mean diagonal. For the first ``warm_s`` the filter is not applied (a filter solved from a few
+frames predicts the speech and removes it). The filter is the same for every talker: with more microphones than
+talkers one multichannel prediction can shorten every talker's response at once (the 2012 paper's MIMO result).
 
 Contract: :meth:`__call__` takes each frame's (F, Q) spectrum in time order and returns the (F, Q) dereverberated
-one; :meth:`gap` forgets the frames before a gap in the audio (the filter and its statistics stay: the room is
-the same). :class:`SignalDereverberator` runs the same on a stream of samples (before the ITDs, an option).
+one; :meth:`gap` forgets the frames before a gap in the audio (the filter and its statistics stay: the room is the
+same). :class:`SignalDereverberator` runs the same on a stream of samples (before the ITDs, an option).
 """
 from __future__ import annotations
 
@@ -38,13 +38,15 @@ __all__ = ["Dereverberator", "SignalDereverberator"]
 class Dereverberator:
     """Streaming multichannel WPE on (F, Q) frames (module docstring)."""
 
-    def __init__(self, bins: int, channels: int, *, taps: int = 6, delay: int = 2, memory: float = 1250.0,
-                 every: int = 16, loading: float = 1e-2, warm: int = 125) -> None:
-        if bins < 1 or channels < 1 or taps < 1 or delay < 1 or every < 1 or memory <= 0 or loading < 0 or warm < 0:
-            raise ValueError("bins, channels, taps, delay and every must be >= 1, memory > 0, loading and warm >= 0")
+    def __init__(self, bins: int, channels: int, frames_per_s: float = 62.5, *, taps: int = 6, delay: int = 2,
+                 memory_s: float = 5.0, every: int = 32, loading: float = 1e-2, warm_s: float = 2.0) -> None:
+        if bins < 1 or channels < 1 or taps < 1 or delay < 1 or every < 1 or frames_per_s <= 0 or memory_s <= 0 \
+                or loading < 0 or warm_s < 0:
+            raise ValueError("bins, channels, taps, delay and every must be >= 1, frames_per_s and memory_s > 0, "
+                             "loading and warm_s >= 0")
         self.bins, self.channels, self.taps, self.delay = bins, channels, taps, delay
-        self.every, self.loading, self.warm = every, loading, warm
-        self._forget = float(np.exp(-1.0 / memory))
+        self.every, self.loading, self.warm = every, loading, int(warm_s * frames_per_s)  # warm: frames
+        self._forget = float(np.exp(-1.0 / (memory_s * frames_per_s)))
         self._weights = self._forget ** np.arange(every - 1, -1, -1)  # the batch's frames, newest weighs 1
         dim = channels * taps
         self._r = np.zeros((bins, dim, dim), dtype=np.complex128)
@@ -115,9 +117,8 @@ class SignalDereverberator:
         self.frame, self.lag = n, n // 2
         bins = n // 2 + 1
         self.bins = bins if max_hz is None else max(1, min(bins, int(max_hz * n / samplerate_hz) + 1))
-        per_s = samplerate_hz / self.lag  # frames a second
-        self.wpe = Dereverberator(self.bins, channels, taps=taps, delay=delay, memory=memory_s * per_s, every=every,
-                                  warm=int(warm_s * per_s))
+        self.wpe = Dereverberator(self.bins, channels, samplerate_hz / self.lag, taps=taps, delay=delay,
+                                  memory_s=memory_s, every=every, warm_s=warm_s)
         self.channels = channels
         self._window = np.sqrt(np.hanning(n + 1)[:-1])[:, None]
         self.gap()

@@ -127,9 +127,8 @@ class VoiceSeparator:
         self._win_in = np.sqrt(np.hanning(self.n_in + 1)[:-1])  # periodic: sqrt-Hann analysis and synthesis
         self._win_out = np.sqrt(np.hanning(self.n_out + 1)[:-1]) * (self.n_out / self.n_in)
         self._decay = math.exp(-self.hop_in / self.samplerate_hz / memory_s)
-        frames_per_s = self.samplerate_hz / self.hop_in
-        self.dereverb = Dereverberator(self.bins, self.mics.shape[0], taps=6, delay=2, memory=5.0 * frames_per_s,
-                                        every=32, warm=int(2.0 * frames_per_s)) if dereverb else None
+        self.dereverb = Dereverberator(self.bins, self.mics.shape[0], self.samplerate_hz / self.hop_in) \
+            if dereverb else None
         self._buf = np.zeros((0, self.mics.shape[0]))
         self._buf_stamp: float | None = None  # stamp of the buffer's first sample
         self._next_stamp: float | None = None  # where the next block should start
@@ -319,8 +318,7 @@ class VoiceSeparator:
         y = np.fft.irfft(full, self.n_out, axis=1) * self._win_out
         head, tail = y[:, : self.hop_out], y[:, self.hop_out:]
         previous = self._tails.get(pid)
-        if previous is not None and abs(previous[0] - start_s) < 0.5 / self.out_rate_hz + 1e-9 \
-                and previous[1].shape == tail.shape:
+        if previous is not None and abs(previous[0] - start_s) < 0.5 / self.out_rate_hz + 1e-9:
             head = head + previous[1]
         elif previous is not None:
             self._end_tail(pid)

@@ -62,7 +62,7 @@ def _filter_cpu(q: int, seconds: float, repeats: int) -> float:
     spectra = rng.standard_normal((frames, 257, q)) + 1j * rng.standard_normal((frames, 257, q))
     best = float("inf")
     for _ in range(repeats):
-        wpe = Dereverberator(257, q, memory=312.5, every=32, warm=125)
+        wpe = Dereverberator(257, q, 62.5)
         t0 = time.process_time()
         for frame in spectra:
             wpe(frame)

@@ -48,7 +48,7 @@ def test_the_late_reverberation_is_taken_out_once_warm() -> None:
     microphone's dereverberated frames lie at least 8 dB nearer its direct sound than the frames heard."""
     mixture, direct = _room(10.0, 4, seed=3)
     heard, wanted = _frames(mixture), _frames(direct)
-    wpe = Dereverberator(heard.shape[1], 4, memory=312.5, warm=125)
+    wpe = Dereverberator(heard.shape[1], 4, FS / HOP, every=16)
     out = np.array([wpe(frame) for frame in heard])
     later = slice(250, None)
     before, after = _sdr_db(wanted[later], heard[later, :, 0]), _sdr_db(wanted[later], out[later, :, 0])
@@ -59,7 +59,7 @@ def test_the_late_reverberation_is_taken_out_once_warm() -> None:
 def test_the_frames_pass_unchanged_until_warm_and_after_a_gap_the_past_is_forgotten() -> None:
     mixture, _ = _room(3.0, 2, seed=5)
     heard = _frames(mixture)
-    wpe = Dereverberator(heard.shape[1], 2, warm=100, every=16)
+    wpe = Dereverberator(heard.shape[1], 2, FS / HOP, warm_s=1.6, every=16)
     out = np.array([wpe(frame) for frame in heard[:100]])
     np.testing.assert_array_equal(out, heard[:100])
     for frame in heard[100:150]:
