@@ -4,19 +4,23 @@
 ```
 source.frames() --> [grabber] --q--> [vision: F3D faces | HM3D points] (--q--> [lips]) --+
                                                                                          +--q--> [fusion: TimeFrame
-source.audio()  --> [audio]   --q--> [ITD worker: (WPE) PairsItdStream] -----------------+   -> inference]
+source.audio()  --> [audio] --q--> [ITD worker] <=pipe=> (process: (WPE) PairsItdStream) +   -> inference]
                                                                                                 --> on_result
-         [audio] --q--> [voices: VoiceSeparator] <--q-- the results' people (their places, who speaks) --> on_voice
+        [audio] --q--> [voices-in] ==pipe==> (process: VoiceSeparator) ==pipe==> [voices] --> on_voice
+                             ^--q-- the results' people (their places, who speaks)
 ```
 
-With ``dereverb`` the ITD worker first takes the room's late reverberation out of the array's microphones
+The ITD worker hands each audio block to a process of its own (:mod:`app.itd_process`) and waits for its messages;
+with ``dereverb`` that process first takes the room's late reverberation out of the array's microphones
 (:class:`avcore.dereverb.SignalDereverberator`): its ITDs then come half a 32-ms frame later, on the same clock.
 
 With the lips' cue (face-guided), the face mesh reads the lips in a thread of its own after vision's, so that the
 mesh of one frame runs while the next frame's faces are found (OpenCV's DNN lets go of the GIL).
 
-With ``voices`` on, every audio block and every result's people also go to the voices thread, which steers a
-stream at each person (:mod:`avcore.separation`) and hands its chunks to ``on_voice``.
+With ``voices`` on, every audio block and every result's people also go through the voices-in thread to a process
+of its own (:mod:`app.voices_process`: in a thread beside the others, the separator's small numpy steps took
+four times their CPU), which steers a stream at each person (:mod:`avcore.separation`); the voices
+thread hands its chunks to ``on_voice``.
 
 Every queue is a :class:`~app.queues.DropOldestQueue`: producers never block (a slow consumer loses the oldest
 items, counted in the stats). The fusion thread alone owns the TimeFrame synchroniser (RSB's strategy, section 6:
@@ -43,16 +47,16 @@ from app.sources.contract import Source
 from app.errors import UserError
 from app.events import AudioBlock, StereoFrame
 from app.hearing import SelfCalibrating, Vision, hearing_mode
+from app.itd_process import AudioMessage, EnvelopeMessage, FrameItdsMessage, ItdMessage, ItdProcess
 from app.queues import DropOldestQueue
 from app.result import Result
 from app.signals import stop_on_signals
-from avcore.dereverb import SignalDereverberator
+from app.voices_process import VoicesProcess
 from avcore.faces import FaceDetector
 from avcore.geometry import MicArray
-from avcore.itd import FrameBins, ItdTrack, PairsItdStream
-from avcore.lips import frame_powers
+from avcore.itd import FrameBins
 from avcore.mic_check import MicCheck
-from avcore.separation import VoiceChunk, VoiceSeparator
+from avcore.separation import VoiceChunk
 from avcore.speaking import RescueContinuity
 from avcore.stereo import StereoRig
 from avcore.sync import FrameItdWindow, TimeFrame
@@ -64,46 +68,9 @@ log = logging.getLogger(__name__)
 __all__ = ["DEFAULT_ITD_METHOD", "Pipeline", "PipelineConfig", "PipelineStats", "Source"]
 
 
-@dataclass(frozen=True)
-class ItdMessage:
-    """One window's ITD, stamped at the window's centre: a float, or with several pairs a (P,) vector (NaN where a
-    pair's energy gate rejected the window)."""
-
-    stamp_s: float
-    itd_s: float | np.ndarray
-
-
-@dataclass(frozen=True, eq=False)
-class FrameItdsMessage:
-    """A block of single frames' ITDs and their bands' peaks, and with several pairs the frames' bins; their times
-    are relative to ``stamp_s``."""
-
-    stamp_s: float
-    frames: ItdTrack
-    bands: ItdTrack
-    bins: FrameBins | None = None
-
-
-@dataclass(frozen=True, eq=False)
-class EnvelopeMessage:
-    """A block's sound power in frames of 10 ms (:func:`avcore.lips.frame_powers`), their times relative to
-    ``stamp_s``: what the lips are compared with."""
-
-    stamp_s: float
-    times_s: np.ndarray
-    powers: np.ndarray
-
-
-@dataclass(frozen=True)
-class ClockMessage:
-    """The audio clock: every window centred before ``stamp_s`` has been extracted."""
-
-    stamp_s: float
-
-
 @dataclass(frozen=True, eq=False)
 class PeopleMessage:
-    """A result's people for the voices thread: ids (N,), places (N, 3) metres, speaking (N,) bool; the voices out
+    """A result's people for the voices' process: ids (N,), places (N, 3) metres, speaking (N,) bool; the voices out
     of view among them, put :data:`UNSEEN_VOICE_M` along their direction."""
 
     stamp_s: float
@@ -114,7 +81,7 @@ class PeopleMessage:
 
 UNSEEN_VOICE_M = 2.0  # a voice out of view is steered at this distance along its direction (far field beyond it)
 
-FusionMessage = Vision | ItdMessage | FrameItdsMessage | EnvelopeMessage | ClockMessage
+FusionMessage = Vision | AudioMessage
 
 
 def _array(source: Any) -> MicArray:
@@ -124,13 +91,6 @@ def _array(source: Any) -> MicArray:
     return array if array is not None else MicArray.from_pair(source.mics, tuple(source.channels))
 
 
-def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
-    """Several pairs' ITD vectors (K, P) as a track (no confidence or energy: they are per pair)."""
-    nan = np.full(times.size, np.nan)
-    return ItdTrack(times, itds, nan, nan)
-
-
-_ITD_MAX_HZ = 5000.0  # the widest band an ITD method takes (avcore.itd): the dereverberation's bins stop there
 _FRAME_ITDS_KEEP_S = 30.0  # seconds of single-frame ITDs kept at most (more than audio runs ahead of vision)
 
 
@@ -236,11 +196,11 @@ class Pipeline:
         self._q_lips: DropOldestQueue[Vision] | None = (
             DropOldestQueue(c.frame_queue, "lips") if self.mode.reads_lips else None)
         self._seen = "vision" if self._q_lips is None else "lips"  # the stage whose results the fusion takes
-        # the audio and the results' people, to the voices thread (never dropped there: see _voices_loop)
+        # the audio and the results' people, to the voices' process (see _voices_in_loop)
         self._q_voices: DropOldestQueue[AudioBlock | PeopleMessage] | None = (
             DropOldestQueue(c.audio_queue + c.fusion_queue, "voices") if c.voices else None)
         self._done = {name: threading.Event()
-                      for name in ("grabber", "audio", "vision", "lips", "itd", "fusion", "voices")}
+                      for name in ("grabber", "audio", "vision", "lips", "itd", "fusion", "voices-in", "voices")}
         # (times, ITDs, band times, band ITDs) blocks of the single frames, fusion thread
         self._frame_itds = FrameItdWindow(c.decision_window_s or c.frame_window_s, keep_s=_FRAME_ITDS_KEEP_S)
         self._vote = self.mode.vote()
@@ -254,6 +214,8 @@ class Pipeline:
         self._hearing: Any = None  # the fusion thread's hearing, for the self-calibration's state
         self._mic_check: MicCheck | None = None  # the fusion thread's check of the rig's microphones
         self._mic_said: set[tuple[int, str]] = set()
+        self._voices: VoicesProcess | None = None  # the voices' separator, in a process of its own while running
+        self._itd: ItdProcess | None = None  # the ITDs, likewise
 
     # -- control ---------------------------------------------------------------------------------------------
 
@@ -284,14 +246,15 @@ class Pipeline:
         (SIGINT) only sets a flag while the run waits, rather than raising wherever the interpreter happens to be.
         """
         workers = [
-            ("voices", self._voices_loop), ("fusion", self._fusion_loop), ("itd", self._itd_loop),
+            ("voices", self._voices_loop), ("voices-in", self._voices_in_loop), ("fusion", self._fusion_loop),
+            ("itd", self._itd_loop),
             ("lips", self._lips_loop), ("vision", self._vision_loop), ("audio", self._audio_loop),
             ("grabber", self._grab_loop),
         ]
         if self._q_lips is None:
             workers.remove(("lips", self._lips_loop))
         if self._q_voices is None:
-            workers.remove(("voices", self._voices_loop))
+            workers = [w for w in workers if not w[0].startswith("voices")]
         threads = [threading.Thread(target=self._guard, args=(name, fn), name=f"avhear-{name}", daemon=True)
                    for name, fn in workers]
         self.stats.started_s = time.perf_counter()
@@ -315,6 +278,9 @@ class Pipeline:
                 t.join(self.config.join_timeout_s)
                 if t.is_alive():
                     log.warning("thread %s did not stop within %.1f s", t.name, self.config.join_timeout_s)
+            for child in (self._itd, self._voices):
+                if child is not None:
+                    child.close()
             self.stats.ended_s = time.perf_counter()
             self.stats.drops = {q.name: q.dropped for q in self._queues()}
             sync = self._sync
@@ -421,19 +387,17 @@ class Pipeline:
             self._timed("lips", t0, n)
 
     def _itd_loop(self) -> None:
-        c = self.config
-        src = self.source
-        array = _array(src)
-        stream: PairsItdStream | None = None
-        frame_itds = self.mode.frame_itds
-        envelope = self.mode.envelope is not None
-        columns = sorted(set(array.channels))  # the microphones the ITDs take, dereverberated together
-        dereverb = SignalDereverberator(src.samplerate_hz, len(columns), max_hz=_ITD_MAX_HZ) if c.dereverb else None
-        start_s = expected_s = 0.0
-        held = 0  # samples the dereverberation holds back from the ITD stream
+        """Each audio block to the ITD process (:class:`app.itd_process.ItdProcess`, started at the first block: a
+        robot's audio format is known then), its messages to the fusion."""
+        c, array = self.config, _array(self.source)
         n = 0
         while True:
             block = self._take(self._q_audio, "audio")
+            if self._itd is None:
+                self._itd = ItdProcess(array=array, samplerate_hz=self.source.samplerate_hz, itd_method=c.itd_method,
+                                       window_s=c.window_s, hop_s=c.hop_s, energy_threshold=c.energy_threshold,
+                                       frame_itds=self.mode.frame_itds, envelope=self.mode.envelope is not None,
+                                       dereverb=c.dereverb)
             self._wait_for_vision(block.stamp_s)
             t0 = time.perf_counter()
             samples = np.asarray(block.samples, dtype=np.float64)
@@ -443,46 +407,14 @@ class Pipeline:
             if not np.all(np.isfinite(samples)):
                 self.stats.bad_audio_blocks += 1
                 samples = np.nan_to_num(samples, nan=0.0, posinf=0.0, neginf=0.0)
-            if stream is None or abs(block.stamp_s - expected_s) > c.hop_s:
-                # first block, or samples were lost (an overflow, a dropped block): restart at this block's clock
-                if stream is not None:
-                    self.stats.audio_gaps += 1
-                # the bins' look (avcore.speaking.bin_shares) asks every pair at once, one pair as well
-                stream = PairsItdStream(array, src.samplerate_hz, method=c.itd_method, window_s=c.window_s,
-                                        hop_s=c.hop_s, energy_threshold=c.energy_threshold, frame_itds=frame_itds,
-                                        frame_bins=frame_itds)
-                if dereverb is not None:
-                    dereverb.gap()
-                start_s, held = block.stamp_s, 0
-            expected_s = block.stamp_s + samples.shape[0] / src.samplerate_hz
-            if envelope:  # before the ITDs that complete a frame, so that its lips find the sound there
-                self._offer(self._q_fusion, EnvelopeMessage(block.stamp_s, *frame_powers(
-                    samples[:, list(array.channels)], src.samplerate_hz)))
-            if dereverb is not None:  # the same samples, each at its place, half a frame later
-                clean = dereverb.push(samples[:, columns])
-                held += samples.shape[0] - clean.shape[0]
-                samples = np.zeros((clean.shape[0], samples.shape[1]))
-                samples[:, columns] = clean
-            self._pass_itds(stream.push(samples), stream, start_s, frame_itds)
-            # the audio clock: windows centred before this time are all extracted
-            self._offer(self._q_fusion, ClockMessage(expected_s - held / src.samplerate_hz - c.window_s / 2))
+            messages, gap = self._itd.push(block.stamp_s, samples)
+            self.stats.audio_gaps += gap
+            for message in messages:
+                self._offer(self._q_fusion, message)
+                self.stats.itds += isinstance(message, ItdMessage)
             n += 1
             self.stats.audio_blocks = n
             self._timed("itd", t0, n)
-
-    def _pass_itds(self, windows: tuple[np.ndarray, np.ndarray], stream: PairsItdStream, start_s: float,
-                   frame_itds: bool) -> None:
-        """The frames' ITDs, their bands and bins (before the windows' ITDs, which complete vision frames: frames run
-        ahead of windows), then the windows' ITD vectors, to the fusion thread."""
-        if frame_itds:
-            frames, bands = stream.pop_frame_itds(), stream.pop_band_itds()
-            bins = stream.pop_frame_bins() if stream.frame_bins else None
-            if len(frames[0]) or (bins is not None and len(bins)):
-                self._offer(self._q_fusion, FrameItdsMessage(start_s, _vectors(*frames), _vectors(*bands), bins))
-        times, itds = windows
-        for t, itd in zip(times, itds):
-            self._offer(self._q_fusion, ItdMessage(start_s + float(t), itd))
-        self.stats.itds += len(times)
 
     def _wait_for_vision(self, stamp: float) -> None:
         """A replay as fast as possible: hold the audio at ``stamp`` until vision has taken the frames up to
@@ -614,18 +546,17 @@ class Pipeline:
         if self._q_voices is not None:
             self._offer(self._q_voices, _people(result))
 
-    def _voices_loop(self) -> None:
-        """Each person's voice (:class:`avcore.separation.VoiceSeparator`). Everything queued is taken at once into
-        the separator, which holds the audio until the people of ``voice_delay_s`` earlier are known: the thread
-        never holds up the audio or the fusion (in a replay as fast as possible, the audio runs ahead of the
-        results by up to ``max_audio_lead_s``; in real time a frame waits at most a second more for them). A stop
-        waits for the fusion's last results, then ends every stream."""
+    def _voices_in_loop(self) -> None:
+        """The audio and the results' people, in the order they came, to the voices' process
+        (:class:`app.voices_process.VoicesProcess`), whose separator holds the audio until the people of
+        ``voice_delay_s`` earlier are known: nothing here holds up the audio or the fusion (in a replay as fast as
+        possible, the audio runs ahead of the results by up to ``max_audio_lead_s``; in real time a frame waits at
+        most a second more for them). A stop waits for the fusion's last results, then ends every stream. The
+        process starts at the first audio block (a robot's audio format is known then)."""
         assert self._q_voices is not None
         array = _array(self.source)
-        separator = VoiceSeparator(array.positions, self.source.samplerate_hz, learn_delay_s=self.config.voice_delay_s,
-                                   max_wait_s=None if self._backpressure else self.config.voice_delay_s + 1.0,
-                                   speed_of_sound=array.speed_of_sound)
         channels = list(array.channels)
+        early: list[PeopleMessage] = []  # people before the first audio block
         while True:
             item = self._q_voices.get(timeout=0.05)
             if item is None:
@@ -635,19 +566,43 @@ class Pipeline:
                         self._done["fusion"].wait(self.config.join_timeout_s / 2)
                         if len(self._q_voices):
                             continue
-                    for chunk in separator.flush():
-                        self._emit_voice(chunk)
+                    if self._voices is not None:
+                        self._voices.end()
                     return
                 continue
             if isinstance(item, PeopleMessage):
-                separator.push_people(item.stamp_s, item.ids, item.positions_m, item.speaking)
-            else:
-                samples = np.asarray(item.samples)
-                if samples.ndim != 2 or samples.shape[1] <= max(channels):
-                    continue  # counted by the ITD worker
-                separator.push_audio(item.stamp_s, samples[:, channels])
-            for chunk in separator.pop():
+                if self._voices is None:
+                    early.append(item)
+                    continue
+                self._voices.push_people(item.stamp_s, item.ids, item.positions_m, item.speaking)
+                continue
+            samples = np.asarray(item.samples)
+            if samples.ndim != 2 or samples.shape[1] <= max(channels):
+                continue  # counted by the ITD worker
+            if self._voices is None:
+                self._voices = VoicesProcess(
+                    mic_positions_m=array.positions, samplerate_hz=self.source.samplerate_hz,
+                    learn_delay_s=self.config.voice_delay_s, speed_of_sound=array.speed_of_sound,
+                    max_wait_s=None if self._backpressure else self.config.voice_delay_s + 1.0)
+                for people in early:
+                    self._voices.push_people(people.stamp_s, people.ids, people.positions_m, people.speaking)
+            self._voices.push_audio(item.stamp_s, samples[:, channels])
+
+    def _voices_loop(self) -> None:
+        """Each person's voice as the voices' process makes it, to ``on_voice``, until it has flushed every
+        stream (or the pipeline failed elsewhere and will not feed it any more)."""
+        while True:
+            if self._voices is None:  # not started yet, or never: no audio came
+                if self._done["voices-in"].wait(0.05) and self._voices is None:
+                    return
+                continue
+            chunks = self._voices.receive(0.05)
+            if chunks is None:
+                return
+            for chunk in chunks:
                 self._emit_voice(chunk)
+            if not chunks and self._errors and self._done["voices-in"].is_set():
+                return
 
     def _emit_voice(self, chunk: VoiceChunk) -> None:
         if not self._backpressure:
@@ -660,7 +615,7 @@ class Pipeline:
 
 
 def _people(result: Result) -> PeopleMessage:
-    """The people of ``result`` and its voices out of view, for the voices thread."""
+    """The people of ``result`` and its voices out of view, for the voices' process."""
     ids, positions, speaking = list(result.person_ids), list(result.positions), list(result.speaking)
     for voice in result.voices or ():
         ids.append(voice.id)

@@ -1,0 +1,81 @@
+"""Each person's voice in a process of its own (:mod:`app.child_process`): the pipeline's
+:class:`avcore.separation.VoiceSeparator`, fed through a pipe.
+
+The protocol: the parent sends ``("init", kwargs)`` once, then ``("audio", stamp, samples)`` and ``("people",
+stamp, ids, positions, speaking)`` in the order the pipeline took them, and ``("end",)``; the child answers
+``("chunks", [VoiceChunk, ...])`` whenever chunks are final (everything waiting in its inbox is taken into the
+separator first), after ``end`` the flushed ones, then ``("done", frames)``. The same inputs in the same order give
+the same chunks as the separator in a thread: a replay gives the live run's streams.
+"""
+from __future__ import annotations
+
+from multiprocessing.connection import Connection
+from typing import Any
+
+import numpy as np
+
+from app.child_process import ChildProcess, ChildProcessFailed
+from avcore.separation import VoiceChunk
+
+__all__ = ["VoicesProcess", "ChildProcessFailed"]
+
+
+class VoicesProcess:
+    """A :class:`~avcore.separation.VoiceSeparator` (``separator`` are its keyword arguments, the microphones'
+    positions among them) in a child process. :meth:`push_audio`, :meth:`push_people` and :meth:`end` come from one
+    thread, :meth:`receive` from another (a push may wait for the child, whose answers must still be read)."""
+
+    def __init__(self, **separator: Any) -> None:
+        self.child = ChildProcess("app.voices_process:serve_voices", "voices")
+        self.child.send(("init", separator))
+
+    def push_audio(self, stamp_s: float, samples: np.ndarray) -> None:
+        self.child.send(("audio", float(stamp_s), np.ascontiguousarray(samples)))
+
+    def push_people(self, stamp_s: float, ids: np.ndarray, positions_m: np.ndarray, speaking: np.ndarray) -> None:
+        self.child.send(("people", float(stamp_s), ids, positions_m, speaking))
+
+    def end(self) -> None:
+        """No more input: the child flushes every stream, sends the last chunks and ``done``."""
+        self.child.send(("end",))
+
+    def receive(self, timeout_s: float) -> list[VoiceChunk] | None:
+        """The chunks the child made (an empty list when none came within ``timeout_s``); None once it is done."""
+        message = self.child.receive(timeout_s)
+        if message is None:
+            return []
+        return message[1] if message[0] == "chunks" else None
+
+    def close(self) -> None:
+        self.child.close()
+
+
+def serve_voices(inbox: Connection, outbox: Connection) -> None:
+    """The voices' process's loop (:func:`app.child_process.serve`): a separator fed in order."""
+    from avcore.separation import VoiceSeparator
+
+    kind, options = inbox.recv()
+    if kind != "init":
+        raise ValueError(f"the first message must be init, got {kind!r}")
+    separator = VoiceSeparator(**options)
+    while True:
+        message = inbox.recv()
+        while True:
+            kind = message[0]
+            if kind == "audio":
+                separator.push_audio(message[1], message[2])
+            elif kind == "people":
+                separator.push_people(*message[1:])
+            elif kind == "end":
+                outbox.send(("chunks", separator.flush()))
+                outbox.send(("done", separator.frames))
+                return
+            else:
+                raise ValueError(f"unknown message {kind!r}")
+            if not inbox.poll(0):
+                break
+            message = inbox.recv()
+        chunks = separator.pop()
+        if chunks:
+            outbox.send(("chunks", chunks))
+
