@@ -8,7 +8,7 @@ been silent for ``hangover_s`` (pauses between words stay within one utterance).
 as it arrives, so that partial words come while the person speaks and the final words soon after they stop.
 
 Recognition (:class:`app.speech.recogniser.Recogniser`, one decoder a person) runs in a child process
-(:mod:`app.speech.worker`): pocketsphinx holds the interpreter's lock while it decodes, and the pipeline's 30
+(:mod:`app.speech.worker` through :mod:`app.child_process`): pocketsphinx holds the interpreter's lock while it decodes, and the pipeline's 30
 results a second must not wait for it. The
 child answers with partial and final hypotheses; :meth:`events` hands them out as :class:`Words` (the sinks take
 them on the fusion thread, with the next result). :meth:`close` ends every open utterance and waits for its words.
@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import collections
 import queue
-import subprocess
-import sys
 import threading
 import time
 from collections.abc import Sequence
@@ -28,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from app.speech.recogniser import default_word_penalty
-from app.speech.worker import read_message, write_message
+from app.child_process import ChildProcess, ChildProcessFailed
 from avcore.separation import VoiceChunk
 
 __all__ = ["Transcriber", "Words"]
@@ -72,8 +70,8 @@ class Transcriber:
                  hangover_s: float = 0.4, word_penalty: float | None = None) -> None:
         self.preroll_s, self.postroll_s, self.hangover_s = preroll_s, postroll_s, hangover_s
         penalty = default_word_penalty(words) if word_penalty is None else word_penalty
-        self._process = subprocess.Popen([sys.executable, "-m", "app.speech.worker", repr(float(penalty)), *(words or ())],
-                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        self._child = ChildProcess("app.speech.worker:serve_words", "recogniser")
+        self._child.send(("init", float(penalty), list(words or ())))
         self._jobs: queue.Queue = queue.Queue()  # the pipeline's threads never wait on the pipe: a writer does
         self._writer = threading.Thread(target=self._write, name="avhear-words-writer", daemon=True)
         self._writer.start()
@@ -153,34 +151,28 @@ class Transcriber:
     # -- output --------------------------------------------------------------------------------------------------
 
     def _write(self) -> None:
-        assert self._process.stdin is not None
         while (job := self._jobs.get()) is not None:
             try:
-                write_message(self._process.stdin, job)
-            except (BrokenPipeError, OSError):
+                self._child.send(job)
+            except ChildProcessFailed:
                 return
-        try:
-            self._process.stdin.close()
-        except OSError:
-            pass
+        self._child.close_inbox()  # the recogniser's end
 
     def _read(self) -> None:
-        assert self._process.stdout is not None
         while True:
             try:
-                answer = read_message(self._process.stdout)
-            except (EOFError, OSError, ValueError):
-                answer = None
-            if answer is None:
-                if self.error is None and self._pending > 0:
-                    self.error = "the recogniser stopped"
+                answer = self._child.receive()
+            except ChildProcessFailed as exc:
+                said = str(exc).strip().splitlines()
+                if said[-1].startswith("the recogniser process ended"):  # no error of its own: it stopped
+                    if self.error is None and self._pending > 0:
+                        self.error = "the recogniser stopped"
+                else:
+                    self.error = said[-1]  # the child's exception, "Type: message"
                 return
             if answer[0] == "ready":
                 self._ready.set()
                 continue
-            if answer[0] == "error":
-                self.error = answer[1]
-                return
             kind, pid, number = answer[0], answer[1], answer[2]
             with self._lock:
                 start, end = self._starts.get((pid, number), (float("nan"), None))
@@ -200,8 +192,13 @@ class Transcriber:
         return out
 
     def wait_ready(self, timeout_s: float = 30.0) -> bool:
-        """Whether the recogniser has loaded its model (within ``timeout_s``)."""
-        return self._ready.wait(timeout_s)
+        """Whether the recogniser has loaded its model (within ``timeout_s``); False at once when it failed
+        (:attr:`error` says why)."""
+        deadline = time.monotonic() + timeout_s
+        while not self._ready.wait(0.05):
+            if self.error is not None or time.monotonic() >= deadline:
+                return False
+        return True
 
     def close(self, timeout_s: float = 10.0) -> list[Words]:
         """End every open utterance, wait (at most ``timeout_s``) for the words still coming, stop the process;
@@ -214,15 +211,11 @@ class Transcriber:
                 self._pending += 1
                 del self._closing[(pid, number)]
         deadline = time.monotonic() + timeout_s
-        while (self._pending > 0 and self.error is None and self._process.poll() is None
+        while (self._pending > 0 and self.error is None and self._child.proc.poll() is None
                and time.monotonic() < deadline):
             time.sleep(0.02)
         self._jobs.put(None)
         self._writer.join(2.0)
-        try:
-            self._process.wait(2.0)
-        except subprocess.TimeoutExpired:
-            self._process.kill()
-            self._process.wait(2.0)
-        self._reader.join(1.0)
+        self._reader.join(2.0)  # the child has read the end of its inbox and closed its outbox
+        self._child.close(2.0)
         return self.events()

@@ -109,7 +109,20 @@ def test_the_transcriber_cuts_a_persons_voice_by_their_speaking_state(beam: str)
     assert final[0].start_s == pytest.approx(0.7, abs=0.1) and final[0].end_s == pytest.approx(end_s + 0.3, abs=0.1)
     assert _shared_words("i'm playing a single hand in what looks like a losing game", final[0].text) >= 0.5
     assert any(not w.final and w.person_id == 4 for w in events)
-    assert transcriber._process.poll() is not None  # the recogniser's process has ended
+    assert transcriber._child.proc.poll() is not None  # the recogniser's process has ended
+
+
+def test_a_recogniser_that_fails_in_its_process_says_why_at_once() -> None:
+    """The recogniser's process (app.child_process) sends its exception: the transcriber says it, without waiting
+    out the timeout, and the process has ended."""
+    transcriber = Transcriber(["zzqxvw"])  # not a word of the dictionary: the decoder refuses it
+    try:
+        assert transcriber.wait_ready(30.0) is False
+        assert transcriber.error is not None and "zzqxvw" in transcriber.error
+        assert transcriber.error.startswith("ValueError:")
+    finally:
+        transcriber.close(0.0)
+    assert transcriber._child.proc.returncode == 1
 
 
 def test_words_go_on_the_bus_as_hri_live_speech() -> None:
