@@ -7,14 +7,14 @@
     python benchmarks/pipeline.py --duration 90 --tracemalloc   # where Python allocations grow (slower)
     python benchmarks/pipeline.py --scenario S5 --read-lips     # three faces, the face mesh on each, moving mouths
 
-Prints, for a real-time run: results per second, latency from capture stamp to logged result (p50, p95) and the
-part of it beyond the wait that the method itself imposes (a frame's ITDs are complete only once the audio has
-passed its stamp + frame_window_s, and an ITD window's centre lies window_s / 2 before its end), late frames
-skipped by the source, queue drops, audio blocks, and the process's resident memory (RSS) sampled every
-``--sample-s`` seconds: the growth from the first to the last quarter of the run (mean RSS of each quarter, the
-issue's measure), the slope of a straight line fitted to the second half (MB per minute: what keeps growing once
-the caches are warm) and the peak. Progress goes to stderr every ``--progress-s`` seconds. Then the same scenario as
-fast as possible: throughput.
+Prints, for a real-time run: results per second, latency from capture stamp to logged result (p50, p95) and the part
+of it beyond the wait that the method itself imposes (a frame's ITDs are complete only once the audio has passed its
+stamp + frame_window_s, and an ITD window's centre lies window_s / 2 before its end), late frames skipped by the
+source, queue drops, audio blocks, and the resident memory (RSS) of the process and its children (the ITDs', the
+voices' and the words' processes) sampled every ``--sample-s`` seconds: the growth from the first to the last
+quarter of the run (mean RSS of each quarter, the issue's measure), the slope of a straight line fitted to the
+second half (MB per minute: what keeps growing once the caches are warm) and the peak. Progress goes to stderr every
+``--progress-s`` seconds. Then the same scenario as fast as possible: throughput.
 
 Targets (issue 6): >= 30 FPS sustained (the paper: 17 FPS on NAO); latency <= 50 ms at p95 beyond the ITD window;
 memory flat over a 10-minute replay (<= 50 MB growth); no dropped audio.
@@ -42,9 +42,19 @@ from app.console.viewer import ViewerSession, ViewerTarget
 
 
 def _rss_mb() -> float:
+    """The resident memory of this process and of its children (the ITDs', the voices' and the words' processes,
+    app/child_process.py)."""
     try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+        pids = ["self"]
+        for task in Path("/proc/self/task").iterdir():
+            pids += (task / "children").read_text().split()
+        total = 0
+        for pid in pids:
+            try:
+                total += int(Path(f"/proc/{pid}/statm").read_text().split()[1])
+            except (OSError, IndexError, ValueError):  # a child that has just ended
+                pass
+        return total * os.sysconf("SC_PAGE_SIZE") / 2**20
     except OSError:  # not Linux
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 

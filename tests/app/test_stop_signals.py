@@ -69,6 +69,28 @@ def test_sigterm_during_a_run_keeps_the_results_and_exits_130(tmp_path: Path) ->
 
 
 
+def test_ctrl_c_to_the_terminals_group_keeps_every_voice_to_the_end(tmp_path: Path) -> None:
+    """Ctrl-C in a terminal reaches the whole process group, the ITDs' and the voices' processes too
+    (app/child_process.py): they keep going until the run ends them, and each person's WAV reaches the end of the
+    sound the run took, as voices.json says."""
+    out, results = tmp_path / "voices", tmp_path / "r.jsonl"
+    proc = subprocess.Popen([sys.executable, "-m", "app", "run", "--source", "sim:S5", "--duration", "30",
+                             "--headless", "--voices-dir", str(out), "--results-jsonl", str(results)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            cwd=Path(__file__).resolve().parents[2], start_new_session=True)
+    _wait_for_rows(results, 20, proc)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    last = json.loads(results.read_text().splitlines()[-1])
+    there = {p["id"] for p in last["people"]}
+    index = {v["person_id"]: v for v in json.loads((out / "voices.json").read_text())["voices"]}
+    assert len(there) == 3 and there <= set(index)
+    for pid in there:  # the streams of the people still there go past the last result (the audio runs ahead)
+        assert index[pid]["end_s"] > last["stamp_s"]  # (a busy machine may cost a stream a gap, counted there)
+
+
 def test_sigterm_on_record_keeps_the_recording(tmp_path: Path, rig_file: Path, make_video,  # noqa: ANN001
                                                fake_sounddevice, paced_cameras,  # noqa: ANN001
                                                capsys: pytest.CaptureFixture[str]) -> None:
