@@ -9,17 +9,17 @@ restarts the streams at its stamp.
 :class:`ItdProcess` runs one in a child process (:mod:`app.child_process`: with several pairs the ITDs are many
 small numpy steps a frame, which in a thread beside vision, the fusion and Rerun held everything up), as a call per
 block: the pipeline's ITD thread sends ``("block", stamp, samples)`` and waits for ``("itds", messages, gap)``,
-so the messages keep their order and the thread its pace. The first message is ``("init", kwargs)``.
+so the messages keep their order and the thread its pace. The first message is ``("init", kwargs)``; the end of
+its input is its end.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
-from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
 
-from app.child_process import ChildProcess
+from app.child_process import ChildProcess, Inbox, Outbox
 from avcore.dereverb import SignalDereverberator
 from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
@@ -135,15 +135,14 @@ class ItdProcess:
 
     def push(self, stamp_s: float, samples: np.ndarray) -> tuple[list[AudioMessage], bool]:
         self.child.send(("block", float(stamp_s), samples))
-        reply = self.child.receive()
-        assert reply is not None and reply[0] == "itds"
-        return reply[1], reply[2]
+        _, messages, gap = self.child.receive()
+        return messages, gap
 
     def close(self) -> None:
         self.child.close()
 
 
-def serve_itds(inbox: Connection, outbox: Connection) -> None:
+def serve_itds(inbox: Inbox, outbox: Outbox) -> None:
     """The ITD process's loop (:func:`app.child_process.serve`): an :class:`ItdWorker` called once a block."""
     kind, options = inbox.recv()
     if kind != "init":

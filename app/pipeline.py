@@ -281,6 +281,7 @@ class Pipeline:
             for child in (self._itd, self._voices):
                 if child is not None:
                     child.close()
+            self._itd = self._voices = None
             self.stats.ended_s = time.perf_counter()
             self.stats.drops = {q.name: q.dropped for q in self._queues()}
             sync = self._sync
@@ -590,19 +591,13 @@ class Pipeline:
 
     def _voices_loop(self) -> None:
         """Each person's voice as the voices' process makes it, to ``on_voice``, until it has flushed every
-        stream (or the pipeline failed elsewhere and will not feed it any more)."""
-        while True:
-            if self._voices is None:  # not started yet, or never: no audio came
-                if self._done["voices-in"].wait(0.05) and self._voices is None:
-                    return
-                continue
-            chunks = self._voices.receive(0.05)
-            if chunks is None:
+        stream."""
+        while self._voices is None:  # not started yet, or never: no audio came
+            if self._done["voices-in"].wait(0.05) and self._voices is None:
                 return
+        while (chunks := self._voices.receive()) is not None:
             for chunk in chunks:
                 self._emit_voice(chunk)
-            if not chunks and self._errors and self._done["voices-in"].is_set():
-                return
 
     def _emit_voice(self, chunk: VoiceChunk) -> None:
         if not self._backpressure:

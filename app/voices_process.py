@@ -3,18 +3,17 @@
 
 The protocol: the parent sends ``("init", kwargs)`` once, then ``("audio", stamp, samples)`` and ``("people",
 stamp, ids, positions, speaking)`` in the order the pipeline took them, and ``("end",)``; the child answers
-``("chunks", [VoiceChunk, ...])`` whenever chunks are final (everything waiting in its inbox is taken into the
-separator first), after ``end`` the flushed ones, then ``("done", frames)``. The same inputs in the same order give
+``("chunks", [VoiceChunk, ...])`` whenever chunks are final, after ``end`` the flushed ones, then ``("done",
+frames)``. The same inputs in the same order give
 the same chunks as the separator in a thread: a replay gives the live run's streams.
 """
 from __future__ import annotations
 
-from multiprocessing.connection import Connection
 from typing import Any
 
 import numpy as np
 
-from app.child_process import ChildProcess, ChildProcessFailed
+from app.child_process import ChildProcess, ChildProcessFailed, Inbox, Outbox
 from avcore.separation import VoiceChunk
 
 __all__ = ["VoicesProcess", "ChildProcessFailed"]
@@ -39,18 +38,16 @@ class VoicesProcess:
         """No more input: the child flushes every stream, sends the last chunks and ``done``."""
         self.child.send(("end",))
 
-    def receive(self, timeout_s: float) -> list[VoiceChunk] | None:
-        """The chunks the child made (an empty list when none came within ``timeout_s``); None once it is done."""
-        message = self.child.receive(timeout_s)
-        if message is None:
-            return []
+    def receive(self) -> list[VoiceChunk] | None:
+        """The next chunks the child made, when they come; None once it is done."""
+        message = self.child.receive()
         return message[1] if message[0] == "chunks" else None
 
     def close(self) -> None:
         self.child.close()
 
 
-def serve_voices(inbox: Connection, outbox: Connection) -> None:
+def serve_voices(inbox: Inbox, outbox: Outbox) -> None:
     """The voices' process's loop (:func:`app.child_process.serve`): a separator fed in order."""
     from avcore.separation import VoiceSeparator
 
@@ -60,22 +57,17 @@ def serve_voices(inbox: Connection, outbox: Connection) -> None:
     separator = VoiceSeparator(**options)
     while True:
         message = inbox.recv()
-        while True:
-            kind = message[0]
-            if kind == "audio":
-                separator.push_audio(message[1], message[2])
-            elif kind == "people":
-                separator.push_people(*message[1:])
-            elif kind == "end":
-                outbox.send(("chunks", separator.flush()))
-                outbox.send(("done", separator.frames))
-                return
-            else:
-                raise ValueError(f"unknown message {kind!r}")
-            if not inbox.poll(0):
-                break
-            message = inbox.recv()
+        kind = message[0]
+        if kind == "audio":
+            separator.push_audio(message[1], message[2])
+        elif kind == "people":
+            separator.push_people(*message[1:])
+        elif kind == "end":
+            outbox.send(("chunks", separator.flush()))
+            outbox.send(("done", separator.frames))
+            return
+        else:
+            raise ValueError(f"unknown message {kind!r}")
         chunks = separator.pop()
         if chunks:
             outbox.send(("chunks", chunks))
-

@@ -8,12 +8,12 @@ person first speaks. Its own process, not a thread: pocketsphinx holds the inter
 """
 from __future__ import annotations
 
-from multiprocessing.connection import Connection
+from app.child_process import Inbox, Outbox
 
 __all__ = ["serve_words"]
 
 
-def serve_words(inbox: Connection, outbox: Connection) -> None:
+def serve_words(inbox: Inbox, outbox: Outbox) -> None:
     """The loop (:func:`app.child_process.serve`): until the transcriber closes the inbox."""
     from app.speech.recogniser import Recogniser
 

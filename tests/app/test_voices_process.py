@@ -41,7 +41,7 @@ class _Reader:
 
     def _run(self) -> None:
         try:
-            while (got := self._voices.receive(0.05)) is not None:
+            while (got := self._voices.receive()) is not None:
                 self.chunks.extend(got)
         except BaseException as exc:  # noqa: BLE001 -- re-raised by result()
             self.error = exc
