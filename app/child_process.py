@@ -56,11 +56,12 @@ def _read(stream: BinaryIO) -> Any:
 
 
 class ChildProcess:
-    """``loop`` (``"module:function"``: the function takes an :class:`Inbox` and an :class:`Outbox`) in a child
-    process; ``name`` says which stage in errors. :meth:`send` may wait while the child's input is full, and
+    """``loop`` (``"module:function"``: the function takes an :class:`Inbox`, an :class:`Outbox` and ``options``,
+    which it gets as the first message, ``("init", options)``) in a child process; ``name`` says which stage in
+    errors. :meth:`send` may wait while the child's input is full, and
     :meth:`receive` waits for an answer: a parent that does both at once does them in two threads."""
 
-    def __init__(self, loop: str, name: str) -> None:
+    def __init__(self, loop: str, name: str, **options: Any) -> None:
         self.name = name
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in (str(_ROOT), env.get("PYTHONPATH", "")) if p)
@@ -68,6 +69,7 @@ class ChildProcess:
             env.setdefault(var, "1")
         self.proc = subprocess.Popen([sys.executable, "-m", "app.child_process", loop], stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, env=env)
+        self.send(("init", options))
 
     def send(self, message: tuple) -> None:
         try:
@@ -136,9 +138,9 @@ class Outbox:
         _write(self._stream, message)
 
 
-def serve(loop: Callable[[Inbox, Outbox], Any]) -> int:
-    """The child's side: ``loop(inbox, outbox)`` on the standard input and output; its exception goes to the parent
-    as ``("error", traceback)``. Exit status 0 when the loop returned or its input ended, 1 when it failed."""
+def serve(loop: Callable[..., Any]) -> int:
+    """The child's side: ``loop(inbox, outbox, **options)`` on the standard input and output, ``options`` from the
+    first message; its exception goes to the parent as ``("error", traceback)``. Exit status 0 when the loop returned or its input ended, 1 when it failed."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     inbox = Inbox(os.fdopen(os.dup(0), "rb"))
@@ -146,7 +148,10 @@ def serve(loop: Callable[[Inbox, Outbox], Any]) -> int:
     os.dup2(2, 1)  # what the stage prints goes to the standard error, not into the answers
     sys.stdout = sys.stderr
     try:
-        loop(inbox, outbox)
+        kind, options = inbox.recv()
+        if kind != "init":
+            raise ValueError(f"the first message must be init, got {kind!r}")
+        loop(inbox, outbox, **options)
     except EOFError:  # the parent closed the input, or is gone
         return 0
     except Exception:  # noqa: BLE001 -- the parent says what failed

@@ -9,8 +9,7 @@ restarts the streams at its stamp.
 :class:`ItdProcess` runs one in a child process (:mod:`app.child_process`: with several pairs the ITDs are many
 small numpy steps a frame, which in a thread beside vision, the fusion and Rerun held everything up), as a call per
 block: the pipeline's ITD thread sends ``("block", stamp, samples)`` and waits for ``("itds", messages, gap)``,
-so the messages keep their order and the thread its pace. The first message is ``("init", kwargs)``; the end of
-its input is its end.
+so the messages keep their order and the thread its pace; the end of its input is its end.
 """
 from __future__ import annotations
 
@@ -130,8 +129,7 @@ class ItdProcess:
     """An :class:`ItdWorker` (``worker`` are its arguments) in a child process, called once a block."""
 
     def __init__(self, **worker: Any) -> None:
-        self.child = ChildProcess("app.itd_process:serve_itds", "ITD")
-        self.child.send(("init", worker))
+        self.child = ChildProcess("app.itd_process:serve_itds", "ITD", **worker)
 
     def push(self, stamp_s: float, samples: np.ndarray) -> tuple[list[AudioMessage], bool]:
         self.child.send(("block", float(stamp_s), samples))
@@ -142,11 +140,8 @@ class ItdProcess:
         self.child.close()
 
 
-def serve_itds(inbox: Inbox, outbox: Outbox) -> None:
+def serve_itds(inbox: Inbox, outbox: Outbox, **options: Any) -> None:
     """The ITD process's loop (:func:`app.child_process.serve`): an :class:`ItdWorker` called once a block."""
-    kind, options = inbox.recv()
-    if kind != "init":
-        raise ValueError(f"the first message must be init, got {kind!r}")
     worker = ItdWorker(**options)
     while True:
         kind, stamp_s, samples = inbox.recv()  # EOFError when the pipeline closes it: the end

@@ -1,7 +1,7 @@
 """Each person's voice in a process of its own (:mod:`app.child_process`): the pipeline's
 :class:`avcore.separation.VoiceSeparator`, fed through a pipe.
 
-The protocol: the parent sends ``("init", kwargs)`` once, then ``("audio", stamp, samples)`` and ``("people",
+The protocol: the separator's arguments first (:class:`app.child_process.ChildProcess`), then ``("audio", stamp, samples)`` and ``("people",
 stamp, ids, positions, speaking)`` in the order the pipeline took them, and ``("end",)``; the child answers
 ``("chunks", [VoiceChunk, ...])`` whenever chunks are final, after ``end`` the flushed ones, then ``("done",
 frames)``. The same inputs in the same order give
@@ -25,8 +25,7 @@ class VoicesProcess:
     thread, :meth:`receive` from another (a push may wait for the child, whose answers must still be read)."""
 
     def __init__(self, **separator: Any) -> None:
-        self.child = ChildProcess("app.voices_process:serve_voices", "voices")
-        self.child.send(("init", separator))
+        self.child = ChildProcess("app.voices_process:serve_voices", "voices", **separator)
 
     def push_audio(self, stamp_s: float, samples: np.ndarray) -> None:
         self.child.send(("audio", float(stamp_s), np.ascontiguousarray(samples)))
@@ -47,13 +46,10 @@ class VoicesProcess:
         self.child.close()
 
 
-def serve_voices(inbox: Inbox, outbox: Outbox) -> None:
+def serve_voices(inbox: Inbox, outbox: Outbox, **options: Any) -> None:
     """The voices' process's loop (:func:`app.child_process.serve`): a separator fed in order."""
     from avcore.separation import VoiceSeparator
 
-    kind, options = inbox.recv()
-    if kind != "init":
-        raise ValueError(f"the first message must be init, got {kind!r}")
     separator = VoiceSeparator(**options)
     while True:
         message = inbox.recv()

@@ -70,8 +70,8 @@ class Transcriber:
                  hangover_s: float = 0.4, word_penalty: float | None = None) -> None:
         self.preroll_s, self.postroll_s, self.hangover_s = preroll_s, postroll_s, hangover_s
         penalty = default_word_penalty(words) if word_penalty is None else word_penalty
-        self._child = ChildProcess("app.speech.worker:serve_words", "recogniser")
-        self._child.send(("init", float(penalty), list(words or ())))
+        self._child = ChildProcess("app.speech.worker:serve_words", "recogniser", penalty=float(penalty),
+                                   words=list(words or ()))
         self._jobs: queue.Queue = queue.Queue()  # the pipeline's threads never wait on the pipe: a writer does
         self._writer = threading.Thread(target=self._write, name="avhear-words-writer", daemon=True)
         self._writer.start()

@@ -1,10 +1,11 @@
 """The recognising process of :class:`app.speech.transcriber.Transcriber` (:mod:`app.child_process`, the loop
 :func:`serve_words`).
 
-Messages are pickled tuples: ("init", word_penalty, words), then ("audio", person, utterance, pcm) and ("end", person,
-utterance) in; ("ready",) once the model is loaded, ("partial", person, utterance, text) and ("final", person,
-utterance, text, confidence) out. One decoder a person (:class:`app.speech.recogniser.Recogniser`), created when the
-person first speaks. Its own process, not a thread: pocketsphinx holds the interpreter's lock while it decodes.
+Options: the word penalty and the words (:class:`app.child_process.ChildProcess`); then messages ("audio", person,
+utterance, pcm) and ("end", person, utterance) in; ("ready",) once the model is loaded, ("partial", person,
+utterance, text) and ("final", person, utterance, text, confidence) out. One decoder a person
+(:class:`app.speech.recogniser.Recogniser`), created when the person first speaks. Its own process, not a thread:
+pocketsphinx holds the interpreter's lock while it decodes.
 """
 from __future__ import annotations
 
@@ -13,13 +14,10 @@ from app.child_process import Inbox, Outbox
 __all__ = ["serve_words"]
 
 
-def serve_words(inbox: Inbox, outbox: Outbox) -> None:
+def serve_words(inbox: Inbox, outbox: Outbox, *, penalty: float, words: list[str]) -> None:
     """The loop (:func:`app.child_process.serve`): until the transcriber closes the inbox."""
     from app.speech.recogniser import Recogniser
 
-    kind, penalty, words = inbox.recv()
-    if kind != "init":
-        raise ValueError(f"the first message must be init, got {kind!r}")
     decoders: dict[int, Recogniser] = {-1: Recogniser(words or None, penalty)}  # the model loaded before "ready"
     current: dict[int, int] = {}
     outbox.send(("ready",))
