@@ -260,6 +260,9 @@ class Pipeline:
         self.stats.started_s = time.perf_counter()
         ctrl_c = threading.Event()
         try:
+            if _audio_format_known(self.source):  # the processes start with the threads (a robot's: its 1st block)
+                self._itd = self._start_itd()
+                self._voices = self._start_voices() if self._q_voices is not None else None
             with stop_on_signals(ctrl_c, (signal.SIGINT,)):
                 for t in threads:
                     t.start()
@@ -275,6 +278,8 @@ class Pipeline:
             self.stats.interrupted = self.stats.interrupted or ctrl_c.is_set()
             self._stop.set()
             for t in reversed(threads):  # reverse start order: producers first
+                if t.ident is None:  # never started: a process could not start
+                    continue
                 t.join(self.config.join_timeout_s)
                 if t.is_alive():
                     log.warning("thread %s did not stop within %.1f s", t.name, self.config.join_timeout_s)
@@ -387,18 +392,28 @@ class Pipeline:
             n += 1
             self._timed("lips", t0, n)
 
-    def _itd_loop(self) -> None:
-        """Each audio block to the ITD process (:class:`app.itd_process.ItdProcess`, started at the first block: a
-        robot's audio format is known then), its messages to the fusion."""
+    def _start_itd(self) -> ItdProcess:
+        c = self.config
+        return ItdProcess(array=_array(self.source), samplerate_hz=self.source.samplerate_hz, itd_method=c.itd_method,
+                          window_s=c.window_s, hop_s=c.hop_s, energy_threshold=c.energy_threshold,
+                          frame_itds=self.mode.frame_itds, envelope=self.mode.envelope is not None,
+                          dereverb=c.dereverb)
+
+    def _start_voices(self) -> VoicesProcess:
         c, array = self.config, _array(self.source)
+        return VoicesProcess(mic_positions_m=array.positions, samplerate_hz=self.source.samplerate_hz,
+                             learn_delay_s=c.voice_delay_s, speed_of_sound=array.speed_of_sound,
+                             max_wait_s=None if self._backpressure else c.voice_delay_s + 1.0)
+
+    def _itd_loop(self) -> None:
+        """Each audio block to the ITD process (:class:`app.itd_process.ItdProcess`; a robot's starts at its first
+        block, when its audio format is known), its messages to the fusion."""
+        array = _array(self.source)
         n = 0
         while True:
             block = self._take(self._q_audio, "audio")
             if self._itd is None:
-                self._itd = ItdProcess(array=array, samplerate_hz=self.source.samplerate_hz, itd_method=c.itd_method,
-                                       window_s=c.window_s, hop_s=c.hop_s, energy_threshold=c.energy_threshold,
-                                       frame_itds=self.mode.frame_itds, envelope=self.mode.envelope is not None,
-                                       dereverb=c.dereverb)
+                self._itd = self._start_itd()
             self._wait_for_vision(block.stamp_s)
             t0 = time.perf_counter()
             samples = np.asarray(block.samples, dtype=np.float64)
@@ -552,11 +567,10 @@ class Pipeline:
         (:class:`app.voices_process.VoicesProcess`), whose separator holds the audio until the people of
         ``voice_delay_s`` earlier are known: nothing here holds up the audio or the fusion (in a replay as fast as
         possible, the audio runs ahead of the results by up to ``max_audio_lead_s``; in real time a frame waits at
-        most a second more for them). A stop waits for the fusion's last results, then ends every stream. The
-        process starts at the first audio block (a robot's audio format is known then)."""
+        most a second more for them). A stop waits for the fusion's last results, then ends every stream. A
+        robot's process starts at its first audio block, when its audio format is known."""
         assert self._q_voices is not None
-        array = _array(self.source)
-        channels = list(array.channels)
+        channels = list(_array(self.source).channels)
         early: list[PeopleMessage] = []  # people before the first audio block
         while True:
             item = self._q_voices.get(timeout=0.05)
@@ -581,10 +595,7 @@ class Pipeline:
             if samples.ndim != 2 or samples.shape[1] <= max(channels):
                 continue  # counted by the ITD worker
             if self._voices is None:
-                self._voices = VoicesProcess(
-                    mic_positions_m=array.positions, samplerate_hz=self.source.samplerate_hz,
-                    learn_delay_s=self.config.voice_delay_s, speed_of_sound=array.speed_of_sound,
-                    max_wait_s=None if self._backpressure else self.config.voice_delay_s + 1.0)
+                self._voices = self._start_voices()
                 for people in early:
                     self._voices.push_people(people.stamp_s, people.ids, people.positions_m, people.speaking)
             self._voices.push_audio(item.stamp_s, samples[:, channels])
@@ -619,6 +630,15 @@ def _people(result: Result) -> PeopleMessage:
         speaking.append(True)
     return PeopleMessage(result.stamp_s, np.asarray(ids, dtype=np.int64),
                          np.asarray(positions, dtype=np.float64).reshape(-1, 3), np.asarray(speaking, dtype=bool))
+
+
+def _audio_format_known(source: Any) -> bool:
+    """Whether the source knows its sample rate before its first audio block (a robot on the bus does not)."""
+    try:
+        source.samplerate_hz
+    except RuntimeError:
+        return False
+    return True
 
 
 def _far_from_the_rig(state: list[dict[str, Any]], turn_deg: float = 15.0,
