@@ -9,7 +9,7 @@ restarts the streams at its stamp.
 :class:`ItdProcess` runs one in a child process (:mod:`app.child_process`: with several pairs the ITDs are many
 small numpy steps a frame, which in a thread beside vision, the fusion and Rerun held everything up), as a call per
 block: the pipeline's ITD thread sends ``("block", stamp, samples)`` and waits for ``("itds", messages, gap)``,
-so the messages keep their order and the thread its pace; the end of its input is its end.
+so the messages keep their order and the thread its pace; ``("end",)`` ends the run.
 """
 from __future__ import annotations
 
@@ -129,12 +129,16 @@ class ItdProcess:
     """An :class:`ItdWorker` (``worker`` are its arguments) in a child process, called once a block."""
 
     def __init__(self, **worker: Any) -> None:
-        self.child = ChildProcess("app.itd_process:serve_itds", "ITD", **worker)
+        self.child = ChildProcess.start("app.itd_process:serve_itds", "ITD", **worker)
 
     def push(self, stamp_s: float, samples: np.ndarray) -> tuple[list[AudioMessage], bool]:
         self.child.send(("block", float(stamp_s), samples))
         _, messages, gap = self.child.receive()
         return messages, gap
+
+    def release(self) -> None:
+        """Every block answered: the process may serve the next run (:meth:`ChildProcess.release`)."""
+        self.child.release()
 
     def close(self) -> None:
         self.child.close()
@@ -143,7 +147,6 @@ class ItdProcess:
 def serve_itds(inbox: Inbox, outbox: Outbox, **options: Any) -> None:
     """The ITD process's loop (:func:`app.child_process.serve`): an :class:`ItdWorker` called once a block."""
     worker = ItdWorker(**options)
-    while True:
-        kind, stamp_s, samples = inbox.recv()  # EOFError when the pipeline closes it: the end
-        outbox.send(("itds", *worker.push(stamp_s, samples)))
+    while (message := inbox.recv())[0] == "block":
+        outbox.send(("itds", *worker.push(message[1], message[2])))
 

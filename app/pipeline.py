@@ -216,6 +216,7 @@ class Pipeline:
         self._mic_said: set[tuple[int, str]] = set()
         self._voices: VoicesProcess | None = None  # the voices' separator, in a process of its own while running
         self._itd: ItdProcess | None = None  # the ITDs, likewise
+        self._voices_flushed = False  # the voices' process said it was done
 
     # -- control ---------------------------------------------------------------------------------------------
 
@@ -283,10 +284,7 @@ class Pipeline:
                 t.join(self.config.join_timeout_s)
                 if t.is_alive():
                     log.warning("thread %s did not stop within %.1f s", t.name, self.config.join_timeout_s)
-            for child in (self._itd, self._voices):
-                if child is not None:
-                    child.close()
-            self._itd = self._voices = None
+            self._end_children(threads)
             self.stats.ended_s = time.perf_counter()
             self.stats.drops = {q.name: q.dropped for q in self._queues()}
             sync = self._sync
@@ -305,6 +303,18 @@ class Pipeline:
         if whole and self.stats.interrupted:
             raise KeyboardInterrupt
         return self.stats
+
+    def _end_children(self, threads: list[threading.Thread]) -> None:
+        """The ITDs' and the voices' processes: released for a next run where their stage ended cleanly (every
+        block answered; every voice flushed), closed otherwise."""
+        failed = {name for name, _ in self._errors} | {t.name.removeprefix("avhear-") for t in threads if t.is_alive()}
+        for child, clean in ((self._itd, "itd" not in failed and self._done["itd"].is_set()),
+                             (self._voices, self._voices_flushed)):
+            if child is not None and clean:
+                child.release()
+            elif child is not None:
+                child.close()
+        self._itd, self._voices, self._voices_flushed = None, None, False
 
     def _guard(self, name: str, fn: Callable[[], None]) -> None:
         try:
@@ -609,6 +619,7 @@ class Pipeline:
         while (chunks := self._voices.receive()) is not None:
             for chunk in chunks:
                 self._emit_voice(chunk)
+        self._voices_flushed = True
 
     def _emit_voice(self, chunk: VoiceChunk) -> None:
         if not self._backpressure:

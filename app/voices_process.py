@@ -1,11 +1,11 @@
 """Each person's voice in a process of its own (:mod:`app.child_process`): the pipeline's
-:class:`avcore.separation.VoiceSeparator`, fed through a pipe.
+:class:`avcore.separation.VoiceSeparator`, fed through its standard input.
 
-The protocol: the separator's arguments first (:class:`app.child_process.ChildProcess`), then ``("audio", stamp, samples)`` and ``("people",
-stamp, ids, positions, speaking)`` in the order the pipeline took them, and ``("end",)``; the child answers
-``("chunks", [VoiceChunk, ...])`` whenever chunks are final, after ``end`` the flushed ones, then ``("done",
-frames)``. The same inputs in the same order give
-the same chunks as the separator in a thread: a replay gives the live run's streams.
+The protocol: the separator's arguments first (:class:`app.child_process.ChildProcess`), then ``("audio", stamp,
+samples)`` and ``("people", stamp, ids, positions, speaking)`` in the order the pipeline took them, and
+``("flush",)``; the child answers ``("chunks", [VoiceChunk, ...])`` whenever chunks are final, after ``flush`` the
+flushed ones, then ``("done", frames)``; ``("end",)`` ends the run. The same inputs in the same order give the same
+chunks as the separator in a thread: a replay gives the live run's streams.
 """
 from __future__ import annotations
 
@@ -25,7 +25,7 @@ class VoicesProcess:
     thread, :meth:`receive` from another (a push may wait for the child, whose answers must still be read)."""
 
     def __init__(self, **separator: Any) -> None:
-        self.child = ChildProcess("app.voices_process:serve_voices", "voices", **separator)
+        self.child = ChildProcess.start("app.voices_process:serve_voices", "voices", **separator)
 
     def push_audio(self, stamp_s: float, samples: np.ndarray) -> None:
         self.child.send(("audio", float(stamp_s), np.ascontiguousarray(samples)))
@@ -35,12 +35,16 @@ class VoicesProcess:
 
     def end(self) -> None:
         """No more input: the child flushes every stream, sends the last chunks and ``done``."""
-        self.child.send(("end",))
+        self.child.send(("flush",))
 
     def receive(self) -> list[VoiceChunk] | None:
         """The next chunks the child made, when they come; None once it is done."""
         message = self.child.receive()
         return message[1] if message[0] == "chunks" else None
+
+    def release(self) -> None:
+        """``done`` received: the process may serve the next run (:meth:`ChildProcess.release`)."""
+        self.child.release()
 
     def close(self) -> None:
         self.child.close()
@@ -58,9 +62,11 @@ def serve_voices(inbox: Inbox, outbox: Outbox, **options: Any) -> None:
             separator.push_audio(message[1], message[2])
         elif kind == "people":
             separator.push_people(*message[1:])
-        elif kind == "end":
+        elif kind == "flush":
             outbox.send(("chunks", separator.flush()))
             outbox.send(("done", separator.frames))
+            continue
+        elif kind == "end":
             return
         else:
             raise ValueError(f"unknown message {kind!r}")

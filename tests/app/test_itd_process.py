@@ -89,3 +89,46 @@ def test_a_worker_that_cannot_start_is_said_with_its_reason() -> None:
             proc.push(0.0, np.zeros((512, 4)))
     finally:
         proc.close()
+
+
+def test_a_released_process_serves_the_next_run_as_a_new_one_would() -> None:
+    """A run that ended cleanly leaves its process to the next (app.child_process: an evaluation runs dozens of
+    pipelines); the next run's options are its own, and nothing of the last run's streams is left in it."""
+    array = MicArray.preset("respeaker4")
+    blocks = _talker_blocks(array, seconds=1.0)
+    first = dict(array=array, samplerate_hz=FS, itd_method=DEFAULT_ITD_METHOD, window_s=0.15, hop_s=0.02,
+                 energy_threshold=1e-3, frame_itds=False, envelope=False, dereverb=False)
+    second = dict(first, frame_itds=True, envelope=True, dereverb=True)
+    proc = ItdProcess(**first)
+    pid = proc.child.proc.pid
+    for stamp, samples in blocks:
+        proc.push(stamp, samples)
+    proc.release()
+    again, fresh = ItdProcess(**second), ItdWorker(**second)
+    try:
+        assert again.child.proc.pid == pid
+        for stamp, samples in blocks:
+            theirs, their_gap = again.push(stamp, samples)
+            mine, gap = fresh.push(stamp, samples)
+            assert gap == their_gap and len(mine) == len(theirs)
+            for a, b in zip(mine, theirs):
+                _same(a, b)
+    finally:
+        again.close()
+
+
+def test_a_process_that_failed_is_not_handed_on() -> None:
+    array = MicArray.preset("respeaker4")
+    options = dict(array=array, samplerate_hz=FS, itd_method="no-such-method", window_s=0.15, hop_s=0.02,
+                   energy_threshold=1e-3, frame_itds=False, envelope=False, dereverb=False)
+    proc = ItdProcess(**options)
+    with pytest.raises(ChildProcessFailed):
+        proc.push(0.0, np.zeros((512, 4)))
+    proc.release()  # what a careless caller might do: the child has ended, so it is closed, not kept
+    assert proc.child.proc.poll() is not None
+    good = ItdProcess(**dict(options, itd_method=DEFAULT_ITD_METHOD))
+    try:
+        assert good.child.proc.pid != proc.child.proc.pid
+        assert good.push(0.0, np.zeros((512, 4)))[0]
+    finally:
+        good.close()
