@@ -37,7 +37,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, BinaryIO
 
-__all__ = ["ChildProcess", "ChildProcessFailed", "Inbox", "Outbox"]
+__all__ = ["ChildProcess", "ChildProcessFailed", "Inbox", "Outbox", "Stage"]
 
 _ROOT = Path(__file__).resolve().parents[1]  # the directory that holds app/ and avcore/
 
@@ -159,6 +159,23 @@ class ChildProcess:
         except subprocess.TimeoutExpired:
             status = None
         return ChildProcessFailed(f"the {self.name} process ended (exit status {status}) {when}")
+
+
+class Stage:
+    """A stage's side in the pipeline: its :class:`ChildProcess` (``loop`` and ``name`` as the subclass says, the
+    options as given), handed on to the next run by :meth:`release` once its run ended cleanly, else closed."""
+
+    loop: str
+    name: str
+
+    def __init__(self, **options: Any) -> None:
+        self.child = ChildProcess.start(self.loop, self.name, **options)
+
+    def release(self) -> None:
+        self.child.release()
+
+    def close(self) -> None:
+        self.child.close()
 
 
 @atexit.register

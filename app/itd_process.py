@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from app.child_process import ChildProcess, Inbox, Outbox
+from app.child_process import Inbox, Outbox, Stage
 from avcore.dereverb import SignalDereverberator
 from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
@@ -125,23 +125,16 @@ def _vectors(times: np.ndarray, itds: np.ndarray) -> ItdTrack:
     return ItdTrack(times, itds, nan, nan)
 
 
-class ItdProcess:
-    """An :class:`ItdWorker` (``worker`` are its arguments) in a child process, called once a block."""
+class ItdProcess(Stage):
+    """An :class:`ItdWorker` (the options are its arguments) in a child process, called once a block; released once
+    every block was answered."""
 
-    def __init__(self, **worker: Any) -> None:
-        self.child = ChildProcess.start("app.itd_process:serve_itds", "ITD", **worker)
+    loop, name = "app.itd_process:serve_itds", "ITD"
 
     def push(self, stamp_s: float, samples: np.ndarray) -> tuple[list[AudioMessage], bool]:
         self.child.send(("block", float(stamp_s), samples))
         _, messages, gap = self.child.receive()
         return messages, gap
-
-    def release(self) -> None:
-        """Every block answered: the process may serve the next run (:meth:`ChildProcess.release`)."""
-        self.child.release()
-
-    def close(self) -> None:
-        self.child.close()
 
 
 def serve_itds(inbox: Inbox, outbox: Outbox, **options: Any) -> None:

@@ -13,19 +13,18 @@ from typing import Any
 
 import numpy as np
 
-from app.child_process import ChildProcess, ChildProcessFailed, Inbox, Outbox
+from app.child_process import ChildProcessFailed, Inbox, Outbox, Stage
 from avcore.separation import VoiceChunk
 
 __all__ = ["VoicesProcess", "ChildProcessFailed"]
 
 
-class VoicesProcess:
-    """A :class:`~avcore.separation.VoiceSeparator` (``separator`` are its keyword arguments, the microphones'
+class VoicesProcess(Stage):
+    """A :class:`~avcore.separation.VoiceSeparator` (the options are its keyword arguments, the microphones'
     positions among them) in a child process. :meth:`push_audio`, :meth:`push_people` and :meth:`end` come from one
     thread, :meth:`receive` from another (a push may wait for the child, whose answers must still be read)."""
 
-    def __init__(self, **separator: Any) -> None:
-        self.child = ChildProcess.start("app.voices_process:serve_voices", "voices", **separator)
+    loop, name = "app.voices_process:serve_voices", "voices"
 
     def push_audio(self, stamp_s: float, samples: np.ndarray) -> None:
         self.child.send(("audio", float(stamp_s), np.ascontiguousarray(samples)))
@@ -42,12 +41,6 @@ class VoicesProcess:
         message = self.child.receive()
         return message[1] if message[0] == "chunks" else None
 
-    def release(self) -> None:
-        """``done`` received: the process may serve the next run (:meth:`ChildProcess.release`)."""
-        self.child.release()
-
-    def close(self) -> None:
-        self.child.close()
 
 
 def serve_voices(inbox: Inbox, outbox: Outbox, **options: Any) -> None:
