@@ -80,10 +80,14 @@ class ChildProcess:
             idle = _IDLE.get(loop, [])
             while idle:
                 child = idle.pop()
-                if child.proc.poll() is None:
-                    child.name = name
-                    child.send(("init", options))
-                    return child
+                try:
+                    if child.proc.poll() is None:
+                        child.send(("init", options))
+                        child.name = name
+                        return child
+                except ChildProcessFailed:  # it ended while it waited: a new one instead
+                    pass
+                child.close()
         return cls(loop, name, **options)
 
     def __init__(self, loop: str, name: str, **options: Any) -> None:

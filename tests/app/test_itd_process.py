@@ -132,3 +132,20 @@ def test_a_process_that_failed_is_not_handed_on() -> None:
         assert good.push(0.0, np.zeros((512, 4)))[0]
     finally:
         good.close()
+
+
+def test_a_released_process_that_died_while_it_waited_is_replaced() -> None:
+    array = MicArray.preset("respeaker4")
+    options = dict(array=array, samplerate_hz=FS, itd_method=DEFAULT_ITD_METHOD, window_s=0.15, hop_s=0.02,
+                   energy_threshold=1e-3, frame_itds=False, envelope=False, dereverb=False)
+    proc = ItdProcess(**options)
+    proc.push(0.0, np.zeros((512, 4)))
+    proc.release()
+    proc.child.proc.kill()  # an out-of-memory killer, say
+    proc.child.proc.wait(10)
+    again = ItdProcess(**options)
+    try:
+        assert again.child.proc.pid != proc.child.proc.pid
+        assert again.push(0.0, np.zeros((512, 4)))[0]
+    finally:
+        again.close()
