@@ -2,10 +2,8 @@
 output.
 
 Why: the ITDs' and the voices' arithmetic is thousands of small numpy steps a second, each of which takes and gives
-back the interpreter's lock. In threads beside vision, the fusion and Rerun they cost far more CPU and hold the
-others up: measured on this 2-core machine (docs/experiments.md, 2026-11-30, twentieth session), the voices'
-separator took 0.29-0.31 s of CPU a second of NAO's audio in a thread against 0.07 in a process beside the same
-running pipeline. Pocketsphinx holds the lock while it decodes.
+back the interpreter's lock; in threads beside vision, the fusion and Rerun they held the others up (measured in
+docs/experiments.md, twentieth session). Pocketsphinx holds the lock while it decodes.
 
 The child is ``python -m app.child_process MODULE:FUNCTION``: only what the stage needs is imported (not the
 parent's main module, as multiprocessing's spawn would), and the stage's classes keep their modules' names for
@@ -18,8 +16,8 @@ the end of its input is its end (a parent that closed it, or died).
 
 A stage that ended cleanly (:meth:`ChildProcess.release`: its loop returned on ``("end",)`` and nothing of it is
 left unread) waits for its next options, and :meth:`ChildProcess.start` hands it to the next run of the same stage
-in this process: an evaluation runs dozens of pipelines, the test suite hundreds, and a child's start (Python,
-numpy, scipy's FFT) costs a third of a second. A stage that failed, or was cut short, is closed instead.
+in this process: an evaluation runs dozens of pipelines, the test suite hundreds, and each child's start imports
+Python, numpy and scipy's FFT again. A stage that failed, or was cut short, is closed instead.
 """
 from __future__ import annotations
 
@@ -43,7 +41,12 @@ _ROOT = Path(__file__).resolve().parents[1]  # the directory that holds app/ and
 
 
 class ChildProcessFailed(RuntimeError):
-    """A stage's process failed, or ended before it said it was done."""
+    """A stage's process failed (``reason``: its exception's last line, ``"Type: message"``), or ended before it said
+    it was done (``reason`` None)."""
+
+    def __init__(self, message: str, reason: str | None = None) -> None:
+        super().__init__(message)
+        self.reason = reason
 
 
 def _write(stream: BinaryIO, message: tuple) -> None:
@@ -69,7 +72,8 @@ _IDLE_MAX = 2  # kept per stage
 
 class ChildProcess:
     """``loop`` (``"module:function"``: the function takes an :class:`Inbox`, an :class:`Outbox` and ``options``,
-    which it gets as the first message, ``("init", options)``) in a child process; ``name`` says which stage in
+    which it gets as the first message, ``("init", options)``; a loop that can be handed on returns on ``("end",)``)
+    in a child process; ``name`` says which stage in
     errors. :meth:`send` may wait while the child's input is full, and
     :meth:`receive` waits for an answer: a parent that does both at once does them in two threads."""
 
@@ -118,7 +122,8 @@ class ChildProcess:
             raise self._ended("before its last answer")
         if message[0] == "error":
             self.failed = True
-            raise ChildProcessFailed(f"the {self.name} process failed:\n{message[1]}")
+            raise ChildProcessFailed(f"the {self.name} process failed:\n{message[1]}",
+                                     message[1].strip().splitlines()[-1])
         return message
 
     def release(self) -> None:
@@ -238,7 +243,6 @@ def serve(loop: Callable[..., Any]) -> int:
         except OSError:
             pass
         return 1
-    return 0
 
 
 def main(argv: list[str]) -> int:

@@ -24,7 +24,8 @@ from avcore.geometry import MicArray
 from avcore.itd import FrameBins, ItdTrack, PairsItdStream
 from avcore.lips import frame_powers
 
-__all__ = ["ClockMessage", "EnvelopeMessage", "FrameItdsMessage", "ItdMessage", "ItdProcess", "ItdWorker"]
+__all__ = ["ClockMessage", "EnvelopeMessage", "FrameItdsMessage", "ItdMessage", "ItdProcess", "ItdWorker",
+           "serve_itds"]
 
 ITD_MAX_HZ = 5000.0  # the widest band an ITD method takes (avcore.itd): the dereverberation's bins stop there
 
@@ -142,4 +143,3 @@ def serve_itds(inbox: Inbox, outbox: Outbox, **options: Any) -> None:
     worker = ItdWorker(**options)
     while (message := inbox.recv())[0] == "block":
         outbox.send(("itds", *worker.push(message[1], message[2])))
-

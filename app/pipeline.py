@@ -18,9 +18,8 @@ With the lips' cue (face-guided), the face mesh reads the lips in a thread of it
 mesh of one frame runs while the next frame's faces are found (OpenCV's DNN lets go of the GIL).
 
 With ``voices`` on, every audio block and every result's people also go through the voices-in thread to a process
-of its own (:mod:`app.voices_process`: in a thread beside the others, the separator's small numpy steps took
-four times their CPU), which steers a stream at each person (:mod:`avcore.separation`); the voices
-thread hands its chunks to ``on_voice``.
+of its own (:mod:`app.voices_process`; why a process: :mod:`app.child_process`), which steers a stream at each
+person (:mod:`avcore.separation`); the voices thread hands its chunks to ``on_voice``.
 
 Every queue is a :class:`~app.queues.DropOldestQueue`: producers never block (a slow consumer loses the oldest
 items, counted in the stats). The fusion thread alone owns the TimeFrame synchroniser (RSB's strategy, section 6:

@@ -13,10 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from app.child_process import ChildProcessFailed, Inbox, Outbox, Stage
-from avcore.separation import VoiceChunk
+from app.child_process import Inbox, Outbox, Stage
+from avcore.separation import VoiceChunk, VoiceSeparator
 
-__all__ = ["VoicesProcess", "ChildProcessFailed"]
+__all__ = ["VoicesProcess", "serve_voices"]
 
 
 class VoicesProcess(Stage):
@@ -42,11 +42,8 @@ class VoicesProcess(Stage):
         return message[1] if message[0] == "chunks" else None
 
 
-
 def serve_voices(inbox: Inbox, outbox: Outbox, **options: Any) -> None:
     """The voices' process's loop (:func:`app.child_process.serve`): a separator fed in order."""
-    from avcore.separation import VoiceSeparator
-
     separator = VoiceSeparator(**options)
     while True:
         message = inbox.recv()

@@ -8,10 +8,10 @@ been silent for ``hangover_s`` (pauses between words stay within one utterance).
 as it arrives, so that partial words come while the person speaks and the final words soon after they stop.
 
 Recognition (:class:`app.speech.recogniser.Recogniser`, one decoder a person) runs in a child process
-(:mod:`app.speech.worker` through :mod:`app.child_process`): pocketsphinx holds the interpreter's lock while it decodes, and the pipeline's 30
-results a second must not wait for it. The
-child answers with partial and final hypotheses; :meth:`events` hands them out as :class:`Words` (the sinks take
-them on the fusion thread, with the next result). :meth:`close` ends every open utterance and waits for its words.
+(:mod:`app.speech.worker` through :mod:`app.child_process`): pocketsphinx holds the interpreter's lock while it
+decodes, and the pipeline's 30 results a second must not wait for it. The child answers with partial and final
+hypotheses; :meth:`events` hands them out as :class:`Words` (the sinks take them on the fusion thread, with the next
+result). :meth:`close` ends every open utterance and waits for its words.
 """
 from __future__ import annotations
 
@@ -163,12 +163,10 @@ class Transcriber:
             try:
                 answer = self._child.receive()
             except ChildProcessFailed as exc:
-                said = str(exc).strip().splitlines()
-                if said[-1].startswith("the recogniser process ended"):  # no error of its own: it stopped
-                    if self.error is None and self._pending > 0:
-                        self.error = "the recogniser stopped"
-                else:
-                    self.error = said[-1]  # the child's exception, "Type: message"
+                if exc.reason is not None:  # the child's exception, "Type: message"
+                    self.error = exc.reason
+                elif self.error is None and self._pending > 0:  # it stopped with words still owed
+                    self.error = "the recogniser stopped"
                 return
             if answer[0] == "ready":
                 self._ready.set()

@@ -67,8 +67,6 @@ def test_sigterm_during_a_run_keeps_the_results_and_exits_130(tmp_path: Path) ->
     assert len(rows) > 10
 
 
-
-
 def test_ctrl_c_to_the_terminals_group_keeps_every_voice_to_the_end(tmp_path: Path) -> None:
     """Ctrl-C in a terminal reaches the whole process group, the ITDs' and the voices' processes too
     (app/child_process.py): they keep going until the run ends them, and each person's WAV reaches the end of the

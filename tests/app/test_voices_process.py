@@ -10,7 +10,8 @@ import time
 import numpy as np
 import pytest
 
-from app.voices_process import ChildProcessFailed, VoicesProcess
+from app.child_process import ChildProcessFailed
+from app.voices_process import VoicesProcess
 from avcore.separation import VoiceChunk, VoiceSeparator
 
 MICS = np.array([[-0.032, 0.0, 0.0], [0.0, 0.0, 0.032], [0.032, 0.0, 0.0], [0.0, 0.0, -0.032]])

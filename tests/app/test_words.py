@@ -3,6 +3,7 @@ a process of its own, the words in the results file, on the bus and in a WebVTT 
 from __future__ import annotations
 
 import json
+import time
 import wave
 from pathlib import Path
 
@@ -117,7 +118,9 @@ def test_a_recogniser_that_fails_in_its_process_says_why_at_once() -> None:
     out the timeout, and the process has ended."""
     transcriber = Transcriber(["zzqxvw"])  # not a word of the dictionary: the decoder refuses it
     try:
+        began = time.monotonic()
         assert transcriber.wait_ready(30.0) is False
+        assert time.monotonic() - began < 25.0  # the failure ended the wait, not the timeout
         assert transcriber.error is not None and "zzqxvw" in transcriber.error
         assert transcriber.error.startswith("ValueError:")
     finally:
