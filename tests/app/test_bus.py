@@ -322,6 +322,56 @@ def test_a_slow_bus_never_stalls_the_pipeline(people_result: Callable[..., objec
     assert session.sent.count("avhear/results") == publisher.published
 
 
+def test_the_rigs_link_goes_out_once_a_second_of_the_clock(people_result: Callable[..., object],
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """The rig's tf_static link is repeated every RIG_LINK_EVERY_S of the wall clock (there is no latched topic for
+    a late subscriber), whatever the rate of the results: 3.5 s of results at 30 a second send it 4 times, stamped
+    with the result that carried it, and not before the camera's frame is known."""
+    import app.sinks.bus as bus
+    from app.bus.ros2 import Convention
+
+    class Clock:
+        now = 0.0
+
+        def monotonic(self) -> float:
+            return self.now
+
+    class Recorder:
+        def __init__(self, sent: list[tuple[str, bytes]], key: str) -> None:
+            self.sent, self.key = sent, key
+
+        def put(self, payload: bytes) -> None:
+            self.sent.append((self.key, payload))
+
+        def undeclare(self) -> None:
+            pass
+
+    class Session:
+        def __init__(self) -> None:
+            self.sent: list[tuple[str, bytes]] = []
+
+        def declare_publisher(self, key: str) -> Recorder:
+            return Recorder(self.sent, key)
+
+    clock, session, frame = Clock(), Session(), [None]
+    monkeypatch.setattr(bus, "time", clock)
+    publisher = bus.ResultPublisher(session, convention=Convention("bridge"))
+    publisher.link_rig(lambda: frame[0], (0.06, 0.0, 0.0))
+    for k in range(-15, 105):  # half a second before the camera's frame is known, then 3.5 s
+        frame[0] = "camera_color_optical_frame" if k >= 0 else None
+        clock.now = k / 30
+        publisher.publish(people_result(k / 30, [[0.1, 0.0, 2.0]], [True]))
+        deadline = time.monotonic() + 10
+        while publisher.published < k + 16 and time.monotonic() < deadline:
+            time.sleep(0.001)
+    publisher.close()
+    links = [decode(payload, "tf2_msgs/msg/TFMessage").transforms[0] for key, payload in session.sent
+             if key.startswith("tf_static")]
+    assert [round(t.header.stamp.sec + t.header.stamp.nanosec * 1e-9, 3) for t in links] == [0.0, 1.0, 2.0, 3.0]
+    assert {(t.header.frame_id, t.child_frame_id) for t in links} == {("camera_color_optical_frame", "avhear_rig")}
+    assert links[0].transform.translation.x == pytest.approx(0.06)
+
+
 def test_a_ros2_graph_behind_rmw_zenohs_router_sees_avhear(rmw_router: str) -> None:
     """With no endpoint given, avhear joins rmw_zenoh's router (on 7447 by default; here the suite's own port,
     AVHEAR_ROS_ROUTER) as every rmw_zenoh node does, without listening there: a session that only knows the router,
