@@ -34,11 +34,12 @@ from typing import Any
 
 import numpy as np
 
-from app.console import Console, ConsoleFrame
+from app.console import ConsoleFrame
+from app.console.process import ConsoleProcess
 from app.pipeline import Pipeline, PipelineConfig
 from app.result import Result
 from app.sources.open import open_source
-from app.console.viewer import ViewerSession, ViewerTarget
+from app.console.viewer import ViewerTarget
 
 
 def _rss_mb() -> float:
@@ -157,19 +158,15 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
         transcriber = Transcriber(list(DIGIT_WORDS) if scenario != "room" else None)
         transcriber.wait_ready()
     final_lags: list[float] = []  # each utterance's final words out minus its end, on the source's clock
-    session = ViewerSession(ViewerTarget(save=rrd, part_s=part_s)) if rrd is not None else None
-    console = (Console(source.rig, source.mics, recording=session.recording, array=source.array)
-               if session is not None else None)
+    # the console as `avhear run` has it: in a process of its own
+    console = (ConsoleProcess(ViewerTarget(save=rrd, part_s=part_s), source.rig, source.mics, source.array,
+                              backpressure=not realtime) if rrd is not None else None)
 
     def on_result(r: Result) -> None:
         if transcriber is not None:
             transcriber.result(r.stamp_s, [(p.id, p.speaking) for p in r.people])
             final_lags.extend(source.clock() - w.end_s for w in transcriber.events() if w.final)
         if console is not None:
-            assert session is not None
-            if session.part_due():
-                session.next_part()
-                console.new_part()
             console.log(ConsoleFrame.from_result(r))
 
     voice_s = [0.0]
@@ -188,8 +185,8 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
         monitor.stop()
         if transcriber is not None:
             transcriber.close()
-        if session is not None:
-            session.close(keep_serving=False)
+        if console is not None:
+            console.close()
     d = stats.as_dict()
     # a frame waits for the ITDs of its time frame, then for the later frames its vote needs
     vote_wait_s = (config.vote_frames // 2) / float(getattr(source, "fps", 30.0))
@@ -203,8 +200,9 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
         "beyond_window_p95_ms": float(np.percentile(lat, 95) - imposed_ms) if lat.size else float("nan"),
         "imposed_ms": imposed_ms, **monitor.figures(), "trajectory": monitor.trajectory(),
         "top_growth": monitor.top_growth(),
-        "rrd_mb": sum(p.stat().st_size for p in session.parts) / 2**20 if session is not None else 0.0,
-        "rrd_parts": len(session.parts) if session is not None else 0, "stage_ms": d["stage_ms_per_item"],
+        "rrd_mb": sum(p.stat().st_size for p in console.parts) / 2**20 if console is not None else 0.0,
+        "rrd_parts": len(console.parts) if console is not None else 0,
+        "console_dropped": console.dropped + console.lost if console is not None else 0, "stage_ms": d["stage_ms_per_item"],
         "voice_s": voice_s[0], "voice_latency_p50_ms": _pct(stats.voice_latencies_s, 50),
         "voice_latency_p95_ms": _pct(stats.voice_latencies_s, 95),
         "voice_latency_max_ms": _pct(stats.voice_latencies_s, 100),
@@ -264,7 +262,7 @@ def main() -> None:
         print(f"  resident memory {r['rss_start_mb']:.0f} MB (first quarter) -> {r['rss_end_mb']:.0f} MB (last "
               f"quarter), growth {r['growth_mb']:+.0f} MB (target <= 50 over 10 min); second half "
               f"{r['slope_mb_per_min']:+.2f} MB/min; peak {r['peak_mb']:.0f} MB; {r['n_samples']} samples; .rrd "
-              f"{r['rrd_mb']:.0f} MB in {r['rrd_parts']} part(s)")
+              f"{r['rrd_mb']:.0f} MB in {r['rrd_parts']} part(s), {r['console_dropped']} results not logged by the console")
         if args.voices:
             print(f"  voices: {r['voice_s']:.0f} s of people's voices; each chunk out after its first sample's "
                   f"capture: p50 {r['voice_latency_p50_ms']:.1f} ms, p95 {r['voice_latency_p95_ms']:.1f} ms, max "

@@ -274,7 +274,10 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
         sinks.publisher.close()
         print(f"avhear: {sinks.publisher.published} results published on the bus ({sinks.publisher.dropped} dropped "
               "by a slow bus)")
-    parts = sinks.session.parts
+    parts = sinks.console.parts if sinks.console is not None else []
+    if sinks.console is not None and sinks.console.dropped + sinks.console.lost:
+        print(f"avhear: {sinks.console.dropped + sinks.console.lost} results not shown in the console (its process "
+              "fell behind or ended)", file=sys.stderr)
     if len(parts) > 1:
         pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
         print(f"avhear: the console's data is in {len(parts)} parts, {parts[0]} to {parts[-1]}; open them together "
@@ -325,7 +328,6 @@ def _save_learned_rig(path: Path, source: Any, state: list[dict[str, Any]]) -> N
 def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, config: PipelineConfig, source: Any,
                  results: ResultsWriter | None, publisher: ResultPublisher | None, voices: VoicesWriter | None,
                  transcriber: Transcriber | None, *, wall_time: bool) -> int:
-    from app.console.viewer import ViewerSession
     from app.pipeline import Pipeline
     from app.sinks import Sinks
 
@@ -340,15 +342,13 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
                                                                or meta.get("speech") == "synthetic"):
         print(f"  no ../shared/data here: the simulated room uses {meta.get('faces')} faces and "
               f"{meta.get('speech')} speech", file=sys.stderr, flush=True)
-    array = getattr(source, "array", None)
-    session = ViewerSession(target, several_pairs=array is not None and array.n_pairs > 1)
-    rec = session.recording
     console = None
-    if rec is not None:  # the console (and Rerun) only for a viewer or a file
-        from app.console import Console
+    if target.logs:  # the console (and Rerun) only for a viewer or a file, in a process of its own
+        from app.console.process import ConsoleProcess
 
-        console = Console(source.rig, source.mics, recording=rec, array=array)
-    sinks = Sinks(session, console, results, publisher, voices, transcriber)
+        console = ConsoleProcess(target, source.rig, source.mics, getattr(source, "array", None),
+                                 backpressure=not source.realtime)  # a replay as fast as it goes logs every result
+    sinks = Sinks(console, results, publisher, voices, transcriber)
     pipeline = sinks.pipeline = Pipeline(source, config, sinks, on_voice=sinks.voice if config.voices else None)
     terminated = threading.Event()
 
@@ -364,7 +364,8 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
         # a simulated source is as long as asked; a live or bus one runs for --duration of wall time
         stats = pipeline.run(duration_s=args.duration if wall_time else None)
     except BaseException:
-        session.close(keep_serving=False)
+        if console is not None:
+            console.close()
         if results is not None:
             print(f"avhear: {results.written} results kept in {results.path}", file=sys.stderr, flush=True)
         raise
@@ -373,19 +374,24 @@ def _run_checked(spec: str, args: argparse.Namespace, target: ViewerTarget, conf
             signal.signal(signal.SIGTERM, previous)
     stats.interrupted = stats.interrupted or terminated.is_set()
     sinks.finish()
+    if console is not None:
+        console.finish()  # its files are whole, and named, before the report
     _report(spec, args, target, stats, source, sinks)
     if args.save_rig is not None and stats.self_calibration:
         _save_learned_rig(args.save_rig, source, stats.self_calibration)
     if spec in ("bus", "ros") and not source.images_received and not stats.interrupted:
-        session.close(keep_serving=False)
+        if console is not None:
+            console.close()
         hint = ("start `avhear sensors` there (the same --bus-namespace and --ros-keys), or name its camera topics "
                 "with --left-key/--right-key") if spec == "bus" else ("is the camera driver running (the same "
                 "--ros-domain and --ros-keys)? Name its topics with --colour-topic/--depth-topic")
         raise UserError(f"no robot published on {', '.join(source.keys[:2])} during the run: {hint}")
     if stats.interrupted:
         print("avhear: interrupted", file=sys.stderr)
-        session.close(keep_serving=False)
+        if console is not None:
+            console.close()
         return 130
     # an interactive user keeps the web viewer until Ctrl-C; a script or CI run ends here
-    session.close(keep_serving=sys.stdin is not None and sys.stdin.isatty())
+    if console is not None:
+        console.close(keep_serving=sys.stdin is not None and sys.stdin.isatty())
     return 0

@@ -25,7 +25,7 @@ from app.errors import UserError
 if TYPE_CHECKING:
     import rerun as rr
 
-__all__ = ["ViewerSession", "ViewerTarget", "check_viewer", "display_available", "rerun_executable",
+__all__ = ["ViewerSession", "ViewerTarget", "WebViewer", "check_viewer", "display_available", "rerun_executable",
            "viewer_abandoned"]
 
 
@@ -182,6 +182,56 @@ def _bounded(fn: Callable[[], object], timeout_s: float) -> bool:
     return bool(ok)
 
 
+def web_url(target: ViewerTarget) -> str:
+    """The web viewer's page for ``target`` (``serve``), opening its data."""
+    return (f"http://{target.bind}:{target.web_port}/?url=rerun%2Bhttp%3A%2F%2F{target.bind}%3A{target.grpc_port}"
+            "%2Fproxy")
+
+
+class WebViewer:
+    """The web viewer of ``--serve``: the ``rerun`` command's server bound to ``target.bind`` (the module's
+    docstring says why not the SDK's), its data at :attr:`grpc_url`; its page is printed once it listens. Raises
+    :class:`UserError` when it does not start."""
+
+    def __init__(self, target: ViewerTarget) -> None:
+        exe = rerun_executable()
+        if exe is None:
+            raise UserError("the 'rerun' command of rerun-sdk is not on PATH: reinstall with pip install rerun-sdk")
+        self.target = target
+        self._log = tempfile.TemporaryFile(mode="w+")
+        self.server: subprocess.Popen | None = subprocess.Popen(
+            [exe, "--serve-web", "--bind", target.bind, "--port", str(target.grpc_port), "--web-viewer-port",
+             str(target.web_port)], stdout=subprocess.DEVNULL, stderr=self._log, start_new_session=True)
+        if not (_wait_for_port(target.bind, target.grpc_port, 10.0)
+                and _wait_for_port(target.bind, target.web_port, 10.0)):
+            err = self.stop()
+            raise UserError(f"the web viewer did not start on {target.bind} ports {target.grpc_port}/"
+                            f"{target.web_port} (in use? choose others with --grpc-port/--web-port): {err[-300:]}")
+        self.grpc_url = f"rerun+http://{target.bind}:{target.grpc_port}/proxy"
+        print(f"avhear: the web viewer is at {web_url(target)}", file=sys.stderr, flush=True)
+
+    def keep_serving(self) -> None:
+        """Serve what was logged until Ctrl-C (or the server's end)."""
+        print(f"avhear: the run has ended; the web viewer stays at {web_url(self.target)} ... Ctrl-C stops it",
+              file=sys.stderr, flush=True)
+        try:
+            while self.server is not None and self.server.poll() is None:
+                time.sleep(0.5)
+        except KeyboardInterrupt:
+            pass
+
+    def stop(self) -> str:
+        """Stop the server (:func:`stop_process_group`); returns what it printed."""
+        if self.server is None:
+            return ""
+        stop_process_group(self.server)
+        self.server = None
+        self._log.seek(0)
+        text = self._log.read()
+        self._log.close()
+        return text
+
+
 class ViewerSession:
     """Opens the recording stream for a :class:`ViewerTarget` (with the default blueprint; ``several_pairs`` opens
     its "ITDs per pair" tab) and, for ``serve``, the web-viewer server; :meth:`close` flushes the data and, for
@@ -189,9 +239,11 @@ class ViewerSession:
 
     def __init__(self, target: ViewerTarget, *, several_pairs: bool = False) -> None:
         self.target = target
-        self.server: subprocess.Popen | None = None
+        self.web: WebViewer | None = None
+        self.server: subprocess.Popen | None = None  # the web viewer's (``serve``)
         self.recording: rr.RecordingStream | None = None
         self.parts: list[Path] = []  # the .rrd files written, in order
+        self.abandoned = False  # close() gave up on a viewer that stopped answering
         self._part_started = time.monotonic()
         if target.part_s is not None and not target.part_s > 0:
             raise ValueError(f"part_s must be > 0 seconds or None, got {target.part_s!r}")
@@ -216,8 +268,9 @@ class ViewerSession:
                 raise UserError(f"the Rerun viewer at {target.connect or DEFAULT_VIEWER_URL} did not take the "
                                 f"connection within {FLUSH_TIMEOUT_S:.0f} s; restart it, or use --save FILE.rrd")
         elif target.serve:
-            rec.connect_grpc(self._start_server(), default_blueprint=blueprint)
-            print(f"avhear: the web viewer is at {self.web_url}", file=sys.stderr, flush=True)
+            self.web = WebViewer(target)
+            self.server = self.web.server
+            rec.connect_grpc(self.web.grpc_url, default_blueprint=blueprint)
         else:
             rec.spawn(default_blueprint=blueprint)
         self.recording = rec
@@ -241,47 +294,14 @@ class ViewerSession:
 
     @property
     def web_url(self) -> str:
-        t = self.target
-        return f"http://{t.bind}:{t.web_port}/?url=rerun%2Bhttp%3A%2F%2F{t.bind}%3A{t.grpc_port}%2Fproxy"
-
-    def _start_server(self) -> str:
-        exe = rerun_executable()
-        if exe is None:
-            raise UserError("the 'rerun' command of rerun-sdk is not on PATH: reinstall with pip install rerun-sdk")
-        t = self.target
-        self._server_log = tempfile.TemporaryFile(mode="w+")
-        self.server = subprocess.Popen(
-            [exe, "--serve-web", "--bind", t.bind, "--port", str(t.grpc_port), "--web-viewer-port", str(t.web_port)],
-            stdout=subprocess.DEVNULL, stderr=self._server_log, start_new_session=True)
-        if not (_wait_for_port(t.bind, t.grpc_port, 10.0) and _wait_for_port(t.bind, t.web_port, 10.0)):
-            err = self._stop_server()
-            raise UserError(f"the web viewer did not start on {t.bind} ports {t.grpc_port}/{t.web_port} "
-                            f"(in use? choose others with --grpc-port/--web-port): {err[-300:]}")
-        return f"rerun+http://{t.bind}:{t.grpc_port}/proxy"
-
-    def _stop_server(self) -> str:
-        """Stop the server (:func:`stop_process_group`); returns what it printed."""
-        if self.server is None:
-            return ""
-        stop_process_group(self.server)
-        self.server = None
-        self._server_log.seek(0)
-        text = self._server_log.read()
-        self._server_log.close()
-        return text
+        return web_url(self.target)
 
     def close(self, *, keep_serving: bool = True) -> None:
         """Flush and disconnect; with a web viewer, serve until Ctrl-C (unless ``keep_serving`` is False)."""
         if self.recording is not None:
             flushed = _bounded(lambda: self.recording.flush(timeout_sec=FLUSH_TIMEOUT_S), FLUSH_TIMEOUT_S + 1)
-            if self.server is not None and keep_serving:
-                print(f"avhear: the run has ended; the web viewer stays at {self.web_url} ... Ctrl-C stops it",
-                      file=sys.stderr, flush=True)
-                try:
-                    while self.server.poll() is None:
-                        time.sleep(0.5)
-                except KeyboardInterrupt:
-                    pass
+            if self.web is not None and keep_serving:
+                self.web.keep_serving()
             if not (flushed and _bounded(self.recording.disconnect, FLUSH_TIMEOUT_S)):
                 # Rerun's gRPC client waits for ever for a viewer that stopped answering, in disconnect and again
                 # in its exit hook: give up on the last data rather than hang the user's terminal
@@ -291,5 +311,8 @@ class ViewerSession:
 
                 rr.unregister_shutdown()
                 _ABANDONED.append(self.recording)  # dropping the stream would wait for the viewer too
+                self.abandoned = True
             self.recording = None
-        self._stop_server()
+        if self.web is not None:
+            self.web.stop()
+            self.server = None

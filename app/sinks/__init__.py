@@ -7,8 +7,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from app.console import Console
-    from app.console.viewer import ViewerSession
+    from app.console.process import ConsoleProcess
     from app.pipeline import Pipeline
     from app.result import Result
     from app.sinks.bus import ResultPublisher
@@ -23,10 +22,10 @@ __all__ = ["Sinks"]
 class Sinks:
     """Hands every result, as it is, to the sinks the user asked for: the results file, the bus, the console."""
 
-    def __init__(self, session: ViewerSession, console: Console | None, results: ResultsWriter | None,
+    def __init__(self, console: ConsoleProcess | None, results: ResultsWriter | None,
                  publisher: ResultPublisher | None, voices: VoicesWriter | None = None,
                  transcriber: Transcriber | None = None) -> None:
-        self.session, self.console, self.results, self.publisher = session, console, results, publisher
+        self.console, self.results, self.publisher = console, results, publisher
         self.voices, self.transcriber = voices, transcriber
         self.utterances: list = []  # every final Words of the run (the WebVTT of avhear transcribe)
         self._held: tuple | None = None  # with words: the last result and its utterances, not yet written
@@ -92,9 +91,6 @@ class Sinks:
             diagnostics[f"self_calibration/pair{p}/inliers"] = float(pair["inliers"])
             if p == 0 and pair.get("array_yaw_deg") is not None:  # several pairs: the array's turn, once
                 diagnostics["self_calibration/array_yaw_deg"] = pair["array_yaw_deg"]
-        if self.session.part_due():
-            self.session.next_part()
-            self.console.new_part()
         from app.console import ConsoleFrame  # the console's module loads Rerun: only a run with a console needs it
 
         self.console.log(ConsoleFrame.from_result(result, diagnostics))
