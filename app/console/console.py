@@ -54,12 +54,10 @@ from app.console.entities import (
     ROBOT,
     SCENE,
     SCENE_VOICES,
-    SOLID,
     TIMELINE_CAPTURE,
     TIMELINE_FRAME,
     VOICE_RAY_M,
     VOICE_RGB,
-    WIREFRAME,
 )
 from app.console.frame import ConsoleFrame
 from app.console.words import WordsDisplay
@@ -362,7 +360,8 @@ class Console:
                                        line_radii=np.where(frame.speaking, 0.02, 0.01)),
                          rr.Points2D(flat, radii=0.6 * r, colors=discs))
         # the fill mode is one value per entity: speakers and silent heads are two entities
-        for path, mask, fill in ((HEADS_SPEAKING, frame.speaking, SOLID), (HEADS_SILENT, ~frame.speaking, WIREFRAME)):
+        for path, mask, fill in ((HEADS_SPEAKING, frame.speaking, rr.components.FillMode.Solid),
+                                 (HEADS_SILENT, ~frame.speaking, rr.components.FillMode.MajorWireframe)):
             k = int(np.count_nonzero(mask))
             self._log_people(path, k,
                              rr.Ellipsoids3D(centers=frame.faces_xyz[mask], half_sizes=np.full((k, 3), r),

@@ -1,12 +1,11 @@
 """The console's entity paths and timelines (the ``rr.*`` paths every part of the console logs to and the blueprint
-arranges: :mod:`layouts.blueprint`), with the few display constants that go with them."""
+arranges: :mod:`layouts.blueprint`), with the few display constants that go with them. Rerun is not imported here:
+a run's process hands its frames to the console's (:mod:`app.console.process`) without loading it."""
 from __future__ import annotations
 
 import re
 
-import rerun as rr
-
-__all__ = ["TIMELINE_FRAME", "TIMELINE_CAPTURE", "SCENE", "ROBOT", "MICS_3D", "CAMERA_LEFT", "CAMERA_RIGHT", "IMAGE", "DEPTH", "DEPTH_EVERY", "FACES", "HEADS_SPEAKING", "HEADS_SILENT", "HM3D_POINTS", "BIRDSEYE", "BIRDSEYE_HEADS", "BIRDSEYE_VOICES", "SCENE_VOICES", "VOICE_RAY_M", "VOICE_RGB", "ITD", "ITD_GAUSSIANS", "ITD_TOP", "ITD_CLIP", "ITD_BARS", "ITD_PAIRS_HIST", "ITD_PAIRS_PEOPLE", "ITD_PAIRS_LABELS", "PAIR_ROW", "PEOPLE", "LIPS", "LEGEND", "COUNTS", "COUNT_SERIES", "DIAGNOSTICS", "EVENTS", "SOLID", "WIREFRAME", "ENTITY_KEY"]
+__all__ = ["TIMELINE_FRAME", "TIMELINE_CAPTURE", "SCENE", "ROBOT", "MICS_3D", "CAMERA_LEFT", "CAMERA_RIGHT", "IMAGE", "DEPTH", "DEPTH_EVERY", "FACES", "HEADS_SPEAKING", "HEADS_SILENT", "HM3D_POINTS", "BIRDSEYE", "BIRDSEYE_HEADS", "BIRDSEYE_VOICES", "SCENE_VOICES", "VOICE_RAY_M", "VOICE_RGB", "ITD", "ITD_GAUSSIANS", "ITD_TOP", "ITD_CLIP", "ITD_BARS", "ITD_PAIRS_HIST", "ITD_PAIRS_PEOPLE", "ITD_PAIRS_LABELS", "PAIR_ROW", "PEOPLE", "LIPS", "LEGEND", "COUNTS", "COUNT_SERIES", "DIAGNOSTICS", "EVENTS", "ENTITY_KEY"]
 
 TIMELINE_FRAME = "frame"
 TIMELINE_CAPTURE = "capture_time"
@@ -46,6 +45,4 @@ COUNT_SERIES = ("people", "speakers", "ITDs in the interval")  # the three serie
 DIAGNOSTICS = "diagnostics"
 EVENTS = "events"
 
-SOLID = rr.components.FillMode.Solid
-WIREFRAME = rr.components.FillMode.MajorWireframe
 ENTITY_KEY = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")

@@ -77,3 +77,16 @@ def test_a_console_process_that_dies_costs_the_run_its_console_only(tmp_path: Pa
         console.close()  # no exception: the run ends as it would have
     assert console.lost >= 4 and console.child.failed
     assert "the console's process ended during the run" in caplog.text
+
+
+def test_the_runs_process_hands_frames_over_without_loading_rerun() -> None:
+    """Rerun (and pyarrow, 60 MB) is loaded by the console's process only: the run's process builds the frames."""
+    import subprocess
+    import sys
+
+    code = ("import sys; import app.commands.run, app.pipeline, app.sinks, app.console.process; "
+            "from app.console import ConsoleFrame; print(sorted({'rerun', 'pyarrow'} & set(sys.modules)))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                          cwd=Path(__file__).resolve().parents[2])
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
