@@ -77,6 +77,20 @@ def resolve_data_dir(data_dir: str | Path | None = None) -> Path:
 SPEECH_LEVEL_RMS = 0.1  # active speech at the microphones, full scale 1 (-20 dBFS): 10 dB above the paper's E_A
 
 
+def _release_heap() -> None:
+    """Give the C heap's freed memory back to the system (glibc's ``malloc_trim``; elsewhere nothing).
+
+    pyroomacoustics' image sources are many small C++ allocations; once freed they stay in the process's heap. For
+    the left-right pair's 87 positions of S5 that was 780 MB held for the whole run (NAO's four microphones: 60 MB),
+    returned by one call (docs/experiments.md, twenty-first session)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL("libc.so.6").malloc_trim(0)
+    except (OSError, AttributeError):  # not glibc
+        pass
+
+
 def _pyroomacoustics():
     try:
         import pyroomacoustics as pra
@@ -314,6 +328,7 @@ class AcousticRoom:
         found = _RIRS.get(key)
         if found is None:
             found = _RIRS[key] = self._impulse_responses(room_src, mics)
+            _release_heap()
             while len(_RIRS) > _RIRS_KEPT:
                 _RIRS.pop(next(iter(_RIRS)))
         rirs, measured = found

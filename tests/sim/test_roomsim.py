@@ -1,7 +1,10 @@
 from __future__ import annotations
 
 import builtins
+import subprocess
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +14,8 @@ pytest.importorskip("pyroomacoustics", reason="the room simulator needs the 'sim
 from sim import roomsim
 from avcore.itd import extract_itds
 from sim.roomsim import AcousticRoom, load_speech, simulate, window_truth
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
@@ -123,3 +128,26 @@ def test_missing_pyroomacoustics_says_how_to_install(monkeypatch):
     monkeypatch.setattr(builtins, "__import__", fake_import)
     with pytest.raises(ImportError, match=r"pip install -e '\.\[sim\]'"):
         AcousticRoom(rt60_s=0.2).impulse_responses(np.array([[0.0, 0.0, 1.0]]))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the resident memory from /proc")
+def test_the_image_sources_memory_goes_back_to_the_system() -> None:
+    """pyroomacoustics' image sources are many small C allocations; freed, they stayed in the heap (the left-right
+    pair's S5 run held 780 MB for nothing). In a fresh process, 30 positions' responses leave under 100 MB behind
+    (290 MB without giving the heap back)."""
+    code = """
+import numpy as np
+import sim.roomsim as rs
+def rss(): return int(open('/proc/self/statm').read().split()[1]) * 4096 / 2**20
+room = rs.AcousticRoom(dims_m=(5.0, 5.0, 2.7), rt60_s=0.32, head_m=(2.5, 0.5, 1.2), match_rt60=False)
+rs._pyroomacoustics()
+rng = np.random.default_rng(0)
+points = np.stack([rng.uniform(-1.5, 1.5, 30), rng.uniform(-0.3, 0.3, 30), rng.uniform(1.0, 3.5, 30)], 1)
+before = rss()
+rirs, _ = room.impulse_responses(points)
+print(rirs.shape[0], rss() - before)
+"""
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    n, grown_mb = done.stdout.split()
+    assert int(n) == 30 and float(grown_mb) < 100, grown_mb
