@@ -128,3 +128,28 @@ def test_a_rig_without_microphones_says_how_to_add_them(tmp_path: Path, capsys: 
     err = capsys.readouterr().err
     assert "no 'microphones' section" in err and "left_m:" in err and "right_m:" in err
     assert not (tmp_path / "x").exists()
+
+
+def test_ctrl_c_keeps_the_consoles_recording_to_the_last_result(tmp_path: Path) -> None:
+    """The console's recording lives in a process of its own (app/console/process.py), which the terminal's Ctrl-C
+    reaches too: it ignores it, and the run has it log what was queued and close the file. The .rrd holds the run's
+    last result and opens."""
+    from rerun.chunk import RrdReader
+
+    rrd, results = tmp_path / "run.rrd", tmp_path / "r.jsonl"
+    proc = subprocess.Popen([sys.executable, "-m", "app", "run", "--source", "sim:S1", "--duration", "60", "--save",
+                             str(rrd), "--results-jsonl", str(results)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, cwd=Path(__file__).resolve().parents[2],
+                            start_new_session=True)
+    _wait_for_rows(results, 20, proc)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr
+    last = json.loads(results.read_text().splitlines()[-1])["index"]
+    frames = set()
+    for chunk in RrdReader(rrd).stream().to_chunks():
+        if chunk.entity_path == "/scene/cameras/left/faces":
+            batch = chunk.to_record_batch()
+            frames.update(batch.column("frame").to_pylist())
+    assert last in frames and len(frames) >= 20, (last, sorted(frames)[-5:])
