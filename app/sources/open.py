@@ -56,6 +56,9 @@ class StreamAdapter(SourceBase):
             return None
         with self._lock:
             if self._start_s is None:
+                prepare = getattr(self.stream, "prepare", None)
+                if prepare is not None:  # the simulator's first frame, before its clock starts
+                    prepare()
                 self._start_s = time.monotonic()
             return self._start_s
 

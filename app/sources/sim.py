@@ -177,9 +177,6 @@ class SimSource(ReplayStream):
         # sensor noise: a few precomputed fields, one drawn per image (cheap, deterministic)
         self._noise = [np.round(rng.normal(0.0, self.noise_std, (h, w, 3))).astype(np.int16) for _ in range(7)] \
             if self.noise_std > 0 else []
-        # the renderers build the room's textures at their first frame (a quarter of a second; the depth's 0.1 s):
-        # done here, before a real-time run's clock starts, so that its first frames are not late and skipped
-        self._depth(0, self._images(0)[0])
 
     @classmethod
     def from_preset(cls, name: str, *, duration_s: float | None = None, seed: int = 0, fps: float = 30.0,
@@ -252,6 +249,12 @@ class SimSource(ReplayStream):
         ``points`` that lie on them over its interval (:func:`sim.body_truth.labelled_point_means`; NaN: none)."""
         times = interval_times(stamp_s, interval_s)
         return labelled_point_means(points, [self.people(float(t)) for t in times], times)
+
+    def prepare(self) -> None:
+        """Render the first frame now (:class:`app.sources.open.StreamAdapter` calls this before a real-time run's
+        clock starts): the renderers build the room's textures at their first frame, a quarter of a second (the
+        depth's 0.1 s more), and a clock started before it would skip the first frames as late."""
+        self._depth(0, self._images(0)[0])
 
     def _images(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         t = float(self.frame_stamps_s[k])

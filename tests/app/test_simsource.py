@@ -80,13 +80,19 @@ def test_audio_blocks_of_any_size_add_up_to_the_recording(s2, block_size):
 
 
 def test_the_cameras_first_frame_is_rendered_before_the_clock_starts(missing, monkeypatch):
-    """The renderers build the room's textures at their first frame (a quarter of a second, 7 frames' periods):
-    opening the source does it, so that a real-time run's first frame comes from what was rendered then, and its
-    clock does not start with frames already late."""
+    """The renderers build the room's textures at their first frame (a quarter of a second, 7 frames' periods): a
+    real-time stream renders it before its clock starts, so that its first frames are not skipped as late."""
+    import threading
+
+    from app.sources.open import StreamAdapter
+
     src = SimSource.from_preset("S1", duration_s=1.0, seed=0, fps=15, data_dir=missing, camera="rgbd")
-    monkeypatch.setattr(src._renderer, "render", lambda t: pytest.fail(f"frame {t} rendered once the stream began"))
-    first = next(iter(src.frames()))
-    assert first.index == 0 and first.left.shape == (480, 640, 3) and first.depth_m is not None
+    adapter = StreamAdapter(src, realtime=True)
+    render, rendered = src._renderer.render, []
+    monkeypatch.setattr(src._renderer, "render", lambda t: rendered.append((t, time.monotonic())) or render(t))
+    first = next(iter(adapter.frames(threading.Event())))
+    assert first.index == 0 and first.depth_m is not None
+    assert [t for t, _ in rendered] == [0.0] and rendered[0][1] < adapter._start_s
 
 
 def test_real_time_stream_paces_on_the_monotonic_clock_and_stamps_from_zero(missing):
