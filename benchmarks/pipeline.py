@@ -202,7 +202,8 @@ def run(scenario: str, duration_s: float, realtime: bool, rrd: Path | None, *, s
         "top_growth": monitor.top_growth(),
         "rrd_mb": sum(p.stat().st_size for p in console.parts) / 2**20 if console is not None else 0.0,
         "rrd_parts": len(console.parts) if console is not None else 0,
-        "console_dropped": console.dropped + console.lost if console is not None else 0, "stage_ms": d["stage_ms_per_item"],
+        "console_dropped": console.dropped + console.lost if console is not None else 0,
+        "stage_ms": d["stage_ms_per_item"],
         "voice_s": voice_s[0], "voice_latency_p50_ms": _pct(stats.voice_latencies_s, 50),
         "voice_latency_p95_ms": _pct(stats.voice_latencies_s, 95),
         "voice_latency_max_ms": _pct(stats.voice_latencies_s, 100),
@@ -262,7 +263,8 @@ def main() -> None:
         print(f"  resident memory {r['rss_start_mb']:.0f} MB (first quarter) -> {r['rss_end_mb']:.0f} MB (last "
               f"quarter), growth {r['growth_mb']:+.0f} MB (target <= 50 over 10 min); second half "
               f"{r['slope_mb_per_min']:+.2f} MB/min; peak {r['peak_mb']:.0f} MB; {r['n_samples']} samples; .rrd "
-              f"{r['rrd_mb']:.0f} MB in {r['rrd_parts']} part(s), {r['console_dropped']} results not logged by the console")
+              f"{r['rrd_mb']:.0f} MB in {r['rrd_parts']} part(s), {r['console_dropped']} results not logged by the "
+              "console")
         if args.voices:
             print(f"  voices: {r['voice_s']:.0f} s of people's voices; each chunk out after its first sample's "
                   f"capture: p50 {r['voice_latency_p50_ms']:.1f} ms, p95 {r['voice_latency_p95_ms']:.1f} ms, max "

@@ -26,7 +26,8 @@ def test_the_frames_reach_the_file_as_the_console_logs_them(tmp_path: Path) -> N
     console = ConsoleProcess(ViewerTarget(save=path), RIG, MICS, MicArray.preset("respeaker4"), backpressure=True)
     for i in range(12):
         if i == 6:
-            console.log_words([Words(person_id=0, utterance=0, start_s=0.0, end_s=0.2, text="three one four", confidence=0.9, final=True)])
+            console.log_words([Words(person_id=0, utterance=0, start_s=0.0, end_s=0.2, text="three one four",
+                                     confidence=0.9, final=True)])
         console.log(_frame(frame=i, stamp_s=i / 30, itds_s=np.full((2, 6), 1e-5)))
     console.close()
     assert console.parts == [path] and console.dropped == 0 and console.lost == 0
@@ -90,3 +91,17 @@ def test_the_runs_process_hands_frames_over_without_loading_rerun() -> None:
                           cwd=Path(__file__).resolve().parents[2])
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "[]"
+
+
+def test_live_the_oldest_frames_are_dropped_and_counted_never_the_newest(tmp_path: Path) -> None:
+    """Live, :meth:`log` never waits: frames handed over faster than the child logs them are dropped, oldest first,
+    and counted; what is logged and what is dropped add up, and the run's last frame is in the file."""
+    path = tmp_path / "live.rrd"
+    console = ConsoleProcess(ViewerTarget(save=path), RIG, MICS, queue_size=1)
+    frames = [_frame(frame=i) for i in range(50)]
+    for frame in frames:  # far faster than 30 a second
+        console.log(frame)
+    console.close()
+    logged = Rrd(path).frames("/scene/cameras/left/faces", "Boxes2D:centers")
+    assert console.dropped >= 1 and len(logged) + console.dropped == 50
+    assert logged == sorted(logged) and logged[-1] == 49
