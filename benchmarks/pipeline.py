@@ -11,7 +11,7 @@ Prints, for a real-time run: results per second, latency from capture stamp to l
 of it beyond the wait that the method itself imposes (a frame's ITDs are complete only once the audio has passed its
 stamp + frame_window_s, and an ITD window's centre lies window_s / 2 before its end), late frames skipped by the
 source, queue drops, audio blocks, and the resident memory (RSS) of the process and its children (the ITDs', the
-voices' and the words' processes) sampled every ``--sample-s`` seconds: the growth from the first to the last
+voices', the words' and the console's processes) sampled every ``--sample-s`` seconds: the growth from the first to the last
 quarter of the run (mean RSS of each quarter, the issue's measure), the slope of a straight line fitted to the
 second half (MB per minute: what keeps growing once the caches are warm) and the peak. Progress goes to stderr every
 ``--progress-s`` seconds. Then the same scenario as fast as possible: throughput.
@@ -43,8 +43,8 @@ from app.console.viewer import ViewerTarget
 
 
 def _rss_mb() -> float:
-    """The resident memory of this process and of its children (the ITDs', the voices' and the words' processes,
-    app/child_process.py)."""
+    """The resident memory of this process and of its children (the ITDs', the voices', the words' and the console's
+    processes, app/child_process.py)."""
     try:
         pids = ["self"]
         for task in Path("/proc/self/task").iterdir():

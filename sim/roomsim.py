@@ -80,9 +80,8 @@ SPEECH_LEVEL_RMS = 0.1  # active speech at the microphones, full scale 1 (-20 dB
 def _release_heap() -> None:
     """Give the C heap's freed memory back to the system (glibc's ``malloc_trim``; elsewhere nothing).
 
-    pyroomacoustics' image sources are many small C++ allocations; once freed they stay in the process's heap. For
-    the left-right pair's 87 positions of S5 that was 780 MB held for the whole run (NAO's four microphones: 60 MB),
-    returned by one call (docs/experiments.md, twenty-first session)."""
+    pyroomacoustics' image sources are many small C++ allocations; once freed they stay in the process's heap, held
+    for the whole run unless given back (measured in docs/experiments.md, twenty-first session)."""
     try:
         import ctypes
 

@@ -274,13 +274,13 @@ def _report(spec: str, args: argparse.Namespace, target: ViewerTarget, stats: Pi
         sinks.publisher.close()
         print(f"avhear: {sinks.publisher.published} results published on the bus ({sinks.publisher.dropped} dropped "
               "by a slow bus)")
-    parts = sinks.console.parts if sinks.console is not None else []
     console = sinks.console
+    parts = console.parts if console is not None else []
     if console is not None and console.dropped + console.lost:
-        why = ", ".join(part for part in (f"{console.dropped} while its process fell behind" if console.dropped else "",
-                                          f"{console.lost} after it ended" if console.lost else "") if part)
-        print(f"avhear: the console skipped {console.dropped + console.lost} of {stats.results} results ({why})",
-              file=sys.stderr)
+        why = [f"{console.dropped} while its process fell behind"] if console.dropped else []
+        why += [f"{console.lost} after it ended"] if console.lost else []
+        print(f"avhear: the console skipped {console.dropped + console.lost} of {stats.results} results "
+              f"({', '.join(why)})", file=sys.stderr)
     if len(parts) > 1:
         pattern = target.save.with_name(f"{target.save.stem}*{target.save.suffix}")  # type: ignore[union-attr]
         print(f"avhear: the console's data is in {len(parts)} parts, {parts[0]} to {parts[-1]}; open them together "

@@ -3,9 +3,9 @@ recording (:class:`app.console.viewer.ViewerSession`) live in the child, and the
 :class:`app.console.ConsoleFrame` over without waiting.
 
 Why: Rerun's Python side builds Arrow arrays for a dozen ``rr.log`` calls a result, most of them holding the
-interpreter's lock; in the fusion thread that was about half its time, and with four microphones and the voices
-the pipeline fell below real time for it (docs/experiments.md, twenty-first session). In a child of its own it costs
-the pipeline's threads a pickle of the frame.
+interpreter's lock, which in the fusion thread held up the pipeline's other threads (measured in
+docs/experiments.md, twenty-first session). In a child of its own it costs the pipeline's threads a pickle of the
+frame.
 
 The protocol: the options first (the viewer target, the rig, the microphones, the array), answered ``("ready",)``
 or ``("user-error", message)`` (a viewer that does not take the connection); then ``("frame", ConsoleFrame)`` and
@@ -72,8 +72,7 @@ class ConsoleProcess(Stage):
         self._failed: ChildProcessFailed | None = None
         self._frames: DropOldestQueue[Any] = DropOldestQueue(queue_size, "console")
         self._words: queue.SimpleQueue[list] = queue.SimpleQueue()
-        self._stop = threading.Event()
-        self._finished = False
+        self._stop = threading.Event()  # finish() was called: the feeder ends once the queue is empty
         self._feeder = threading.Thread(target=self._feed, name="avhear-console-feed", daemon=True)
         self._feeder.start()
 
@@ -113,9 +112,8 @@ class ConsoleProcess(Stage):
 
     def finish(self) -> None:
         """Send what is queued, then flush and close the recording; :attr:`parts` names the files written."""
-        if self._finished:
+        if self._stop.is_set():
             return
-        self._finished = True
         self._stop.set()
         self._feeder.join()
         self.dropped = self._frames.dropped

@@ -239,8 +239,7 @@ class ViewerSession:
 
     def __init__(self, target: ViewerTarget, *, several_pairs: bool = False) -> None:
         self.target = target
-        self.web: WebViewer | None = None
-        self.server: subprocess.Popen | None = None  # the web viewer's (``serve``)
+        self.web: WebViewer | None = None  # ``serve``
         self.recording: rr.RecordingStream | None = None
         self.parts: list[Path] = []  # the .rrd files written, in order
         self.abandoned = False  # close() gave up on a viewer that stopped answering
@@ -269,7 +268,6 @@ class ViewerSession:
                                 f"connection within {FLUSH_TIMEOUT_S:.0f} s; restart it, or use --save FILE.rrd")
         elif target.serve:
             self.web = WebViewer(target)
-            self.server = self.web.server
             rec.connect_grpc(self.web.grpc_url, default_blueprint=blueprint)
         else:
             rec.spawn(default_blueprint=blueprint)
@@ -291,6 +289,11 @@ class ViewerSession:
         self.parts.append(path)
         self._part_started = time.monotonic()
         return path
+
+    @property
+    def server(self) -> subprocess.Popen | None:
+        """The web viewer's server process (``serve``), while it runs."""
+        return self.web.server if self.web is not None else None
 
     @property
     def web_url(self) -> str:
@@ -315,4 +318,3 @@ class ViewerSession:
             self.recording = None
         if self.web is not None:
             self.web.stop()
-            self.server = None

@@ -252,8 +252,8 @@ class SimSource(ReplayStream):
 
     def prepare(self) -> None:
         """Render the first frame now (:class:`app.sources.open.StreamAdapter` calls this before a real-time run's
-        clock starts): the renderers build the room's textures at their first frame, a quarter of a second (the
-        depth's 0.1 s more), and a clock started before it would skip the first frames as late."""
+        clock starts): the renderers build the room's textures at their first frame, which takes several frame
+        periods, and a clock started before it would skip the first frames as late."""
         self._depth(0, self._images(0)[0])
 
     def _images(self, k: int) -> tuple[np.ndarray, np.ndarray]:

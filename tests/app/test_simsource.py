@@ -80,8 +80,8 @@ def test_audio_blocks_of_any_size_add_up_to_the_recording(s2, block_size):
 
 
 def test_the_cameras_first_frame_is_rendered_before_the_clock_starts(missing, monkeypatch):
-    """The renderers build the room's textures at their first frame (a quarter of a second, 7 frames' periods): a
-    real-time stream renders it before its clock starts, so that its first frames are not skipped as late."""
+    """The renderers build the room's textures at their first frame, several frame periods: a real-time stream
+    renders it before its clock starts, so that its first frames are not skipped as late."""
     import threading
 
     from app.sources.open import StreamAdapter

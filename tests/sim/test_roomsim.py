@@ -132,9 +132,8 @@ def test_missing_pyroomacoustics_says_how_to_install(monkeypatch):
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the resident memory from /proc")
 def test_the_image_sources_memory_goes_back_to_the_system() -> None:
-    """pyroomacoustics' image sources are many small C allocations; freed, they stayed in the heap (the left-right
-    pair's S5 run held 780 MB for nothing). In a fresh process, 30 positions' responses leave under 100 MB behind
-    (290 MB without giving the heap back)."""
+    """pyroomacoustics' image sources are many small C allocations; freed, they stayed in the heap for the whole run.
+    In a fresh process, 30 positions' responses leave under 100 MB behind."""
     code = """
 import numpy as np
 import sim.roomsim as rs
