@@ -215,7 +215,7 @@ class FaceGuided:
     def hearing(self, mics: MicPair | MicArray) -> FaceGuidedHearing | SelfCalibrating:
         """Algorithm 2 on ``mics``. A calibrated mapping (section 5.3's c1, c0 on any pair) already says where the
         voices are heard, and each person's own ITD is not learned on top of it (docs/method.md)."""
-        params = FaceGuidedParams.paper() if self.config.face_variant == "paper" else FaceGuidedParams()
+        params = FaceGuidedParams.paper() if self.config.face_variant == "paper" else FaceGuidedParams.for_array(mics)
         hearing = FaceGuidedHearing(mics, replace(params, decision_window_s=self.config.decision_window_s))
         array = hearing.array
         if np.any(np.asarray(array.c1) != 1.0) or np.any(np.asarray(array.c0) != 0.0):

@@ -151,6 +151,11 @@ def _default_pairs(positions: np.ndarray) -> tuple[tuple[int, int], ...]:
     return tuple(sorted(pairs, key=lambda ij: -round(abs(positions[ij[0], 0] - positions[ij[1], 0]), 9)))
 
 
+def _distances(positions: np.ndarray) -> np.ndarray:
+    """(Q, Q) the distances between every two microphones (unchanged by a rigid motion)."""
+    return np.linalg.norm(positions[:, None, :] - positions[None, :, :], axis=2)
+
+
 @dataclass(frozen=True)
 class MicArray:
     """Several microphones in the scene frame, used in pairs; each pair is a :class:`MicPair` of its own.
@@ -249,6 +254,18 @@ class MicArray:
         rot = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
         centre = np.mean(np.asarray(self.positions), axis=0)
         return self.placed(rot, centre - rot @ centre)
+
+    @property
+    def preset_name(self) -> str | None:
+        """The :data:`ARRAY_PRESETS` entry whose microphones these are, wherever the rig placed them (the same
+        distances between every two microphones, in the same order, within 1 mm), or None for an array of its own.
+        Some of the speaking test's thresholds are chosen per array (:meth:`avcore.speaking.SpeakingTest.for_array`)."""
+        own = _distances(np.asarray(self.positions))
+        for name, spec in ARRAY_PRESETS.items():
+            theirs = _distances(np.asarray(spec["positions"], dtype=np.float64))
+            if theirs.shape == own.shape and np.allclose(own, theirs, rtol=0.0, atol=1e-3):
+                return name
+        return None
 
     @property
     def n_pairs(self) -> int:

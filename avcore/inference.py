@@ -500,6 +500,13 @@ class FaceGuidedParams:
             raise ValueError(f"init_outlier_weight must be in (0, 1), got {self.init_outlier_weight}")
 
     @classmethod
+    def for_array(cls, mics: MicPair | MicArray) -> FaceGuidedParams:
+        """The defaults, with the speaking test's thresholds chosen for the microphones' geometry when they are
+        one of the presets (:meth:`SpeakingTest.for_array`)."""
+        params = cls()
+        return replace(params, speaking=params.speaking.for_array(_as_array(mics)))
+
+    @classmethod
     def paper(cls) -> FaceGuidedParams:
         """Algorithm 2 as written: means start at the faces and move with EM, variances adapt, tau_A = K/(N+2)."""
         return cls(anchor_means=False, update_variances=True, var_min_s2=EMSettings().var_floor_s2,
@@ -580,7 +587,7 @@ class FaceGuidedHearing:
     def __init__(self, mics: MicPair | MicArray, params: FaceGuidedParams | None = None) -> None:
         self.array = _as_array(mics)
         self.mics = self.array.pair(0)
-        self.params = params if params is not None else FaceGuidedParams()
+        self.params = params if params is not None else FaceGuidedParams.for_array(self.array)
         self.support = self.mics.itd_interval()
         self._supports = self.array.itd_intervals()
         p = self.params

@@ -2,13 +2,13 @@
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["COUNT_BY", "Decision", "RescueContinuity", "SpeakingTest", "SpeakingVote", "bin_shares",
-           "speaking_threshold", "vote_speaking"]
+__all__ = ["ARRAY_THRESHOLDS", "COUNT_BY", "Decision", "RescueContinuity", "SpeakingTest", "SpeakingVote",
+           "bin_shares", "speaking_threshold", "vote_speaking"]
 
 
 def speaking_threshold(n_itds: int, n_objects: int) -> float:
@@ -85,6 +85,14 @@ class Decision(NamedTuple):
     probability: np.ndarray
     tau_a: float
     rescued: np.ndarray
+
+
+#: Thresholds chosen for one array's geometry on its own tuning rooms, where the defaults (chosen with the ReSpeaker
+#: 4 and the pair) do not fit it. NAO's head (microphones 9.5-12 cm apart) leaves fewer bins agreeing with anyone
+#: than the ReSpeaker's 8 cm square does: its lone talkers' and quieter talkers' shares are about 0.6 of the
+#: ReSpeaker's, so a claim at 0.1 misses the quieter of two talkers (docs/experiments.md, wave 4, twenty-second
+#: session). Keyed by :attr:`avcore.geometry.MicArray.preset_name`.
+ARRAY_THRESHOLDS: dict[str, dict[str, float]] = {"nao": {"bin_claim_share": 0.065}}
 
 
 @dataclass(frozen=True)
@@ -166,6 +174,12 @@ class SpeakingTest:
                 raise ValueError(f"{name} must be > 0 seconds, got {getattr(self, name)!r}")
         if not 0 < self.frame_quantile < 1:
             raise ValueError(f"frame_quantile must be in (0, 1), got {self.frame_quantile!r}")
+
+    def for_array(self, array: object) -> SpeakingTest:
+        """This test with the thresholds chosen for ``array``'s geometry (:data:`ARRAY_THRESHOLDS`), when it is one of
+        the presets (wherever it is placed); itself for any other array or one microphone pair."""
+        name = getattr(array, "preset_name", None)
+        return replace(self, **ARRAY_THRESHOLDS[name]) if name in ARRAY_THRESHOLDS else self
 
     def _count_test(self, counts: np.ndarray, lam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The window test: a count must exceed the chance quantile of Poisson(lam) and reach ``min_itds`` (the

@@ -1,6 +1,6 @@
-"""Each talker's spill on the neighbours' bins in the application: with --bin-spill the face-guided mode learns it
-from its own results with several microphone pairs and hands it to the hearing; one pair, the default (off) and the
-paper's variant hand nothing."""
+"""The bins' claims in the application: with --bin-spill the face-guided mode learns each talker's spill on the
+neighbours' bins from its own results with several microphone pairs and hands it to the hearing (one pair, the
+default (off) and the paper's variant hand nothing); an array with NAO's geometry is heard with NAO's claim."""
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -11,6 +11,7 @@ import pytest
 from app.hearing import FaceGuided, Vision
 from app.pipeline import PipelineConfig
 from avcore.geometry import MicArray, MicPair
+from avcore.inference import FaceGuidedParams
 
 _FACES = np.array([[2.0 * np.sin(np.radians(a)), 0.0, 2.0 * np.cos(np.radians(a))] for a in (-25.0, -10.0)])
 
@@ -67,3 +68,13 @@ def test_the_option_reaches_the_config(argv: list[str], expected: bool) -> None:
     parser = argparse.ArgumentParser()
     add_method_arguments(parser)
     assert pipeline_config(parser.parse_args(argv), one_camera=False).bin_spill is expected
+
+
+def test_the_face_guided_mode_hears_naos_head_with_its_own_claim_and_the_papers_variant_as_written() -> None:
+    from avcore.speaking import ARRAY_THRESHOLDS
+    nao = MicArray.preset("nao")
+    ours = FaceGuided(PipelineConfig()).hearing(nao)
+    assert ours.params.speaking.bin_claim_share == ARRAY_THRESHOLDS["nao"]["bin_claim_share"]
+    assert FaceGuided(PipelineConfig()).hearing(MicArray.preset("respeaker4")).params.speaking.bin_claim_share == 0.1
+    paper = FaceGuided(PipelineConfig(face_variant="paper")).hearing(nao)
+    assert paper.params.speaking == FaceGuidedParams.paper().speaking

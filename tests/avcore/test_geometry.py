@@ -315,3 +315,14 @@ def test_an_array_stores_float_positions_and_gives_each_pair_its_correction() ->
     assert (array.pair(0).c1, array.pair(0).c0) == (1.1, 2e-5)
     with pytest.raises(ValueError, match=r"^points must be an array of shape \(\.\.\., 3\) in metres, got shape \(2,\)$"):
         array.itd(np.zeros(2))
+
+
+def test_an_array_knows_its_preset_wherever_the_rig_places_it() -> None:
+    turn = np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]])
+    for name in ARRAY_PRESETS:
+        assert MicArray.preset(name).preset_name == name
+        assert MicArray.preset(name, rotation=turn, translation_m=(0.1, -0.3, 0.05)).turned(0.4).preset_name == name
+    nao = np.array(MicArray.preset("nao").positions)
+    nao[2, 0] += 0.005  # one microphone 5 mm off: an array of its own
+    assert MicArray(tuple(map(tuple, nao))).preset_name is None
+    assert MicArray(((-0.1, 0.0, 0.0), (0.1, 0.0, 0.0))).preset_name is None

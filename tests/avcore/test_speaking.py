@@ -444,3 +444,20 @@ def test_poisson_quantile_at_its_edges() -> None:
     np.testing.assert_array_equal(_poisson_quantile(0.99, lam), [stats.poisson.ppf(0.99, 1.0),
                                                                  stats.poisson.ppf(0.99, 300.0), 0.0])
     assert _poisson_quantile(0.99, np.zeros(0)).shape == (0,)
+
+
+def test_naos_head_claims_the_quieter_talker_that_the_defaults_leave() -> None:
+    from avcore.geometry import MicArray
+    nao_array = MicArray.preset("nao", rotation=np.diag([-1.0, 1.0, -1.0]))  # placed on a robot facing back
+    means = nao_array.itd(np.array([[-1.0, 0.0, 2.0], [1.0, 0.0, 2.0], [0.0, 0.0, 2.0]]))
+    heard = np.array([True, False, False])  # the windows hear the first talker only
+    share = np.array([0.25, 0.08, 0.03])  # the second's bins: a quieter voice; the third's: spill
+    default = SpeakingTest(count_by="nearest")
+    nao = default.for_array(nao_array)
+    assert default.for_array(MicArray.preset("respeaker4")) == default
+    assert default.for_array(MicArray(((0.0, 0.0, 0.0), (0.1, 0.0, 0.0), (0.0, 0.0, 0.1)))) == default
+    assert nao.bin_claim_share < default.bin_claim_share
+    called, prob = default._bins(heard, np.array([0.9, 0.1, 0.1]), share, means=means)
+    assert called.tolist() == [True, False, False]
+    called, prob = nao._bins(heard, np.array([0.9, 0.1, 0.1]), share, means=means)
+    assert called.tolist() == [True, True, False] and prob[1] > 0.5 > prob[2]
