@@ -581,7 +581,8 @@ class FaceGuidedHearing:
     eq. (audio_act). With no ITD nobody speaks (probability 0); with no face there is nothing to decide.
 
     A :class:`MicPair` is an array of one pair: ITDs are vectors, one value per pair, and every face maps to one
-    ITD per pair (the model of :func:`avcore.mixture.fit_pairs_em`, the paper's with P = 1).
+    ITD per pair (the model of :func:`avcore.mixture.fit_pairs_em`, the paper's with P = 1). Without ``params``,
+    the defaults for the microphones' geometry (:meth:`FaceGuidedParams.for_array`).
     """
 
     def __init__(self, mics: MicPair | MicArray, params: FaceGuidedParams | None = None) -> None:

@@ -89,9 +89,9 @@ class Decision(NamedTuple):
 
 #: Thresholds chosen for one array's geometry on its own tuning rooms, where the defaults (chosen with the ReSpeaker
 #: 4 and the pair) do not fit it. NAO's head (microphones 9.5-12 cm apart) leaves fewer bins agreeing with anyone
-#: than the ReSpeaker's 8 cm square does: its lone talkers' and quieter talkers' shares are about 0.6 of the
-#: ReSpeaker's, so a claim at 0.1 misses the quieter of two talkers (docs/experiments.md, wave 4, twenty-second
-#: session). Keyed by :attr:`avcore.geometry.MicArray.preset_name`.
+#: than the ReSpeaker's 8 cm square does, so every share is smaller there and the default claim misses the quieter
+#: of two talkers (measured: docs/experiments.md, wave 4, twenty-second session). Keyed by
+#: :attr:`avcore.geometry.MicArray.preset_name`.
 ARRAY_THRESHOLDS: dict[str, dict[str, float]] = {"nao": {"bin_claim_share": 0.065}}
 
 

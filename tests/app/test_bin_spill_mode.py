@@ -76,5 +76,7 @@ def test_the_face_guided_mode_hears_naos_head_with_its_own_claim_and_the_papers_
     ours = FaceGuided(PipelineConfig()).hearing(nao)
     assert ours.params.speaking.bin_claim_share == ARRAY_THRESHOLDS["nao"]["bin_claim_share"]
     assert FaceGuided(PipelineConfig()).hearing(MicArray.preset("respeaker4")).params.speaking.bin_claim_share == 0.1
+    pair = MicPair((-0.06, 0.0, 0.0), (0.06, 0.0, 0.0))  # the pair that S1-S5 are heard with
+    assert FaceGuided(PipelineConfig()).hearing(pair).params.speaking == FaceGuidedParams().speaking
     paper = FaceGuided(PipelineConfig(face_variant="paper")).hearing(nao)
     assert paper.params.speaking == FaceGuidedParams.paper().speaking

@@ -455,6 +455,7 @@ def test_naos_head_claims_the_quieter_talker_that_the_defaults_leave() -> None:
     default = SpeakingTest(count_by="nearest")
     nao = default.for_array(nao_array)
     assert default.for_array(MicArray.preset("respeaker4")) == default
+    assert default.for_array(MicArray.preset("pair")) == default
     assert default.for_array(MicArray(((0.0, 0.0, 0.0), (0.1, 0.0, 0.0), (0.0, 0.0, 0.1)))) == default
     assert nao.bin_claim_share < default.bin_claim_share
     called, prob = default._bins(heard, np.array([0.9, 0.1, 0.1]), share, means=means)
